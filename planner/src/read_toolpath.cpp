@@ -1,0 +1,27 @@
+#include <algorithm>
+#include <cctype>
+#include <filesystem>
+
+#include "vmsim/common/errors.hpp"
+#include "vmsim/planner/toolpath.hpp"
+
+namespace vmsim::planner {
+
+Toolpath read_toolpath(const std::string& path, const ReaderOptions& options) {
+  std::string extension = std::filesystem::path(path).extension().string();
+  std::transform(extension.begin(), extension.end(), extension.begin(),
+                 [](unsigned char c) { return static_cast<char>(std::tolower(c)); });
+  if (extension == ".apt" || extension == ".cl" || extension == ".cls") {
+    return read_apt(path, options);
+  }
+  if (extension == ".nc" || extension == ".ngc" || extension == ".gcode" || extension == ".mpf" ||
+      extension == ".tap" || extension == ".iso") {
+    return read_gcode(path, options);
+  }
+  throw InputError(located_message(
+      path, 0, 0,
+      "unknown tool path extension '" + extension +
+          "': use .apt/.cl/.cls for APT/CL or .nc/.ngc/.gcode/.mpf/.tap/.iso for G-code"));
+}
+
+}  // namespace vmsim::planner
