@@ -72,7 +72,7 @@ MachineModel make_table_table_sample() {
   model.axes = {
       make_axis("X", AxisType::linear, -0.355, 0.355, {0.5, 2.5, 5.0}, screw_ratio, 0.056),
       make_axis("Y", AxisType::linear, -0.275, 0.275, {0.5, 3.0, 5.0}, screw_ratio, 0.048),
-      make_axis("Z", AxisType::linear, -0.5, 0.0, {0.5, 2.1, 50.0}, screw_ratio, 0.045),
+      make_axis("Z", AxisType::linear, -0.6, 0.0, {0.5, 2.1, 50.0}, screw_ratio, 0.045),
       make_axis("A", AxisType::rotary, -100.0 * kDeg, 120.0 * kDeg,
                 {15.0 * 2 * std::numbers::pi / 60.0, 0.83 * 2 * std::numbers::pi,
                  5.0 * 2 * std::numbers::pi},
@@ -101,7 +101,7 @@ MachineModel make_table_table_sample() {
                    body(450.0, {0.0, 0.0, 0.6}, {40.0, 30.0, 35.0})),
       moving_joint(model, "Z", JointType::prismatic, at(0.0, 0.0, 0.0), Eigen::Vector3d::UnitZ(),
                    body(300.0, {0.0, 0.0, 0.8}, {20.0, 20.0, 5.0})),
-      fixed_joint("spindle", at(0.0, 0.0, 0.75)),
+      fixed_joint("spindle", at(0.0, 0.0, 0.6)),
   };
   return model;
 }
