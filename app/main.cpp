@@ -1,11 +1,42 @@
 // vmsim: the command-line program. A thin layer over the libraries: it parses arguments, calls
-// the libraries, prints, and turns errors into exit codes.
+// the libraries, prints, and turns errors into exit codes (exit_codes.hpp).
 #include <CLI/CLI.hpp>
+#include <exception>
 #include <iostream>
 
+#include "commands.hpp"
+#include "exit_codes.hpp"
+#include "vmsim/common/errors.hpp"
+
 int main(int argc, char** argv) {
-  CLI::App app{"vmsim: virtual machining simulator"};
+  using namespace vmsim::app;
+  CLI::App app{"vmsim: virtual machining simulator. Predicts how a machine's drives follow a tool "
+               "path at production feed and what marks that leaves on the part."};
+  app.footer(kExitCodeHelp);
   app.require_subcommand(1);
-  CLI11_PARSE(app, argc, argv);
-  return 0;
+  CommandContext context;
+  app.add_flag("-q,--quiet", context.quiet, "print nothing but warnings and errors");
+  add_kinematics_command(app, context);
+
+  try {
+    app.parse(argc, argv);
+  } catch (const CLI::CallForHelp& help) {
+    return app.exit(help);
+  } catch (const CLI::CallForAllHelp& help) {
+    return app.exit(help);
+  } catch (const CLI::ParseError& error) {
+    app.exit(error);
+    return kUsageError;
+  } catch (const vmsim::InputError& error) {
+    std::cerr << "error: " << error.what() << '\n';
+    return kInputError;
+  } catch (const vmsim::InfeasibleError& error) {
+    std::cerr << "error: " << error.what() << '\n';
+    return kInfeasible;
+  } catch (const std::exception& error) {
+    std::cerr << "internal error: " << error.what()
+              << "\n(this is a bug in vmsim: please report it with the command line)\n";
+    return kInternalError;
+  }
+  return context.result;
 }

@@ -1,0 +1,20 @@
+#pragma once
+// The subcommands of vmsim. Each adds itself to the CLI11 app; its callback stores the exit code.
+#include <CLI/CLI.hpp>
+#include <iostream>
+#include <string>
+
+namespace vmsim::app {
+
+struct CommandContext {
+  bool quiet = false;
+  int result = 0;
+  void say(const std::string& line) const {
+    if (!quiet) std::cout << line << '\n';
+  }
+  void warn(const std::string& line) const { std::cerr << "warning: " << line << '\n'; }
+};
+
+void add_kinematics_command(CLI::App& app, CommandContext& context);
+
+}  // namespace vmsim::app

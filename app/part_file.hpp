@@ -1,0 +1,32 @@
+#pragma once
+// A part description (samples/parts/<part>/part.yaml): machine, tool path, tool, stock, feeds.
+// Documented in samples/parts/README.md. Paths inside are relative to the part file.
+#include <optional>
+#include <string>
+
+namespace vmsim::app {
+
+enum class ToolType { ball, flat, bull };
+
+struct ToolDescription {
+  ToolType type = ToolType::ball;
+  double diameter_m = 0.0;
+  double corner_radius_m = 0.0;
+  double length_m = 0.0;  ///< from the spindle gauge point to the tool tip
+};
+
+struct PartDescription {
+  std::string file;
+  std::string name;
+  std::string description;
+  std::string machine_path;   ///< resolved against the part file's folder
+  std::string toolpath_path;  ///< resolved against the part file's folder
+  ToolDescription tool;
+  double production_feed_m_per_s = 0.0;
+  double reference_feed_m_per_s = 0.0;
+};
+
+/// Reads a part file; throws vmsim::InputError naming the file, line and field.
+PartDescription load_part(const std::string& path);
+
+}  // namespace vmsim::app
