@@ -1,0 +1,10 @@
+#!/usr/bin/env bash
+# The whole test suite: sets up (Debian packages), builds, runs ctest. Run as root on a fresh
+# Debian 12 machine. Extra arguments go to ctest (e.g. -R Trace).
+set -euo pipefail
+cd "$(dirname "$0")/.."
+bash scripts/setup-debian.sh
+bash scripts/build.sh
+build_dir=${VMSIM_BUILD_DIR:-build}
+cd "$build_dir"
+ctest --output-on-failure -j"${VMSIM_JOBS:-$(nproc)}" "$@"
