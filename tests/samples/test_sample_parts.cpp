@@ -1,0 +1,507 @@
+// Tests of the sample parts in samples/parts: the generator reproduces the checked-in files byte
+// for byte, and the checked-in tool paths agree with the analytic design surfaces written in the
+// part.yaml beside them. The APT files are read by a few lines here, independent of the generator
+// and of the planner's reader.
+
+#include <gtest/gtest.h>
+#include <yaml-cpp/yaml.h>
+
+#include <Eigen/Dense>
+
+#include <algorithm>
+#include <cmath>
+#include <cstdlib>
+#include <filesystem>
+#include <fstream>
+#include <limits>
+#include <map>
+#include <numbers>
+#include <sstream>
+#include <string>
+#include <vector>
+
+#include <unistd.h>
+
+namespace {
+
+using Eigen::Vector3d;
+namespace fs = std::filesystem;
+
+constexpr double kDegree = std::numbers::pi / 180.0;
+const fs::path kPartsDir = fs::path(VMSIM_SOURCE_DIR) / "samples" / "parts";
+const std::vector<std::string> kParts = {"part1_tangency", "part2_corner", "part3_five_axis",
+                                         "path1_yz", "path2_blade"};
+
+std::string read_text(const fs::path& path) {
+  std::ifstream in(path, std::ios::binary);
+  std::ostringstream text;
+  text << in.rdbuf();
+  return text.str();
+}
+
+// ---------------------------------------------------------------------------------------------
+// A minimal APT/CL reader for the subset the generator writes.
+
+struct AptMove {
+  bool rapid = false;
+  Vector3d tip_mm = Vector3d::Zero();
+  Vector3d axis = Vector3d::UnitZ();
+  int line = 0;
+};
+
+struct Apt {
+  std::vector<std::string> lines;
+  double cutter_diameter_mm = 0.0;
+  double cutter_corner_radius_mm = 0.0;
+  bool multax = false;
+  double feed_mm_per_min = 0.0;
+  std::vector<AptMove> moves;  // FROM is not included
+};
+
+std::vector<double> numbers_after_slash(const std::string& line) {
+  std::vector<double> values;
+  std::stringstream rest(line.substr(line.find('/') + 1));
+  std::string item;
+  while (std::getline(rest, item, ',')) {
+    if (item == "MMPM") continue;
+    values.push_back(std::stod(item));
+  }
+  return values;
+}
+
+Apt read_apt(const fs::path& path) {
+  Apt apt;
+  std::ifstream in(path);
+  std::string line;
+  bool rapid_next = false;
+  int number = 0;
+  while (std::getline(in, line)) {
+    ++number;
+    apt.lines.push_back(line);
+    if (line.rfind("CUTTER/", 0) == 0) {
+      const auto v = numbers_after_slash(line);
+      apt.cutter_diameter_mm = v.at(0);
+      apt.cutter_corner_radius_mm = v.at(1);
+    } else if (line == "MULTAX") {
+      apt.multax = true;
+    } else if (line.rfind("FEDRAT/", 0) == 0) {
+      apt.feed_mm_per_min = numbers_after_slash(line).at(0);
+    } else if (line == "RAPID") {
+      rapid_next = true;
+    } else if (line.rfind("GOTO/", 0) == 0) {
+      const auto v = numbers_after_slash(line);
+      AptMove move;
+      move.rapid = rapid_next;
+      move.line = number;
+      move.tip_mm = Vector3d(v.at(0), v.at(1), v.at(2));
+      if (v.size() == 6) move.axis = Vector3d(v[3], v[4], v[5]);
+      EXPECT_EQ(v.size(), apt.multax ? 6u : 3u) << path << ":" << number;
+      apt.moves.push_back(move);
+      rapid_next = false;
+    }
+  }
+  return apt;
+}
+
+/// The runs of consecutive cutting (non-rapid) moves: the passes.
+std::vector<std::vector<AptMove>> passes(const Apt& apt) {
+  std::vector<std::vector<AptMove>> result;
+  bool in_pass = false;
+  for (const AptMove& move : apt.moves) {
+    if (move.rapid) {
+      in_pass = false;
+      continue;
+    }
+    if (!in_pass) result.emplace_back();
+    in_pass = true;
+    result.back().push_back(move);
+  }
+  return result;
+}
+
+Vector3d vec3(const YAML::Node& node) {
+  return {node[0].as<double>(), node[1].as<double>(), node[2].as<double>()};
+}
+
+bool in_range(const YAML::Node& surface, const char* key, double value) {
+  if (!surface[key]) return true;
+  constexpr double kSlack = 1e-9;
+  return value >= surface[key][0].as<double>() - kSlack &&
+         value <= surface[key][1].as<double>() + kSlack;
+}
+
+bool foot_in_ranges(const YAML::Node& surface, const Vector3d& foot) {
+  return in_range(surface, "x_range_mm", foot.x()) && in_range(surface, "y_range_mm", foot.y()) &&
+         in_range(surface, "z_range_mm", foot.z());
+}
+
+struct Foot {
+  bool inside = false;  //!< the foot point lies on the bounded patch
+  double distance_mm = std::numeric_limits<double>::infinity();
+  Vector3d normal = Vector3d::Zero();  //!< unit surface normal at the foot, towards the point
+};
+
+/// Foot of the perpendicular from p on a plane, cylinder or sphere patch of a part.yaml.
+Foot foot_on(const YAML::Node& surface, const Vector3d& p) {
+  const std::string type = surface["type"].as<std::string>();
+  Foot result;
+  Vector3d foot;
+  if (type == "plane") {
+    const Vector3d n = vec3(surface["normal"]).normalized();
+    const double signed_distance = (p - vec3(surface["point_mm"])).dot(n);
+    foot = p - signed_distance * n;
+    result.distance_mm = std::abs(signed_distance);
+    result.normal = signed_distance >= 0.0 ? n : Vector3d(-n);
+  } else if (type == "cylinder") {
+    const Vector3d a = vec3(surface["axis_direction"]).normalized();
+    const Vector3d q = vec3(surface["axis_point_mm"]);
+    const Vector3d radial = (p - q) - (p - q).dot(a) * a;
+    const double r = surface["radius_mm"].as<double>();
+    foot = p - radial + r * radial.normalized();
+    result.distance_mm = std::abs(radial.norm() - r);
+    result.normal = radial.norm() > r ? radial.normalized() : Vector3d(-radial.normalized());
+  } else if (type == "sphere") {
+    const Vector3d c = vec3(surface["center_mm"]);
+    const double r = surface["radius_mm"].as<double>();
+    foot = c + r * (p - c).normalized();
+    result.distance_mm = std::abs((p - c).norm() - r);
+    result.normal = (p - c).norm() > r ? (p - c).normalized() : Vector3d(-(p - c).normalized());
+  } else {
+    ADD_FAILURE() << "unexpected surface type " << type;
+    return result;
+  }
+  result.inside = foot_in_ranges(surface, foot);
+  return result;
+}
+
+/// The nearest foot point over the patches whose foot lies inside them.
+Foot nearest_foot(const YAML::Node& surfaces, const Vector3d& p) {
+  Foot best;
+  for (const YAML::Node& surface : surfaces) {
+    const Foot foot = foot_on(surface, p);
+    if (foot.inside && foot.distance_mm < best.distance_mm) best = foot;
+  }
+  return best;
+}
+
+double angle_between(const Vector3d& a, const Vector3d& b) {
+  return std::atan2(a.cross(b).norm(), a.dot(b));
+}
+
+struct Part {
+  YAML::Node yaml;
+  Apt apt;
+};
+
+Part load(const std::string& name) {
+  return {YAML::LoadFile((kPartsDir / name / "part.yaml").string()),
+          read_apt(kPartsDir / name / "toolpath.apt")};
+}
+
+// ---------------------------------------------------------------------------------------------
+
+TEST(SampleParts, GeneratorReproducesCheckedInFilesByteForByte) {
+  const fs::path out = fs::temp_directory_path() /
+                       ("vmsim_test_samples_" + std::to_string(::getpid()));
+  fs::remove_all(out);
+  const std::string command =
+      std::string("\"") + VMSIM_GENERATE_PARTS + "\" \"" + out.string() + "\" > /dev/null";
+  ASSERT_EQ(std::system(command.c_str()), 0) << command;
+  for (const std::string& name : kParts) {
+    for (const char* file : {"toolpath.apt", "part.yaml"}) {
+      const std::string generated = read_text(out / name / file);
+      const std::string checked_in = read_text(kPartsDir / name / file);
+      EXPECT_FALSE(generated.empty()) << name << "/" << file;
+      EXPECT_TRUE(generated == checked_in)
+          << name << "/" << file << " differs from the checked-in file: regenerate with "
+          << "<build>/samples/generate_parts samples/parts";
+    }
+  }
+  // Nothing else is written (no temporary file left behind).
+  int files = 0;
+  for (const auto& entry : fs::recursive_directory_iterator(out)) files += entry.is_regular_file();
+  EXPECT_EQ(files, 2 * static_cast<int>(kParts.size()));
+  fs::remove_all(out);
+}
+
+TEST(SampleParts, EveryPartIsWellFormed) {
+  for (const std::string& name : kParts) {
+    SCOPED_TRACE(name);
+    const Part part = load(name);
+    const YAML::Node& y = part.yaml;
+    EXPECT_EQ(y["name"].as<std::string>(), name);
+    EXPECT_TRUE(y["description"].IsScalar());
+    EXPECT_EQ(y["machine"].as<std::string>(), "../../machines/mikron_ucp710.yaml");
+    EXPECT_EQ(y["toolpath"].as<std::string>(), "toolpath.apt");
+    EXPECT_GT(y["feeds"]["production_mm_per_min"].as<double>(),
+              y["feeds"]["reference_mm_per_min"].as<double>());
+    const Vector3d low = vec3(y["stock"]["box"]["min_mm"]);
+    const Vector3d high = vec3(y["stock"]["box"]["max_mm"]);
+    EXPECT_TRUE((low.array() < high.array()).all());
+    EXPECT_GE(low.z(), 0.0);
+    ASSERT_TRUE(y["design"]["surfaces"].IsSequence());
+
+    // The APT header and the tool agree with part.yaml.
+    const Apt& apt = part.apt;
+    ASSERT_GE(apt.lines.size(), 8u);
+    EXPECT_EQ(apt.lines[0].rfind("PARTNO/", 0), 0u);
+    EXPECT_EQ(apt.lines[1], "UNITS/MM");
+    EXPECT_EQ(apt.lines.back(), "FINI");
+    EXPECT_DOUBLE_EQ(apt.cutter_diameter_mm, y["tool"]["diameter_mm"].as<double>());
+    EXPECT_DOUBLE_EQ(apt.cutter_corner_radius_mm, y["tool"]["corner_radius_mm"].as<double>());
+    EXPECT_DOUBLE_EQ(apt.feed_mm_per_min, y["feeds"]["production_mm_per_min"].as<double>());
+    const std::string type = y["tool"]["type"].as<std::string>();
+    EXPECT_TRUE(type == "ball" || type == "flat" || type == "bull");
+    EXPECT_GT(apt.moves.size(), 2u);
+    EXPECT_LE(apt.moves.size(), 20000u);
+    EXPECT_TRUE(apt.moves.front().rapid);
+    for (const AptMove& move : apt.moves) {
+      EXPECT_NEAR(move.axis.norm(), 1.0, 2e-6) << "line " << move.line;
+      EXPECT_GE(move.tip_mm.z(), 0.0) << "line " << move.line;
+      EXPECT_LE(move.tip_mm.head<2>().cwiseAbs().maxCoeff(), 100.0) << "line " << move.line;
+    }
+  }
+}
+
+TEST(SampleParts, Part1BallCentresAtTheRadiusFromThePlanesAndCylinderOnPasses025Apart) {
+  const Part part = load("part1_tangency");
+  const double radius = part.yaml["tool"]["corner_radius_mm"].as<double>();
+  ASSERT_EQ(radius, 5.0);
+  EXPECT_FALSE(part.apt.multax);
+  const YAML::Node surfaces = part.yaml["design"]["surfaces"];
+  ASSERT_EQ(surfaces.size(), 3u);
+
+  const auto runs = passes(part.apt);
+  ASSERT_EQ(runs.size(), 41u);
+  std::map<std::string, int> contact_patches;
+  for (std::size_t k = 0; k < runs.size(); ++k) {
+    const auto& run = runs[k];
+    // The first move of a pass is the plunge to its first point; every point is on the surface.
+    for (std::size_t i = 0; i < run.size(); ++i) {
+      const AptMove& m = run[i];
+      EXPECT_EQ(m.axis, Vector3d::UnitZ());
+      const Vector3d centre = m.tip_mm + radius * m.axis;
+      const Foot foot = nearest_foot(surfaces, centre);
+      ASSERT_TRUE(foot.inside) << "line " << m.line;
+      EXPECT_NEAR(foot.distance_mm, radius, 1e-6) << "line " << m.line;
+      // No patch is nearer than the radius (no gouge).
+      for (const YAML::Node& surface : surfaces) {
+        const Foot other = foot_on(surface, centre);
+        if (other.inside) {
+          EXPECT_GE(other.distance_mm, radius - 1e-6) << "line " << m.line;
+        }
+      }
+      EXPECT_DOUBLE_EQ(m.tip_mm.y(), run.front().tip_mm.y()) << "a pass stays in its XZ plane";
+      if (i > 0) {
+        const double step = (m.tip_mm - run[i - 1].tip_mm).norm();
+        EXPECT_GT(m.tip_mm.x(), run[i - 1].tip_mm.x()) << "one-way pass, line " << m.line;
+        EXPECT_LE(step, 0.2 + 1e-5) << "line " << m.line;
+        EXPECT_GE(step, 0.1) << "line " << m.line;
+      }
+    }
+    EXPECT_DOUBLE_EQ(run.front().tip_mm.x(), -46.0);
+    EXPECT_DOUBLE_EQ(run.back().tip_mm.x(), runs[0].back().tip_mm.x());
+    if (k > 0) {
+      EXPECT_NEAR(run.front().tip_mm.y() - runs[k - 1].front().tip_mm.y(), 0.25, 1e-9);
+    }
+  }
+  EXPECT_DOUBLE_EQ(runs.front().front().tip_mm.y(), -5.0);
+  EXPECT_DOUBLE_EQ(runs.back().front().tip_mm.y(), 5.0);
+
+  // The passes cross both tangency lines: points on each of the three patches.
+  for (const AptMove& m : runs[0]) {
+    const Vector3d centre = m.tip_mm + radius * m.axis;
+    for (std::size_t s = 0; s < surfaces.size(); ++s) {
+      const Foot foot = foot_on(surfaces[s], centre);
+      if (foot.inside && std::abs(foot.distance_mm - radius) < 1e-6) {
+        ++contact_patches[std::to_string(s)];
+      }
+    }
+  }
+  EXPECT_EQ(contact_patches.size(), 3u);
+  EXPECT_GE(contact_patches["1"], 20) << "points on the cylinder";
+}
+
+TEST(SampleParts, Part2FlatMillTouchesBothWallsUpToTheCorner) {
+  const Part part = load("part2_corner");
+  const double radius = 0.5 * part.yaml["tool"]["diameter_mm"].as<double>();
+  EXPECT_EQ(part.yaml["tool"]["type"].as<std::string>(), "flat");
+  const YAML::Node surfaces = part.yaml["design"]["surfaces"];
+  const Vector3d stock_low = vec3(part.yaml["stock"]["box"]["min_mm"]);
+
+  const auto runs = passes(part.apt);
+  ASSERT_EQ(runs.size(), 1u);
+  const auto& run = runs[0];
+  ASSERT_EQ(run.size(), 3u) << "plunge, then two G1 lines with one sharp corner";
+
+  int walls = 0;
+  for (const YAML::Node& surface : surfaces) {
+    const Vector3d n = vec3(surface["normal"]);
+    if (std::abs(n.z()) > 0.5) continue;  // the floor
+    ++walls;
+    const Vector3d p0 = vec3(surface["point_mm"]);
+    const double z_low = surface["z_range_mm"][0].as<double>();
+    const double z_high = surface["z_range_mm"][1].as<double>();
+    // Along the wall: the horizontal coordinate the wall extends in.
+    const int along = std::abs(n.x()) > 0.5 ? 1 : 0;
+    const char* along_key = along == 0 ? "x_range_mm" : "y_range_mm";
+    const double wall_end = surface[along_key][1].as<double>();
+    bool touched = false;
+    for (std::size_t i = 1; i < run.size(); ++i) {
+      const Vector3d a = run[i - 1].tip_mm;
+      const Vector3d b = run[i].tip_mm;
+      EXPECT_EQ(run[i].axis, Vector3d::UnitZ());
+      // No point of the path is nearer the wall than the radius where it faces the wall.
+      for (const Vector3d& p : {a, b}) {
+        if (p[along] <= wall_end) {
+          EXPECT_GE((p - p0).dot(n), radius - 1e-9);
+        }
+      }
+      const bool flank = std::abs((a - p0).dot(n) - radius) < 1e-9 &&
+                         std::abs((b - p0).dot(n) - radius) < 1e-9 && a.z() == b.z();
+      if (!flank) continue;
+      touched = true;
+      // The tool flank covers the wall's height, and its length from the stock edge to the
+      // corner (where the tool, of radius R, stops R short of the other wall).
+      EXPECT_LE(a.z(), z_low);
+      EXPECT_GE(a.z() + part.yaml["tool"]["length_mm"].as<double>(), z_high);
+      const double lo = std::min(a[along], b[along]);
+      const double hi = std::max(a[along], b[along]);
+      EXPECT_LE(lo - radius, stock_low[along]);
+      EXPECT_DOUBLE_EQ(hi, wall_end - radius);
+    }
+    EXPECT_TRUE(touched) << "wall through " << p0.transpose();
+  }
+  EXPECT_EQ(walls, 2);
+  // The corner point of the path touches both walls at once.
+  const Vector3d corner = run[1].tip_mm;
+  const Vector3d design_corner = vec3(part.yaml["design"]["corner_mm"]);
+  EXPECT_DOUBLE_EQ(corner.x(), design_corner.x() - radius);
+  EXPECT_DOUBLE_EQ(corner.y(), design_corner.y() - radius);
+  EXPECT_NEAR(angle_between(run[1].tip_mm - run[0].tip_mm, run[2].tip_mm - run[1].tip_mm),
+              90.0 * kDegree, 1e-12);
+}
+
+TEST(SampleParts, Part3BallCentresAtTheRadiusFromTheDomeWithTheToolNormal) {
+  const Part part = load("part3_five_axis");
+  const double radius = part.yaml["tool"]["corner_radius_mm"].as<double>();
+  EXPECT_TRUE(part.apt.multax);
+  const YAML::Node surfaces = part.yaml["design"]["surfaces"];
+  const auto runs = passes(part.apt);
+  ASSERT_EQ(runs.size(), 1u);
+  const auto& run = runs[0];
+
+  double tilt_min = 180.0;
+  double tilt_max = 0.0;
+  double azimuth_turned = 0.0;
+  for (std::size_t i = 0; i < run.size(); ++i) {
+    const AptMove& m = run[i];
+    const Vector3d centre = m.tip_mm + radius * m.axis.normalized();
+    const Foot foot = nearest_foot(surfaces, centre);
+    ASSERT_TRUE(foot.inside) << "line " << m.line;
+    EXPECT_NEAR(foot.distance_mm, radius, 1e-6) << "line " << m.line;
+    EXPECT_LT(angle_between(m.axis, foot.normal), 3e-6) << "line " << m.line;
+    const double tilt = angle_between(m.axis, Vector3d::UnitZ()) / kDegree;
+    tilt_min = std::min(tilt_min, tilt);
+    tilt_max = std::max(tilt_max, tilt);
+    if (i > 0) {
+      const Vector3d& a = run[i - 1].axis;
+      const Vector3d& b = m.axis;
+      const double turn = std::atan2(a.x() * b.y() - a.y() * b.x(), a.x() * b.x() + a.y() * b.y());
+      EXPECT_LT(std::abs(turn), 5.0 * kDegree) << "smooth, line " << m.line;
+      azimuth_turned += turn;
+      EXPECT_LE((m.tip_mm - run[i - 1].tip_mm).norm(), 0.5 + 1e-5) << "line " << m.line;
+    }
+  }
+  EXPECT_NEAR(tilt_min, 20.0, 1e-3);
+  EXPECT_NEAR(tilt_max, 60.0, 1e-3);
+  EXPECT_NEAR(std::abs(azimuth_turned) / kDegree, 3600.0, 1e-3);
+}
+
+TEST(SampleParts, Path1IsInTheYzPlaneAbout100MmLongWithTheToolNormal) {
+  const Part part = load("path1_yz");
+  const YAML::Node s = part.yaml["design"]["surfaces"][0];
+  ASSERT_EQ(s["type"].as<std::string>(), "sine_height_y");
+  const double z0 = s["z0_mm"].as<double>();
+  const double amplitude = s["amplitude_mm"].as<double>();
+  const double k = 2.0 * std::numbers::pi / s["wavelength_mm"].as<double>();
+  const double phase = s["y_phase_mm"].as<double>();
+  const auto runs = passes(part.apt);
+  ASSERT_EQ(runs.size(), 1u);
+  const auto& run = runs[0];
+
+  double length = 0.0;
+  double tilt_min = 90.0;
+  double tilt_max = -90.0;
+  for (std::size_t i = 0; i < run.size(); ++i) {
+    const AptMove& m = run[i];
+    const double y = m.tip_mm.y();
+    EXPECT_EQ(m.tip_mm.x(), 0.0);
+    EXPECT_EQ(m.axis.x(), 0.0);
+    EXPECT_NEAR(m.tip_mm.z(), z0 + amplitude * std::sin(k * (y - phase)), 1e-6);
+    const Vector3d normal =
+        Vector3d(0.0, -amplitude * k * std::cos(k * (y - phase)), 1.0).normalized();
+    EXPECT_LT(angle_between(m.axis, normal), 3e-6) << "line " << m.line;
+    const double tilt = std::atan2(-m.axis.y(), m.axis.z()) / kDegree;
+    tilt_min = std::min(tilt_min, tilt);
+    tilt_max = std::max(tilt_max, tilt);
+    if (i > 0) length += (m.tip_mm - run[i - 1].tip_mm).norm();
+    EXPECT_GE(m.tip_mm.y(), -20.0);
+    EXPECT_LE(m.tip_mm.y(), 100.0);
+    EXPECT_GE(m.tip_mm.z() + 5.0 * m.axis.z(), 30.0);
+    EXPECT_LE(m.tip_mm.z() + 5.0 * m.axis.z(), 56.0);
+  }
+  EXPECT_NEAR(length, 100.0, 10.0);
+  EXPECT_LT(tilt_max, 31.0);
+  EXPECT_GT(tilt_min, -31.0);
+  EXPECT_GT(tilt_max - tilt_min, 50.0) << "the orientation changes along the path";
+}
+
+TEST(SampleParts, Path2PassesWithin2DegreesOfTheCAxisNearS40Mm) {
+  const Part part = load("path2_blade");
+  const YAML::Node s = part.yaml["design"]["surfaces"][0];
+  ASSERT_EQ(s["type"].as<std::string>(), "quadratic_height");
+  const double z0 = s["z0_mm"].as<double>();
+  const double hxx = s["hxx_per_mm"].as<double>();
+  const double hxy = s["hxy_per_mm"].as<double>();
+  const double hyy = s["hyy_per_mm"].as<double>();
+  const auto runs = passes(part.apt);
+  ASSERT_EQ(runs.size(), 1u);
+  const auto& run = runs[0];
+
+  double arc = 0.0;
+  double best_tilt = 180.0;
+  double best_s = -1.0;
+  double azimuth_30 = 0.0;
+  double azimuth_50 = 0.0;
+  double azimuth = 0.0;
+  for (std::size_t i = 0; i < run.size(); ++i) {
+    const AptMove& m = run[i];
+    const double x = m.tip_mm.x();
+    const double y = m.tip_mm.y();
+    EXPECT_NEAR(m.tip_mm.z(), z0 + 0.5 * (hxx * x * x + 2.0 * hxy * x * y + hyy * y * y), 1e-6);
+    const Vector3d normal = Vector3d(-(hxx * x + hxy * y), -(hxy * x + hyy * y), 1.0).normalized();
+    EXPECT_LT(angle_between(m.axis, normal), 3e-6) << "line " << m.line;
+    if (i > 0) {
+      arc += (m.tip_mm - run[i - 1].tip_mm).norm();
+      const Vector3d& a = run[i - 1].axis;
+      const Vector3d& b = m.axis;
+      azimuth += std::atan2(a.x() * b.y() - a.y() * b.x(), a.x() * b.x() + a.y() * b.y());
+    }
+    if (arc <= 30.0) azimuth_30 = azimuth;
+    if (arc <= 50.0) azimuth_50 = azimuth;
+    const double tilt = angle_between(m.axis, Vector3d::UnitZ()) / kDegree;
+    if (tilt < best_tilt) {
+      best_tilt = tilt;
+      best_s = arc;
+    }
+  }
+  EXPECT_LT(best_tilt, 2.0);
+  EXPECT_GT(best_tilt, 0.5);
+  EXPECT_NEAR(best_s, 40.0, 1.0);
+  EXPECT_NEAR(arc, 90.0, 1.0);
+  EXPECT_GT(std::abs(azimuth_50 - azimuth_30) / kDegree, 120.0)
+      << "the axis swings round the C axis near the singularity";
+}
+
+}  // namespace
