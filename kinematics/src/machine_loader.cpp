@@ -465,6 +465,7 @@ Axis read_axis(const FieldReader& reader) {
   axis.limits = read_limits(named.child("limits"), axis);
   axis.drive = read_drive(named.child("drive"), axis);
   axis.controller = read_controller(named.child("controller"));
+  if (named.has("effects")) axis.effects = read_drive_effects(named.child("effects"), axis);
   named.reject_unknown_fields();
   return axis;
 }

@@ -77,6 +77,9 @@ class FieldReader {
   std::shared_ptr<std::set<std::string>> used_ = std::make_shared<std::set<std::string>>();
 };
 
+/// Reads `axes[i].effects` (machine_loader_effects.cpp); rejects unknown fields.
+DriveEffects read_drive_effects(const FieldReader& effects, const Axis& axis);
+
 /// A serial chain imported from URDF: the joints from base_link to tip_link become the tool
 /// chain (their names must be axis names of the machine file); tip_to_spindle places the spindle
 /// frame S on the tip link; base_to_workpiece places W in the base.

@@ -19,6 +19,8 @@
 #include <string>
 #include <vector>
 
+#include "vmsim/kinematics/drive_effects.hpp"
+
 namespace vmsim::kinematics {
 
 enum class AxisType { linear, rotary };
@@ -99,6 +101,7 @@ struct Axis {
   KinematicLimits limits;
   Drive drive;
   Controller controller;
+  DriveEffects effects;  ///< further effects (friction variants, backlash, ...), off by default
 };
 
 /// Rigid-body parameters of the body a joint moves (first paper, Appendix A).
