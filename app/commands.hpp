@@ -16,5 +16,6 @@ struct CommandContext {
 };
 
 void add_kinematics_command(CLI::App& app, CommandContext& context);
+void add_dynamics_command(CLI::App& app, CommandContext& context);
 
 }  // namespace vmsim::app

@@ -410,11 +410,13 @@ PartFiles part3_five_axis() {
 // Path 1: a path in the yz plane with a changing tool orientation (first paper, test path 1)
 
 PartFiles path1_yz() {
-  // Surface z = 42.5 + 7.5 sin(2 pi (y + 10) / 80), extruded along x; one pass along x = 0 from
+  // Surface z = 42.5 + 6 sin(2 pi (y + 10) / 80), extruded along x; one pass along x = 0 from
   // y = -10 to 82, ball-end normal to the surface: the axis tilts in the yz plane
-  // within +-30.5 deg.
+  // within +-25.2 deg.
   const double z0 = 42.5;
-  const double amplitude = 7.5;
+  // 6 mm keeps the tilt within +-25.2 deg: the Mikron sample's A travel ends at +30 deg, and a
+  // path that needs both +-30.5 deg would force a flip of the IKT branch (A sign, C + 180).
+  const double amplitude = 6.0;
   const double wavelength = 80.0;
   const double y_phase = -10.0;
   const double y_first = -10.0;
@@ -444,13 +446,13 @@ PartFiles path1_yz() {
   std::string yaml;
   yaml += "# Sample path 1 (first paper, Fig. 2, test path 1): a path in the yz "
           R"(plane, about 0.1 m long,
-# with a smoothly changing tool orientation in that plane (tilt within +-30.5 deg), ball-end
+# with a smoothly changing tool orientation in that plane (tilt within +-25.2 deg), ball-end
 # D10 normal to a wavy surface: only Y, Z and A move. The paper compares its kinematic and
 # torque-limited feedrate profiles (Fig. 3) on it.
 )";
   yaml += kRegenerate;
   yaml += "name: path1_yz\n";
-  yaml += "description: \"Surface z = 42.5 + 7.5 sin(2 pi (y + 10) / "
+  yaml += "description: \"Surface z = 42.5 + 6 sin(2 pi (y + 10) / "
           "80) mm, extruded along x. One pass "
           "at x = 0 from y = -10 to 82 mm, tip points every 0.2 mm or "
           "less in arc length, tool axis "

@@ -452,9 +452,9 @@ TEST(SampleParts, Path1IsInTheYzPlaneAbout100MmLongWithTheToolNormal) {
     EXPECT_LE(m.tip_mm.z() + 5.0 * m.axis.z(), 56.0);
   }
   EXPECT_NEAR(length, 100.0, 10.0);
-  EXPECT_LT(tilt_max, 31.0);
-  EXPECT_GT(tilt_min, -31.0);
-  EXPECT_GT(tilt_max - tilt_min, 50.0) << "the orientation changes along the path";
+  EXPECT_LT(tilt_max, 25.5);  // the Mikron sample's A travel ends at +30 deg
+  EXPECT_GT(tilt_min, -25.5);
+  EXPECT_GT(tilt_max - tilt_min, 45.0) << "the orientation changes along the path";
 }
 
 TEST(SampleParts, Path2PassesWithin2DegreesOfTheCAxisNearS40Mm) {

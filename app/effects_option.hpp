@@ -1,0 +1,42 @@
+#pragma once
+// The --effects option: which dynamic effects of the first paper's Eq. 4 are switched on,
+// written H,Hcpl,B,C,G,F (uncoupled inertia, coupled inertia, centrifugal, Coriolis, gravity,
+// friction) or "all".
+#include <string>
+
+#include "vmsim/common/errors.hpp"
+#include "vmsim/kinematics/dynamics.hpp"
+
+namespace vmsim::app {
+
+inline kinematics::EffectSet parse_effects(const std::string& text) {
+  using kinematics::Effect;
+  if (text == "all") return kinematics::EffectSet::all();
+  kinematics::EffectSet effects;
+  std::size_t start = 0;
+  while (start <= text.size()) {
+    const std::size_t comma = text.find(',', start);
+    const std::string word = text.substr(start, comma == std::string::npos ? std::string::npos : comma - start);
+    if (word == "H") {
+      effects = effects.with(Effect::inertia);
+    } else if (word == "Hcpl") {
+      effects = effects.with(Effect::inertia_coupling);
+    } else if (word == "B") {
+      effects = effects.with(Effect::centrifugal);
+    } else if (word == "C") {
+      effects = effects.with(Effect::coriolis);
+    } else if (word == "G") {
+      effects = effects.with(Effect::gravity);
+    } else if (word == "F") {
+      effects = effects.with(Effect::friction);
+    } else {
+      throw InputError("--effects: '" + word +
+                       "' is not an effect (use H, Hcpl, B, C, G, F, comma-separated, or all)");
+    }
+    if (comma == std::string::npos) break;
+    start = comma + 1;
+  }
+  return effects;
+}
+
+}  // namespace vmsim::app
