@@ -14,6 +14,7 @@ packages=(
   liburdfdom-dev         # robots loaded from URDF
   liborocos-kdl-dev      # independent reference for the kinematics tests
   libtbb-dev             # parallel loops
+  libopenvdb-dev libboost-iostreams-dev  # level-set material removal (OpenVDB's CMake needs boost_iostreams)
 )
 
 missing=()
