@@ -350,7 +350,18 @@ Enum read_choice(const FieldReader& reader, const std::string& key,
   return fallback;
 }
 
-Controller read_controller(const FieldReader& controller) {
+// A small non-negative whole number of samples (a computation dead time).
+int read_delay_samples(const FieldReader& reader, const std::string& key) {
+  if (!reader.has(key)) return 1;
+  const double value = reader.number(key);
+  if (!(value >= 0.0 && value <= 8.0 && value == std::floor(value))) {
+    reader.child(key).fail("'" + key + "' must be a whole number from 0 to 8, got " +
+                           format_number(value));
+  }
+  return static_cast<int>(value);
+}
+
+Controller read_controller(const FieldReader& controller, const Axis& axis) {
   Controller result;
   {
     const FieldReader position = controller.child("position");
@@ -358,6 +369,20 @@ Controller read_controller(const FieldReader& controller) {
     result.position_period_s = position.quantity("period", kTime);
     position.require_positive("kv", result.position_gain_kv_per_s);
     position.require_positive("period", result.position_period_s);
+    result.fine_interpolation = read_choice<FineInterpolation>(
+        position, "fine_interpolation",
+        {{"linear", FineInterpolation::linear}, {"cubic", FineInterpolation::cubic}},
+        FineInterpolation::linear);
+    result.position_feedback = read_choice<PositionFeedback>(
+        position, "feedback", {{"motor", PositionFeedback::motor}, {"load", PositionFeedback::load}},
+        PositionFeedback::motor);
+    const UnitTable resolution_units =
+        is_linear(axis) ? UnitTable{{"nm", 1e-9}, {"um", 1e-6}, {"mm", 1e-3}}
+                        : UnitTable{{"arcsec", kPi / 648000.0}, {"deg", kPi / 180.0}};
+    result.load_encoder_resolution =
+        position.quantity_or("load_encoder_resolution", resolution_units, 0.0);
+    position.require_non_negative("load_encoder_resolution", result.load_encoder_resolution);
+    result.position_output_delay_samples = read_delay_samples(position, "output_delay_samples");
     position.reject_unknown_fields();
   }
   {
@@ -375,6 +400,7 @@ Controller read_controller(const FieldReader& controller) {
     velocity.require_positive("period", result.velocity_period_s);
     result.velocity_filter_time_s = velocity.quantity_or("filter_time", kTime, 0.0);
     velocity.require_non_negative("filter_time", result.velocity_filter_time_s);
+    result.velocity_output_delay_samples = read_delay_samples(velocity, "output_delay_samples");
     velocity.reject_unknown_fields();
   }
   {
@@ -394,6 +420,15 @@ Controller read_controller(const FieldReader& controller) {
       result.current_integral_time_s = current.quantity("integral_time", kTime);
       current.require_positive("gain_V_per_A", result.current_gain_V_per_A);
       current.require_positive("integral_time", result.current_integral_time_s);
+      result.resistance_ohm = current.number("resistance_ohm");
+      result.inductance_H = current.quantity("inductance", UnitTable{{"mH", 1e-3}, {"H", 1.0}});
+      result.back_emf_V_s_per_rad = current.number_or("back_emf_V_s_per_rad", 0.0);
+      result.voltage_max_V = current.number_or("voltage_max_V", 0.0);
+      current.require_non_negative("resistance_ohm", result.resistance_ohm);
+      current.require_positive("inductance", result.inductance_H);
+      current.require_non_negative("back_emf_V_s_per_rad", result.back_emf_V_s_per_rad);
+      current.require_non_negative("voltage_max_V", result.voltage_max_V);
+      result.current_output_delay_samples = read_delay_samples(current, "output_delay_samples");
     }
     result.current_period_s = current.quantity_or("period", kTime, result.velocity_period_s);
     current.require_positive("period", result.current_period_s);
@@ -464,7 +499,7 @@ Axis read_axis(const FieldReader& reader) {
   }
   axis.limits = read_limits(named.child("limits"), axis);
   axis.drive = read_drive(named.child("drive"), axis);
-  axis.controller = read_controller(named.child("controller"));
+  axis.controller = read_controller(named.child("controller"), axis);
   if (named.has("effects")) axis.effects = read_drive_effects(named.child("effects"), axis);
   named.reject_unknown_fields();
   return axis;

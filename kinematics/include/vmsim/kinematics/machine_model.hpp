@@ -54,12 +54,24 @@ struct Drive {
 enum class VelocityControllerType { P, PI };
 enum class CurrentLoopModel { ideal, first_order, PI };
 enum class BalancingType { none, dead_time, first_order_lag };
+enum class FineInterpolation { linear, cubic };
+enum class PositionFeedback { motor, load };
 
 /// Cascade controller of one axis drive (second paper, Sec. 2.1; a Siemens 840D-like structure).
+/// servo/README.md documents the fields and how the servo simulation uses them. Each loop's
+/// output is applied `*_output_delay_samples` periods of that loop after its inputs were
+/// sampled (computation dead time; 1 for a digital drive).
 struct Controller {
   // Position loop (P), closed in the NC or the drive.
   double position_gain_kv_per_s = 0.0;   ///< Kv [1/s] (1 (m/min)/mm = 16.67 1/s)
   double position_period_s = 0.0;        ///< sampling period of the position loop
+  /// Fine interpolation of the set points (interpolation period -> position period).
+  FineInterpolation fine_interpolation = FineInterpolation::linear;
+  /// Encoder the position loop is closed on: the motor encoder or a direct (load-side) scale.
+  PositionFeedback position_feedback = PositionFeedback::motor;
+  /// Resolution of the load-side encoder [joint unit]; 0 = ideal.
+  double load_encoder_resolution = 0.0;
+  int position_output_delay_samples = 1;
   // Velocity loop.
   VelocityControllerType velocity_type = VelocityControllerType::PI;
   double velocity_gain_N_m_s_per_rad = 0.0;  ///< Kp of the speed controller (motor side)
@@ -67,12 +79,19 @@ struct Controller {
   double velocity_period_s = 0.0;
   /// Time constant of the filter on the velocity differenced from the encoder [s]; 0 = none.
   double velocity_filter_time_s = 0.0;
+  int velocity_output_delay_samples = 1;
   // Current (torque) loop.
   CurrentLoopModel current_model = CurrentLoopModel::first_order;
   double current_bandwidth_hz = 0.0;  ///< for first_order
   double current_gain_V_per_A = 0.0;  ///< for PI
   double current_integral_time_s = 0.0;
   double current_period_s = 0.0;
+  int current_output_delay_samples = 1;  ///< for PI
+  // Electrical model of the motor, for the PI current loop: L di/dt = u - R i - Ke omega.
+  double resistance_ohm = 0.0;
+  double inductance_H = 0.0;
+  double back_emf_V_s_per_rad = 0.0;  ///< Ke; 0 = Kt (SI, a permanent-magnet motor)
+  double voltage_max_V = 0.0;         ///< saturation of the current controller's output; 0 = none
   // Feedforward.
   bool velocity_feedforward = false;
   double velocity_feedforward_weight = 1.0;
