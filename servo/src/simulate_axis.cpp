@@ -1,0 +1,688 @@
+// One axis drive: cascade control at its loop rates, exact discretisation of the linear
+// mechanics between ticks, dry friction with a stick state. See servo.hpp and README.md.
+#include <Eigen/Core>
+#include <array>
+#include <cmath>
+#include <numbers>
+
+#include "vmsim/common/errors.hpp"
+#include "vmsim/servo/servo.hpp"
+
+namespace vmsim::servo {
+namespace {
+
+using kinematics::BalancingType;
+using kinematics::CurrentLoopModel;
+using kinematics::FineInterpolation;
+using kinematics::PositionFeedback;
+using kinematics::VelocityControllerType;
+
+constexpr double kTwoPi = 2.0 * std::numbers::pi;
+constexpr int kInputs = 4;  // electrical input, motor torque, load torque, spring offset torque
+
+// exp(M) by scaling and squaring of a Taylor series: M is small (at most 9 x 9) and well scaled
+// after the scaling; used once per model.
+Eigen::MatrixXd matrix_exponential(const Eigen::MatrixXd& m) {
+  double norm = m.cwiseAbs().rowwise().sum().maxCoeff();
+  int squarings = 0;
+  while (norm > 0.25) {
+    norm *= 0.5;
+    ++squarings;
+  }
+  const Eigen::MatrixXd a = m / std::ldexp(1.0, squarings);
+  Eigen::MatrixXd result = Eigen::MatrixXd::Identity(m.rows(), m.cols());
+  Eigen::MatrixXd term = result;
+  for (int k = 1; k <= 20; ++k) {
+    term = (term * a) / static_cast<double>(k);
+    result += term;
+  }
+  for (int i = 0; i < squarings; ++i) result = result * result;
+  return result;
+}
+
+/// Set points with their fine interpolation and derivatives (central differences at the knots,
+/// so that position, velocity and acceleration line up in time).
+class SetpointSignal {
+ public:
+  struct Sample {
+    double x = 0.0, v = 0.0, a = 0.0;
+  };
+
+  SetpointSignal(const AxisInput& input, FineInterpolation interpolation)
+      : t0_(input.start_time_s),
+        period_(input.period_s),
+        inverse_period_(1.0 / input.period_s),
+        cubic_(interpolation == FineInterpolation::cubic),
+        held_(input.kind == AxisInput::Kind::velocity),
+        x_(input.values) {
+    const std::size_t n = x_.size();
+    v_.resize(n);
+    a_.resize(n);
+    for (std::size_t k = 0; k < n; ++k) {
+      const double before = x_[k == 0 ? 0 : k - 1];
+      const double after = x_[k + 1 < n ? k + 1 : n - 1];
+      v_[k] = (after - before) * 0.5 * inverse_period_;
+      a_[k] = (after - 2.0 * x_[k] + before) * inverse_period_ * inverse_period_;
+    }
+  }
+
+  Sample at(double t) const {
+    const double u = (t - t0_) * inverse_period_;
+    const std::size_t last = x_.size() - 1;
+    if (u <= 0.0) return {x_.front(), 0.0, 0.0};
+    if (u >= static_cast<double>(last)) return {x_.back(), 0.0, 0.0};
+    const std::size_t k = static_cast<std::size_t>(u);
+    const double f = u - static_cast<double>(k);
+    if (held_) return {x_[k], 0.0, 0.0};
+    Sample s;
+    s.a = a_[k] + f * (a_[k + 1] - a_[k]);
+    if (!cubic_) {
+      s.x = x_[k] + f * (x_[k + 1] - x_[k]);
+      s.v = v_[k] + f * (v_[k + 1] - v_[k]);
+      return s;
+    }
+    // Cubic Hermite with the central-difference slopes (Catmull-Rom): C1 in x.
+    const double f2 = f * f, f3 = f2 * f;
+    const double dx = x_[k + 1] - x_[k];
+    const double m0 = v_[k] * period_, m1 = v_[k + 1] * period_;
+    s.x = x_[k] + (3.0 * f2 - 2.0 * f3) * dx + (f3 - 2.0 * f2 + f) * m0 + (f3 - f2) * m1;
+    s.v = ((6.0 * f - 6.0 * f2) * dx + (3.0 * f2 - 4.0 * f + 1.0) * m0 + (3.0 * f2 - 2.0 * f) * m1) *
+          inverse_period_;
+    return s;
+  }
+
+  /// The sample held at t (for the external force).
+  static double held(const std::vector<double>& values, double t0, double inverse_period,
+                     double t) {
+    if (values.empty()) return 0.0;
+    const double u = (t - t0) * inverse_period;
+    if (u <= 0.0) return values.front();
+    const std::size_t k = static_cast<std::size_t>(u);
+    return k < values.size() ? values[k] : values.back();
+  }
+
+ private:
+  double t0_, period_, inverse_period_;
+  bool cubic_, held_;
+  std::vector<double> x_, v_, a_;
+};
+
+/// A pure delay of n samples (n = 0: pass-through).
+class DelayLine {
+ public:
+  void reset(int samples, double value) {
+    n_ = samples;
+    head_ = 0;
+    buffer_.fill(value);
+  }
+  double push(double value) {
+    if (n_ == 0) return value;
+    const double out = buffer_[static_cast<std::size_t>(head_)];
+    buffer_[static_cast<std::size_t>(head_)] = value;
+    head_ = head_ + 1 == n_ ? 0 : head_ + 1;
+    return out;
+  }
+
+ private:
+  std::array<double, 9> buffer_{};
+  int n_ = 0;
+  int head_ = 0;
+};
+
+/// Exactly discretised linear part: x+ = phi x + gamma u over one plant step.
+template <int N>
+struct Discrete {
+  Eigen::Matrix<double, N, N> phi;
+  Eigen::Matrix<double, N, kInputs> gamma;
+};
+
+template <int N>
+Discrete<N> discretise(const Eigen::Matrix<double, N, N>& a, const Eigen::Matrix<double, N, kInputs>& b,
+                       double step_s) {
+  Eigen::MatrixXd m = Eigen::MatrixXd::Zero(N + kInputs, N + kInputs);
+  m.topLeftCorner(N, N) = a * step_s;
+  m.topRightCorner(N, kInputs) = b * step_s;
+  const Eigen::MatrixXd e = matrix_exponential(m);
+  Discrete<N> d;
+  d.phi = e.topLeftCorner(N, N);
+  d.gamma = e.topRightCorner(N, kInputs);
+  return d;
+}
+
+/// Derived parameters at the motor shaft (SI).
+struct Parameters {
+  double r = 1.0, kt = 1.0, j_total = 1.0, j_motor = 0.0, j_load = 0.0;
+  double viscous = 0.0;                      // mean c [N m s/rad]
+  double viscous_positive = 0.0, viscous_negative = 0.0;
+  double dry_positive = 0.0, dry_negative = 0.0;  // [N m]
+  bool stribeck = false;
+  double static_friction = 0.0, stribeck_speed = 1.0, stribeck_exponent = 2.0;
+  bool coulomb = false, asymmetric = false;
+  double spring = 0.0, damping = 0.0, gap = 0.0;  // [N m/rad], [N m s/rad], motor rad
+  bool two_mass = false, backlash = false;
+  bool cogging = false;
+  double cogging_amplitude = 0.0, cogging_periods = 0.0, cogging_phase = 0.0;
+  bool pitch = false;
+  double pitch_amplitude = 0.0, pitch_wavenumber = 0.0, pitch_phase = 0.0;
+  double motor_count = 0.0;  // motor encoder count [rad]; 0 = ideal
+  double load_count = 0.0;   // load encoder resolution [joint unit]
+  double inverse_motor_count = 0.0, inverse_load_count = 0.0;
+  double gravity_constant = 0.0, gravity_cos = 0.0, gravity_sin = 0.0;
+  bool gravity_trig = false, rotary = false;
+};
+
+Parameters derive(const AxisServoModel& model) {
+  const kinematics::Axis& axis = model.axis;
+  const kinematics::DriveEffects& fx = axis.effects;
+  Parameters p;
+  p.r = axis.drive.ratio;
+  p.kt = axis.drive.torque_constant_N_m_per_A;
+  p.j_total = axis.drive.equivalent_inertia_kg_m2;
+  p.rotary = axis.type == kinematics::AxisType::rotary;
+  // Eq. 6: Kt a q' = Kt a r omega.
+  const double a = axis.drive.friction_viscous_A_per_joint_unit_per_s;
+  p.viscous_positive = p.viscous_negative = p.kt * a * p.r;
+  p.dry_positive = p.dry_negative = p.kt * axis.drive.friction_dry_A;
+  if (fx.asymmetric_friction.enabled) {
+    p.asymmetric = true;
+    p.dry_positive = p.kt * fx.asymmetric_friction.dry_positive_A;
+    p.dry_negative = p.kt * fx.asymmetric_friction.dry_negative_A;
+    p.viscous_positive = p.kt * fx.asymmetric_friction.viscous_positive_A_per_joint_unit_per_s * p.r;
+    p.viscous_negative = p.kt * fx.asymmetric_friction.viscous_negative_A_per_joint_unit_per_s * p.r;
+  }
+  p.viscous = 0.5 * (p.viscous_positive + p.viscous_negative);
+  if (fx.stribeck.enabled) {
+    p.stribeck = true;
+    p.static_friction = p.kt * fx.stribeck.static_friction_A;
+    p.stribeck_speed = fx.stribeck.velocity / p.r;
+    p.stribeck_exponent = fx.stribeck.exponent;
+  }
+  p.coulomb = p.dry_positive > 0.0 || p.dry_negative > 0.0 || (p.stribeck && p.static_friction > 0.0);
+  if (fx.compliance.enabled) {
+    p.two_mass = true;
+    p.j_motor = fx.compliance.motor_side_inertia_kg_m2 > 0.0 ? fx.compliance.motor_side_inertia_kg_m2
+                                                            : axis.drive.rotor_inertia_kg_m2;
+    p.j_load = p.j_total - p.j_motor;
+    if (!(p.j_motor > 0.0 && p.j_load > 0.0)) {
+      throw InputError("axis " + axis.name +
+                       ": effects.compliance needs a motor-side inertia in (0, J_eq)");
+    }
+    p.spring = fx.compliance.stiffness * p.r * p.r;
+    const double j_reduced = p.j_motor * p.j_load / p.j_total;
+    p.damping = 2.0 * fx.compliance.damping_ratio * std::sqrt(p.spring * j_reduced);
+  }
+  if (fx.backlash.enabled) {
+    p.backlash = true;
+    p.gap = fx.backlash.gap / p.r;
+  }
+  if (fx.cogging.enabled) {
+    p.cogging = fx.cogging.amplitude_N_m > 0.0;
+    p.cogging_amplitude = fx.cogging.amplitude_N_m;
+    p.cogging_periods = fx.cogging.periods_per_rev;
+    p.cogging_phase = fx.cogging.phase_rad;
+  }
+  if (fx.pitch_error.enabled) {
+    p.pitch = true;
+    p.pitch_amplitude = fx.pitch_error.amplitude;
+    p.pitch_wavenumber = kTwoPi / fx.pitch_error.period;
+    p.pitch_phase = fx.pitch_error.phase_rad;
+  }
+  if (axis.controller.encoder_counts_per_rev > 0.0) {
+    p.motor_count = kTwoPi / axis.controller.encoder_counts_per_rev;
+  }
+  p.load_count = axis.controller.load_encoder_resolution;
+  if (p.motor_count > 0.0) p.inverse_motor_count = 1.0 / p.motor_count;
+  if (p.load_count > 0.0) p.inverse_load_count = 1.0 / p.load_count;
+  p.gravity_constant = model.gravity_constant_N_m;
+  p.gravity_cos = model.gravity_cos_N_m;
+  p.gravity_sin = model.gravity_sin_N_m;
+  p.gravity_trig = std::abs(p.gravity_cos) > 1e-12 || std::abs(p.gravity_sin) > 1e-12;
+  return p;
+}
+
+// Round to the nearest count (halves away from zero), inline: std::nearbyint is a library call
+// on baseline x86-64. Counts stay far below 2^63.
+inline double quantise(double value, double count, double inverse_count) {
+  if (count <= 0.0) return value;
+  const double scaled = value * inverse_count;
+  return static_cast<double>(static_cast<long long>(scaled + (scaled >= 0.0 ? 0.5 : -0.5))) * count;
+}
+
+// The simulation of one axis with N plant states: [theta, omega, i] (rigid) or
+// [theta_m, omega_m, i, theta_L, omega_L] (two-mass).
+template <int N>
+class AxisRun {
+ public:
+  static constexpr bool kTwoMass = N == 5;
+  static constexpr int kVel = kTwoMass ? 4 : 1;  // the body friction acts on
+  static constexpr int kPos = kTwoMass ? 3 : 0;
+
+  AxisRun(const AxisServoModel& model, const AxisInput& input, const SimulationOptions& options)
+      : model_(model), c_(model.axis.controller), p_(derive(model)), input_(input),
+        options_(options), setpoints_(input, c_.fine_interpolation) {
+    base_ = base_period_s(c_);
+    n_pos_ = std::max(1L, std::lround(c_.position_period_s / base_));
+    n_vel_ = std::max(1L, std::lround(c_.velocity_period_s / base_));
+    n_cur_ = std::max(1L, std::lround(c_.current_period_s / base_));
+    substeps_ = options.plant_substeps > 0 ? options.plant_substeps
+                                           : (p_.two_mass || p_.backlash ? 8 : 1);
+    build_matrices();
+  }
+
+  AxisSignals run();
+
+ private:
+  using State = Eigen::Matrix<double, N, 1>;
+  using Input = Eigen::Matrix<double, kInputs, 1>;
+
+  void build_matrices();
+  double gravity(double q) const {
+    double g = p_.gravity_constant;
+    if (p_.gravity_trig) g += p_.gravity_cos * std::cos(q) + p_.gravity_sin * std::sin(q);
+    return g;
+  }
+  double load_angle() const {
+    if constexpr (kTwoMass) return x_(3);
+    return p_.backlash ? play_angle_ : x_(0);
+  }
+  double load_position() const {
+    const double nut = p_.r * load_angle();
+    return p_.pitch ? nut + p_.pitch_amplitude * std::sin(p_.pitch_wavenumber * nut + p_.pitch_phase)
+                    : nut;
+  }
+  double measured_position() const {
+    if (c_.position_feedback == PositionFeedback::load) return quantise(load_position(), p_.load_count, p_.inverse_load_count);
+    return p_.r * quantise(x_(0), p_.motor_count, p_.inverse_motor_count);
+  }
+  double dry_level(double direction, double speed) const {
+    const double base = direction > 0.0 ? p_.dry_positive : p_.dry_negative;
+    if (!p_.stribeck) return base;
+    const double ratio = speed / p_.stribeck_speed;
+    const double shape =
+        p_.stribeck_exponent == 2.0 ? ratio * ratio : std::pow(ratio, p_.stribeck_exponent);
+    return base + (p_.static_friction - base) * std::exp(-shape);
+  }
+  // Spring torque from motor to load at the current state (two-mass), and the offset input.
+  bool in_contact(double& offset) const {
+    const double delta = x_(0) - x_(3);
+    if (!p_.backlash) {
+      offset = 0.0;
+      return true;
+    }
+    const double half = 0.5 * p_.gap;
+    if (delta > half) {
+      offset = -p_.spring * half;
+      return true;
+    }
+    if (delta < -half) {
+      offset = p_.spring * half;
+      return true;
+    }
+    offset = 0.0;
+    return false;
+  }
+  void plant_step(const Input& held);
+
+  const AxisServoModel& model_;
+  const kinematics::Controller& c_;
+  Parameters p_;
+  const AxisInput& input_;
+  SimulationOptions options_;
+  SetpointSignal setpoints_;
+  double base_ = 0.0;
+  long n_pos_ = 1, n_vel_ = 1, n_cur_ = 1;
+  int substeps_ = 1;
+  Discrete<N> contact_, free_;
+  State x_ = State::Zero();
+  double play_angle_ = 0.0;
+  bool stuck_ = false;
+};
+
+template <int N>
+void AxisRun<N>::build_matrices() {
+  Eigen::Matrix<double, N, N> a = Eigen::Matrix<double, N, N>::Zero();
+  Eigen::Matrix<double, N, kInputs> b = Eigen::Matrix<double, N, kInputs>::Zero();
+  const double jm = kTwoMass ? p_.j_motor : p_.j_total;
+  a(0, 1) = 1.0;
+  a(1, 2) = p_.kt / jm;
+  b(1, 1) = 1.0 / jm;
+  switch (c_.current_model) {
+    case CurrentLoopModel::ideal:
+      break;  // i is set at each velocity-loop output
+    case CurrentLoopModel::first_order: {
+      const double wc = kTwoPi * c_.current_bandwidth_hz;
+      a(2, 2) = -wc;
+      b(2, 0) = wc;
+      break;
+    }
+    case CurrentLoopModel::PI: {
+      const double ke = c_.back_emf_V_s_per_rad > 0.0 ? c_.back_emf_V_s_per_rad : p_.kt;
+      a(2, 1) = -ke / c_.inductance_H;
+      a(2, 2) = -c_.resistance_ohm / c_.inductance_H;
+      b(2, 0) = 1.0 / c_.inductance_H;
+      break;
+    }
+  }
+  const double h = base_ / substeps_;
+  if constexpr (kTwoMass) {
+    const double jl = p_.j_load;
+    a(3, 4) = 1.0;
+    a(4, 4) = -p_.viscous / jl;
+    b(4, 2) = 1.0 / jl;
+    free_ = discretise<N>(a, b, h);
+    // The spring (and its damping) between motor and load; the offset input u3 moves the
+    // spring's zero by the half gap when the backlash is on.
+    a(1, 0) = -p_.spring / jm;
+    a(1, 3) = p_.spring / jm;
+    a(1, 1) = -p_.damping / jm;
+    a(1, 4) = p_.damping / jm;
+    a(4, 0) = p_.spring / jl;
+    a(4, 3) = -p_.spring / jl;
+    a(4, 1) = p_.damping / jl;
+    a(4, 4) = -(p_.damping + p_.viscous) / jl;
+    b(1, 3) = -1.0 / jm;
+    b(4, 3) = 1.0 / jl;
+    contact_ = discretise<N>(a, b, h);
+  } else {
+    a(1, 1) = -p_.viscous / jm;
+    b(1, 2) = 1.0 / jm;
+    contact_ = discretise<N>(a, b, h);
+    free_ = contact_;
+  }
+}
+
+// One plant sub-step with the inputs held: the dry friction (with the stick state) and the
+// backlash mode are decided at its start.
+template <int N>
+void AxisRun<N>::plant_step(const Input& held) {
+  Input u = held;
+  bool contact = true;
+  if constexpr (kTwoMass) contact = in_contact(u(3));
+  const double v = x_(kVel);
+  bool hold = false;
+  if (p_.asymmetric) u(2) -= ((v > 0.0 ? p_.viscous_positive : p_.viscous_negative) - p_.viscous) * v;
+  if (p_.coulomb) {
+    if (stuck_) {
+      // Torque on the friction body without the dry friction, at rest.
+      double net;
+      if constexpr (kTwoMass) {
+        net = u(2) + (contact ? p_.spring * (x_(0) - x_(3)) + p_.damping * x_(1) + u(3) : 0.0);
+      } else {
+        net = p_.kt * x_(2) + u(1) + u(2);
+      }
+      const double limit = p_.stribeck ? p_.static_friction : dry_level(net, 0.0);
+      if (std::abs(net) <= limit) {
+        u(2) -= net;
+        hold = true;
+      } else {
+        u(2) -= std::copysign(limit, net);
+        stuck_ = false;
+      }
+    } else {
+      u(2) -= std::copysign(dry_level(v, std::abs(v)), v);
+    }
+  }
+  const State before = x_;
+  x_ = (contact ? contact_.phi : free_.phi) * before + (contact ? contact_.gamma : free_.gamma) * u;
+  if (hold) {
+    x_(kPos) = before(kPos);
+    x_(kVel) = 0.0;
+  } else if (p_.coulomb && v != 0.0 && x_(kVel) * v <= 0.0) {
+    // The velocity reached zero within the step: the body stops and sticks until the torque on
+    // it exceeds the static friction (no chatter around zero).
+    x_(kVel) = 0.0;
+    stuck_ = true;
+  }
+  if constexpr (!kTwoMass) {
+    if (p_.backlash) {
+      const double half = 0.5 * p_.gap;
+      play_angle_ = std::clamp(play_angle_, x_(0) - half, x_(0) + half);
+    }
+  }
+}
+
+template <int N>
+AxisSignals AxisRun<N>::run() {
+  const bool position_input = input_.kind == AxisInput::Kind::position;
+  const double inverse_input_period = 1.0 / input_.period_s;
+  const double duration =
+      static_cast<double>(input_.values.size() - 1) * input_.period_s + input_.extra_time_s;
+  const long ticks = static_cast<long>(std::floor(duration / base_ + 1e-9));
+  const double record_period = options_.record_period_s > 0.0 ? options_.record_period_s : input_.period_s;
+  const double record_ratio = record_period / base_;
+  const long n_record = std::lround(record_ratio);
+  if (n_record < 1 || std::abs(record_ratio - static_cast<double>(n_record)) > 1e-6 * record_ratio) {
+    throw InputError("axis " + model_.axis.name + ": the record period " +
+                     std::to_string(record_period) +
+                     " s is not a whole multiple of the fastest loop period " +
+                     std::to_string(base_) + " s");
+  }
+
+  // Initial state: at rest at the first set point, the static torque (gravity minus the
+  // external force) carried by the motor and the PI integrators, as after a long standstill.
+  const double q0 = position_input ? input_.values.front() : model_.axis.home;
+  const double static_torque =
+      gravity(q0) - p_.r * SetpointSignal::held(input_.external_force, input_.start_time_s,
+                                                inverse_input_period, input_.start_time_s);
+  double i0 = static_torque / p_.kt;
+  if (c_.current_max_A > 0.0) i0 = std::clamp(i0, -c_.current_max_A, c_.current_max_A);
+  x_(0) = q0 / p_.r;
+  x_(2) = i0;
+  if constexpr (kTwoMass) {
+    double delta = 0.0;
+    if (static_torque != 0.0) {
+      delta = static_torque / p_.spring + (p_.backlash ? std::copysign(0.5 * p_.gap, static_torque) : 0.0);
+    }
+    if (c_.position_feedback == PositionFeedback::load) {
+      x_(3) = q0 / p_.r;
+      x_(0) = x_(3) + delta;
+    } else {
+      x_(3) = x_(0) - delta;
+    }
+  }
+  play_angle_ = x_(0);
+  stuck_ = p_.coulomb;
+
+  const double kv = c_.position_gain_kv_per_s;
+  const double kp = c_.velocity_gain_N_m_s_per_rad;
+  const double velocity_period = static_cast<double>(n_vel_) * base_;
+  // Multiplications by inverses: the velocity loop is a chain of dependent operations run at
+  // every tick, and a division costs several multiplications' latency.
+  const double inverse_velocity_period = 1.0 / velocity_period;
+  const double inverse_kt = 1.0 / p_.kt;
+  const double current_period = static_cast<double>(n_cur_) * base_;
+  const double position_period = static_cast<double>(n_pos_) * base_;
+  const double ki = c_.velocity_type == VelocityControllerType::PI
+                        ? kp * velocity_period / c_.velocity_integral_time_s
+                        : 0.0;
+  const double velocity_filter =
+      c_.velocity_filter_time_s > 0.0 ? std::exp(-velocity_period / c_.velocity_filter_time_s) : 0.0;
+  const double imax = c_.current_max_A > 0.0 ? c_.current_max_A : 0.0;
+  const double wmax = c_.velocity_max_rad_per_s > 0.0 ? c_.velocity_max_rad_per_s : 0.0;
+  const bool current_pi = c_.current_model == CurrentLoopModel::PI;
+  const bool current_ideal = c_.current_model == CurrentLoopModel::ideal;
+  const double kpi = c_.current_gain_V_per_A;
+  const double kii = current_pi ? kpi * current_period / c_.current_integral_time_s : 0.0;
+  const double vmax = c_.voltage_max_V;
+  // Balancing lag, discretised exactly for a set point linear between position ticks (so that
+  // on a ramp it lags by exactly its time constant).
+  double lag_alpha = 0.0, lag_b0 = 1.0, lag_b1 = 0.0;
+  if (c_.balancing_type == BalancingType::first_order_lag) {
+    const double tau = c_.balancing_time_s;
+    lag_alpha = std::exp(-position_period / tau);
+    const double ramp = 1.0 - tau / position_period * (1.0 - lag_alpha);
+    lag_b0 = ramp;
+    lag_b1 = 1.0 - lag_alpha - ramp;
+  }
+  const double tff_gain = c_.torque_feedforward ? c_.torque_feedforward_weight * p_.j_total / p_.r : 0.0;
+  const double vff_gain = c_.velocity_feedforward ? c_.velocity_feedforward_weight : 0.0;
+
+  double velocity_integral = c_.velocity_type == VelocityControllerType::PI ? static_torque : 0.0;
+  double current_integral = current_pi ? c_.resistance_ohm * i0 : 0.0;
+  double encoder_previous = quantise(x_(0), p_.motor_count, p_.inverse_motor_count);
+  double omega_filtered = 0.0;
+  double lag_state = q0, lag_input_previous = q0;
+  DelayLine position_out_speed, position_out_torque, velocity_out, current_out;
+  position_out_speed.reset(c_.position_output_delay_samples, 0.0);
+  position_out_torque.reset(c_.position_output_delay_samples, 0.0);
+  velocity_out.reset(c_.velocity_output_delay_samples, i0);
+  current_out.reset(c_.current_output_delay_samples, c_.resistance_ohm * i0);
+  double omega_set = 0.0, torque_ff = 0.0, current_command = i0, voltage = c_.resistance_ohm * i0;
+  double deviation = 0.0, speed_set_joint = 0.0, speed_ff_joint = 0.0, torque_ff_now = 0.0;
+  double current_set_now = i0;
+
+  AxisSignals out;
+  const std::size_t records = static_cast<std::size_t>(ticks / n_record) + 1;
+  for (auto* v : {&out.t, &out.cmd, &out.pos, &out.load_pos, &out.vel, &out.current}) {
+    v->reserve(records);
+  }
+  Input u = Input::Zero();
+  // Countdown counters rather than k % n (an integer division per loop and tick).
+  long position_count = 0, velocity_count = 0, current_count = 0, record_count = 0;
+  long record_index = 0;
+  double gravity_q = 0.0, gravity_value = 0.0, gravity_slope = 0.0;
+
+  for (long k = 0; k <= ticks; ++k) {
+    const bool position_tick = position_count == 0;
+    const bool velocity_tick = velocity_count == 0;
+    const bool current_tick = current_count == 0;
+    const bool record_tick = record_count == 0;
+    position_count = position_count + 1 == n_pos_ ? 0 : position_count + 1;
+    velocity_count = velocity_count + 1 == n_vel_ ? 0 : velocity_count + 1;
+    current_count = current_count + 1 == n_cur_ ? 0 : current_count + 1;
+    record_count = record_count + 1 == n_record ? 0 : record_count + 1;
+    const double t = input_.start_time_s + static_cast<double>(k) * base_;
+    // Position loop (NC): fine interpolation, delay, balancing, P controller, feedforward.
+    if (!position_input && velocity_tick) {
+      // Velocity input: the set point goes straight to the velocity controller.
+      speed_set_joint = setpoints_.at(t).x;
+      omega_set = speed_set_joint / p_.r;
+    }
+    if (position_input && position_tick) {
+      double speed_joint;
+      {
+        const double t_delayed = t - c_.delay_s;
+        const SetpointSignal::Sample s = setpoints_.at(t_delayed);
+        double balanced = s.x;
+        if (c_.balancing_type == BalancingType::dead_time) {
+          balanced = setpoints_.at(t_delayed - c_.balancing_time_s).x;
+        } else if (c_.balancing_type == BalancingType::first_order_lag) {
+          lag_state = lag_alpha * lag_state + lag_b0 * s.x + lag_b1 * lag_input_previous;
+          lag_input_previous = s.x;
+          balanced = lag_state;
+        }
+        deviation = balanced - measured_position();
+        speed_ff_joint = vff_gain * s.v;
+        speed_joint = kv * deviation + speed_ff_joint;
+        torque_ff_now = tff_gain * s.a;
+      }
+      speed_set_joint = speed_joint;
+      omega_set = position_out_speed.push(speed_joint / p_.r);
+      torque_ff = position_out_torque.push(torque_ff_now);
+    }
+    // Velocity loop: differenced, filtered motor encoder; PI or P; current saturation.
+    if (velocity_tick) {
+      const double encoder = quantise(x_(0), p_.motor_count, p_.inverse_motor_count);
+      const double omega_raw = (encoder - encoder_previous) * inverse_velocity_period;
+      encoder_previous = encoder;
+      omega_filtered = velocity_filter * omega_filtered + (1.0 - velocity_filter) * omega_raw;
+      const double target = wmax > 0.0 ? std::clamp(omega_set, -wmax, wmax) : omega_set;
+      const double error = target - omega_filtered;
+      const double unsaturated = (kp * error + velocity_integral + torque_ff) * inverse_kt;
+      double command = unsaturated;
+      if (imax > 0.0) command = std::clamp(command, -imax, imax);
+      // Anti-windup: integrate only while the output is not pushed further into saturation.
+      if (command == unsaturated || (unsaturated > command) != (error > 0.0)) {
+        velocity_integral += ki * error;
+      }
+      current_set_now = command;
+      current_command = velocity_out.push(command);
+      if (current_ideal) x_(2) = current_command;
+      if (!current_pi) u(0) = current_command;
+    }
+    // Current loop (PI on the electrical model).
+    if (current_pi && current_tick) {
+      const double error = current_command - x_(2);
+      const double unsaturated = kpi * error + current_integral;
+      double command = unsaturated;
+      if (vmax > 0.0) command = std::clamp(command, -vmax, vmax);
+      if (command == unsaturated || (unsaturated > command) != (error > 0.0)) {
+        current_integral += kii * error;
+      }
+      voltage = current_out.push(command);
+      u(0) = voltage;
+    }
+
+    if (record_tick) {
+      const double cmd = setpoints_.at(t).x;
+      const double pos = measured_position();
+      out.t.push_back(input_.start_time_s + static_cast<double>(record_index++) * record_period);
+      out.cmd.push_back(cmd);
+      out.pos.push_back(pos);
+      out.load_pos.push_back(load_position());
+      out.vel.push_back(p_.r * x_(1));
+      out.current.push_back(x_(2));
+      if (options_.inner_signals) {
+        out.following_error.push_back(cmd - pos);
+        out.control_deviation.push_back(deviation);
+        out.velocity_setpoint.push_back(speed_set_joint);
+        out.velocity_feedforward.push_back(speed_ff_joint);
+        out.torque_feedforward.push_back(torque_ff_now);
+        out.current_setpoint.push_back(current_set_now);
+      }
+    }
+    if (k == ticks) break;
+
+    // Disturbances held over the tick: gravity, external force, cogging (on the motor).
+    const double q_nut = p_.r * load_angle();
+    double external = 0.0;
+    if (!input_.external_force.empty()) {
+      external = p_.r * SetpointSignal::held(input_.external_force, input_.start_time_s,
+                                             inverse_input_period, t);
+    }
+    // Gravity of a tilting axis: sinusoid evaluated at each position tick, linearised in between
+    // (relative error below 1e-5 at the Mikron A axis's top speed).
+    if (p_.gravity_trig && position_tick) {
+      gravity_q = q_nut;
+      gravity_value = gravity(q_nut);
+      gravity_slope = -p_.gravity_cos * std::sin(q_nut) + p_.gravity_sin * std::cos(q_nut);
+    }
+    const double tau_gravity =
+        p_.gravity_trig ? gravity_value + gravity_slope * (q_nut - gravity_q) : p_.gravity_constant;
+    u(2) = external - tau_gravity;
+    if (!p_.cogging) {
+      u(1) = 0.0;
+      for (int s = 0; s < substeps_; ++s) plant_step(u);
+    } else {
+      for (int s = 0; s < substeps_; ++s) {
+        u(1) = p_.cogging_amplitude * std::sin(p_.cogging_periods * x_(0) + p_.cogging_phase);
+        plant_step(u);
+      }
+    }
+  }
+  return out;
+}
+
+}  // namespace
+
+AxisSignals simulate_axis(const AxisServoModel& model, const AxisInput& input,
+                          const SimulationOptions& options) {
+  if (input.values.size() < 2) {
+    throw InputError("axis " + model.axis.name + ": at least two set points are needed");
+  }
+  if (!(input.period_s > 0.0)) {
+    throw InputError("axis " + model.axis.name + ": the set-point period must be > 0");
+  }
+  if (!input.external_force.empty() && input.external_force.size() != input.values.size()) {
+    throw InputError("axis " + model.axis.name +
+                     ": the external force needs one value per set point");
+  }
+  if (model.axis.effects.compliance.enabled) {
+    AxisRun<5> run(model, input, options);
+    return run.run();
+  }
+  AxisRun<3> run(model, input, options);
+  return run.run();
+}
+
+}  // namespace vmsim::servo

@@ -1,0 +1,104 @@
+// The whole machine from a set-point trace: every axis with a `.cmd` column, independently.
+#include <cmath>
+#include <numbers>
+
+#include "vmsim/common/errors.hpp"
+#include "vmsim/common/files.hpp"
+#include "vmsim/servo/servo.hpp"
+
+namespace vmsim::servo {
+namespace {
+
+// File units of a position (mm or deg) per joint unit.
+double trace_scale(const kinematics::Axis& axis) {
+  return axis.type == kinematics::AxisType::linear ? 1e3 : 180.0 / std::numbers::pi;
+}
+
+std::vector<double> scaled(const std::vector<double>& values, double factor) {
+  std::vector<double> result(values.size());
+  for (std::size_t i = 0; i < values.size(); ++i) result[i] = values[i] * factor;
+  return result;
+}
+
+}  // namespace
+
+Trace simulate_machine(const kinematics::MachineModel& machine, const Trace& setpoints,
+                       const std::string& setpoints_file, const SimulationOptions& options,
+                       const std::vector<int>& row_lines) {
+  auto line_of = [&](std::size_t row) {
+    return row < row_lines.size() ? row_lines[row] : 0;
+  };
+  const auto t_index = setpoints.column_index("t");
+  if (!t_index) throw InputError(located_message(setpoints_file, 0, 0, "no column 't'"));
+  const std::vector<double>& t = setpoints.values[*t_index];
+  if (t.size() < 2) {
+    throw InputError(located_message(setpoints_file, 0, 0,
+                                     "at least two set points are needed, got " +
+                                         std::to_string(t.size())));
+  }
+  const double period = (t.back() - t.front()) / static_cast<double>(t.size() - 1);
+  for (std::size_t i = 1; i < t.size(); ++i) {
+    const double dt = t[i] - t[i - 1];
+    if (std::abs(dt - period) > 1e-6 * period) {
+      throw InputError(located_message(
+          setpoints_file, line_of(i), 0,
+          "the servo simulation needs set points at a uniform period: t steps by " +
+              format_double(dt) + " s here (row " + std::to_string(i + 1) +
+              "), the mean period is " + format_double(period) + " s"));
+    }
+  }
+
+  // Which axes are simulated; the others stay at home (for the gravity reference).
+  std::vector<int> simulated;
+  std::vector<double> reference = std::vector<double>(machine.axes.size());
+  for (std::size_t j = 0; j < machine.axes.size(); ++j) {
+    const auto column = setpoints.column_index(machine.axes[j].name + ".cmd");
+    reference[j] = column ? setpoints.values[*column].front() / trace_scale(machine.axes[j])
+                          : machine.axes[j].home;
+    if (column) simulated.push_back(static_cast<int>(j));
+  }
+  if (simulated.empty()) {
+    throw InputError(located_message(setpoints_file, 0, 0,
+                                     "no '<AXIS>.cmd' column for an axis of the machine " +
+                                         machine.name));
+  }
+
+  Trace out;
+  out.metadata = {{"source", "vmsim servo (feed drive simulation)"},
+                  {"machine", machine.source_file},
+                  {"setpoints", setpoints_file}};
+  bool first = true;
+  for (int j : simulated) {
+    const kinematics::Axis& axis = machine.axes[static_cast<std::size_t>(j)];
+    const double scale = trace_scale(axis);
+    AxisInput input;
+    input.start_time_s = t.front();
+    input.period_s = period;
+    input.values = scaled(setpoints.column(axis.name + ".cmd"), 1.0 / scale);
+    const AxisServoModel model = make_axis_servo_model(machine, j, reference, options.gravity);
+    const AxisSignals s = simulate_axis(model, input, options);
+    if (first) {
+      out.add_column("t", s.t);
+      first = false;
+    }
+    out.add_column(axis.name + ".cmd", scaled(s.cmd, scale));
+    out.add_column(axis.name + ".pos", scaled(s.pos, scale));
+    const kinematics::DriveEffects& fx = axis.effects;
+    if (fx.backlash.enabled || fx.compliance.enabled || fx.pitch_error.enabled) {
+      out.add_column(axis.name + ".pos2", scaled(s.load_pos, scale));
+    }
+    out.add_column(axis.name + ".vel", scaled(s.vel, scale));
+    out.add_column(axis.name + ".cur", s.current);
+    if (options.inner_signals) {
+      out.add_column(axis.name + "_following_error", scaled(s.following_error, scale));
+      out.add_column(axis.name + "_control_deviation", scaled(s.control_deviation, scale));
+      out.add_column(axis.name + "_velocity_setpoint", scaled(s.velocity_setpoint, scale));
+      out.add_column(axis.name + "_velocity_feedforward", scaled(s.velocity_feedforward, scale));
+      out.add_column(axis.name + "_torque_feedforward", s.torque_feedforward);
+      out.add_column(axis.name + "_current_setpoint", s.current_setpoint);
+    }
+  }
+  return out;
+}
+
+}  // namespace vmsim::servo
