@@ -19,6 +19,7 @@ int main(int argc, char** argv) {
   add_kinematics_command(app, context);
   add_dynamics_command(app, context);
   add_servo_command(app, context);
+  add_remove_command(app, context);
 
   try {
     app.parse(argc, argv);

@@ -1,0 +1,136 @@
+#pragma once
+// N-buffer material removal (second paper, Section 4: "Nbuffer material removing model").
+//
+// The part is a set of lines ("dexels"), each with an origin o, a unit direction u pointing out
+// of the material, and a remaining length h [m]: the material on the line is o + [0, h] u. A
+// Z-map is the special case o = (x_i, y_j, z_bottom), u = +z on a regular xy grid: h + z_bottom
+// is the height of the part at (x_i, y_j). General buffers take one origin and direction per
+// line (lines along the normals of a curved reference surface, for 5-axis parts).
+//
+// Heights are exact doubles: a cut sets h to the exact entry of the line into the tool's swept
+// volume, so the height accuracy does not depend on the line spacing (the spacing only decides
+// which features are sampled). Cut rule: where the swept volume meets the line at [t0, t1] with
+// t1 > 0, h becomes max(0, min(h, t0)): what lies beyond the entry point on the line is taken as
+// cut (the usual Z-map rule; material cannot be left above a tool).
+//
+// Motion between two poses (a segment): the point c = tip + r a moves linearly and the axis
+// turns at a constant rate in the plane of a0 and a1 (slerp). The cut is the exact swept volume
+// of the tool over the segment, never stepped positions:
+//  - constant axis (3-axis, or tilted but fixed): the sweep is Disc(rho) (+) Parallelogram(c0,
+//    c1, ell a) (+) Ball(r). Ball-end: exact in closed form for any line direction. Flat-end and
+//    bull-nose with the axis along a Z-map's lines: closed form for horizontal moves and
+//    plunges, a convex 1-D minimisation (golden section to 1e-12 of the segment) for ramps.
+//    Other directions: nested convex minimisations of the tool's signed distance (to 1e-12 m).
+//  - changing axis: n sub-steps, each with the constant axis of its middle; a point of the tool
+//    at distance <= sqrt(ell^2 + rho^2) from c moves by at most that times theta / (2 n), theta
+//    the angle between a0 and a1, and n is chosen so that this stays under
+//    CutOptions::orientation_tolerance_m (the ball of a ball-end mill turns about its centre and
+//    has no such error). The bound is on the distance between the true and the modelled swept
+//    volumes; along a line it is divided by the cosine of the angle between the line and the
+//    surface normal.
+//
+// Work per segment follows the newly cut strip: lines are grouped in tiles of 16 x 16; a tile is
+// skipped when the segment cannot lower any of its lines (tile box and height bounds against
+// the segment's lowest possible cut), and a line is skipped when it lies outside the footprint.
+// Parallel with TBB over tiles, with segments in batches; a cut is a min, so the result does not
+// depend on the order or on the number of threads (bit for bit).
+#include <Eigen/Core>
+#include <cstddef>
+#include <functional>
+#include <span>
+#include <vector>
+
+#include "vmsim/removal/tool.hpp"
+
+namespace vmsim::removal {
+
+struct CutOptions {
+  /// Largest distance between the modelled and the true swept volume on segments where the
+  /// tool axis turns [m] (sub-step count, see above). Default 0.05 um.
+  double orientation_tolerance_m = 0.05e-6;
+  /// Threads: 0 = TBB's default, else at most this many.
+  int threads = 0;
+  /// Segments cut together (one parallel pass over the tiles per batch).
+  std::size_t batch_segments = 512;
+  /// Called after each batch with the fraction done in [0, 1]; returning true stops the run
+  /// (the buffer then holds every batch already cut, never half a batch).
+  std::function<bool(double fraction_done)> interrupted;
+};
+
+/// What a run did (counts, for benchmarks and reports).
+struct CutStatistics {
+  std::size_t segments = 0;        ///< segments given
+  std::size_t sub_segments = 0;    ///< after the orientation sub-steps
+  std::size_t tiles_visited = 0;   ///< (tile, sub-segment) pairs not culled by the tile bounds
+  std::size_t lines_lowered = 0;   ///< line updates that lowered a line
+  bool interrupted = false;
+};
+
+class NBuffer {
+ public:
+  static constexpr int kTile = 16;  ///< lines per tile side
+
+  /// Z-map over a stock box: lines at x = min.x + i * spacing (i = 0 .. nx - 1, the last not
+  /// beyond max.x), likewise in y, from z = min.z up to max.z. Throws vmsim::InputError when
+  /// the box is empty or the spacing is not positive or gives more than 2^31 lines.
+  static NBuffer zmap(const Box& stock, double spacing_m);
+
+  /// General lines on an nu x nv grid of a reference surface, row-major (index = iu + nu * iv):
+  /// origins [m], directions (normalised here; out of the material), initial lengths [m].
+  /// Neighbouring indices should be neighbours on the surface (tiles group 16 x 16 of them).
+  /// Throws std::invalid_argument on size mismatch, a zero direction or a negative length.
+  static NBuffer lines(int nu, int nv, std::vector<Eigen::Vector3d> origins,
+                       std::vector<Eigen::Vector3d> directions, std::vector<double> lengths);
+
+  bool is_zmap() const { return zmap_; }
+  int nu() const { return nu_; }
+  int nv() const { return nv_; }
+  std::size_t line_count() const { return static_cast<std::size_t>(nu_) * static_cast<std::size_t>(nv_); }
+  /// Z-map geometry (meaningful when is_zmap()).
+  double spacing_m() const { return spacing_; }
+  Eigen::Vector3d zmap_origin_m() const { return origin0_; }
+
+  Eigen::Vector3d origin(int iu, int iv) const;
+  Eigen::Vector3d direction(int iu, int iv) const;
+  /// Remaining length h [m] of line (iu, iv); for a Z-map the height is h + zmap_origin_m().z().
+  double length(int iu, int iv) const { return h_[index(iu, iv)]; }
+  /// The surface point o + h u [m, W].
+  Eigen::Vector3d surface_point(int iu, int iv) const;
+  /// All lengths, row-major (index = iu + nu * iv).
+  std::vector<double> lengths() const;
+
+  /// Cuts the swept volume of `tool` along the trajectory (segments between consecutive poses;
+  /// a single pose cuts the tool at rest). Throws vmsim::InputError on an invalid tool or a
+  /// zero tool axis. Returns the statistics (interrupted = true when the callback stopped it).
+  CutStatistics cut(const Tool& tool, std::span<const Pose> trajectory, const CutOptions& options = {});
+
+  /// True when both buffers have the same lines (same grid, origins and directions, bit for bit).
+  bool same_lines(const NBuffer& other) const;
+
+ private:
+  std::size_t index(int iu, int iv) const;
+  void build_tiles();
+  void refresh_tile(std::size_t tile);
+
+  bool zmap_ = false;
+  int nu_ = 0, nv_ = 0, tiles_u_ = 0, tiles_v_ = 0;
+  double spacing_ = 0.0;
+  Eigen::Vector3d origin0_ = Eigen::Vector3d::Zero();
+  // Storage is tile-major: lines of one tile are contiguous.
+  std::vector<double> h_;
+  std::vector<Eigen::Vector3d> o_, u_;  // general buffers only
+  struct TileBounds {
+    Eigen::Vector3d lo, hi;  // box of the material segments of the tile's lines
+    double h_max = 0.0;      // largest remaining length in the tile
+  };
+  std::vector<TileBounds> tiles_;
+  friend struct NBufferAccess;
+};
+
+/// Run-versus-run difference, line by line: production minus reference lengths [m], row-major
+/// (index = iu + nu * iv). Negative where the production run cut deeper (a mark), positive where
+/// it left material. Both runs must be on identical lines (same grid), so that grid and scallop
+/// effects cancel exactly; throws std::invalid_argument otherwise.
+std::vector<double> difference(const NBuffer& production, const NBuffer& reference);
+
+}  // namespace vmsim::removal
