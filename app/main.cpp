@@ -20,6 +20,8 @@ int main(int argc, char** argv) {
   add_dynamics_command(app, context);
   add_servo_command(app, context);
   add_remove_command(app, context);
+  add_identify_command(app, context);
+  add_diagnose_command(app, context);
 
   try {
     app.parse(argc, argv);

@@ -1,0 +1,108 @@
+// vmsim diagnose: where the drive simulation driven by the measured set points is wrong, which
+// effects explain it, and the extended model with its gain on held-out data (identify/README.md).
+#include <filesystem>
+#include <memory>
+#include <sstream>
+
+#include "commands.hpp"
+#include "vmsim/common/errors.hpp"
+#include "vmsim/common/files.hpp"
+#include "vmsim/common/trace.hpp"
+#include "vmsim/identify/diagnose.hpp"
+#include "vmsim/kinematics/machine_loader.hpp"
+
+namespace vmsim::app {
+namespace {
+
+struct DiagnoseCommandOptions {
+  std::string machine_path;
+  std::string trace_path;
+  std::string validate_path;
+  std::string out_dir;
+  std::vector<std::string> exclude;
+  int max_effects = 4;
+};
+
+int run_diagnose(const DiagnoseCommandOptions& options, const CommandContext& context) {
+  const kinematics::MachineModel machine = kinematics::load_machine(options.machine_path);
+  TraceReadOptions read_options;
+  read_options.known_axes.emplace();
+  for (const auto& axis : machine.axes) read_options.known_axes->insert(axis.name);
+  const auto data = identify::extract_measurements(
+      machine, read_trace(options.trace_path, read_options), options.trace_path);
+  std::vector<identify::AxisMeasurement> validation;
+  if (!options.validate_path.empty()) {
+    validation = identify::extract_measurements(
+        machine, read_trace(options.validate_path, read_options), options.validate_path);
+  }
+  identify::DiagnoseOptions diagnose_options;
+  diagnose_options.excluded = options.exclude;
+  diagnose_options.max_effects = options.max_effects;
+  const identify::Diagnosis diagnosis =
+      identify::diagnose(machine, data, validation, diagnose_options);
+  std::vector<identify::AxisNote> notes;
+  const kinematics::MachineModel extended = identify::extended_machine(machine, diagnosis, notes);
+  const std::string parent = std::filesystem::path(options.machine_path).parent_path().string();
+  const std::string yaml =
+      identify::updated_machine_yaml(read_file(options.machine_path), extended, notes,
+                                     options.machine_path, parent.empty() ? "." : parent);
+  const std::string json = identify::diagnosis_json(diagnosis, machine, options.trace_path);
+  const std::string report = identify::diagnosis_report(diagnosis, machine, options.trace_path);
+  const std::string residuals = identify::residuals_csv(diagnosis, machine);
+  // Everything computed: now the outputs.
+  std::error_code error;
+  std::filesystem::create_directories(options.out_dir, error);
+  if (error) throw InputError(options.out_dir + ": cannot create the folder: " + error.message());
+  const std::filesystem::path dir(options.out_dir);
+  write_file_atomically((dir / "diagnosis.json").string(), json);
+  write_file_atomically((dir / "machine_extended.yaml").string(), yaml);
+  write_file_atomically((dir / "residuals.csv").string(), residuals);
+  write_file_atomically((dir / "report.md").string(), report);
+  context.say("wrote " + options.out_dir + "/{diagnosis.json, machine_extended.yaml, "
+              "residuals.csv, report.md}");
+  for (const auto& axis : diagnosis.axes) {
+    std::ostringstream line;
+    line << "  " << axis.axis_name << ": ";
+    if (axis.found.empty()) line << "nothing found above the noise";
+    for (std::size_t i = 0; i < axis.found.size(); ++i) {
+      line << (i ? ", " : "found ") << axis.found[i].effect;
+    }
+    line.precision(4);
+    line << "; validation effort residual RMS " << axis.before.effort_rms_A << " -> "
+         << axis.after.effort_rms_A << " A";
+    context.say(line.str());
+  }
+  return 0;
+}
+
+}  // namespace
+
+void add_diagnose_command(CLI::App& app, CommandContext& context) {
+  auto options = std::make_shared<DiagnoseCommandOptions>();
+  CLI::App* command = app.add_subcommand(
+      "diagnose",
+      "compare the drive simulation with a measured trace, find the effects the model lacks, "
+      "extend it and report the gain on held-out data");
+  command->add_option("--machine", options->machine_path, "machine description (YAML)")
+      ->required()
+      ->check(CLI::ExistingFile);
+  command->add_option("--trace", options->trace_path,
+                      "measured trace: t, <AXIS>.cmd, .pos, .cur/.torque/.force (.pos2 if a "
+                      "load-side scale was logged)")
+      ->required()
+      ->check(CLI::ExistingFile);
+  command->add_option("--validate", options->validate_path,
+                      "a second measured run to judge on (default: held-out blocks of --trace)")
+      ->check(CLI::ExistingFile);
+  command->add_option("--out", options->out_dir,
+                      "output folder: diagnosis.json, machine_extended.yaml, residuals.csv, "
+                      "report.md")
+      ->required();
+  command->add_option("--exclude", options->exclude,
+                      "effects to leave out of the catalogue (e.g. current_saturation)");
+  command->add_option("--max-effects", options->max_effects, "at most this many effects per axis")
+      ->check(CLI::Range(0, 12));
+  command->callback([options, &context] { context.result = run_diagnose(*options, context); });
+}
+
+}  // namespace vmsim::app

@@ -1,0 +1,121 @@
+#pragma once
+// Diagnosis of a drive model against measurements: where the simulation driven by the measured
+// set points is wrong, which effect of a catalogue explains it, and how much the model extended
+// with the effects found gains on data not used for fitting (identify/README.md).
+//
+// Evidence: the effort residual (measured - simulated, equivalent current [A]) first, and the
+// load-minus-motor position residual when a load-side scale (`.pos2`) was logged. Both are
+// weighted by their noise level, so the cost of a model is sum((residual / noise)^2).
+#include <map>
+#include <string>
+#include <vector>
+
+#include "vmsim/identify/identify.hpp"
+
+namespace vmsim::identify {
+
+/// The catalogue, in the order it is tried.
+const std::vector<std::string>& effect_keys();
+
+struct DiagnoseOptions {
+  /// Held-out part when no validation trace is given: the trace is cut into this many blocks of
+  /// equal length and every second one is held out.
+  int blocks = 10;
+  /// An effect is found when, in one evidence channel (effort, or load minus motor), its
+  /// validation gain exceeds the penalty k ln(N_val) (k added parameters, N_val effective
+  /// validation samples, cost in noise units) and three times the cost change of a noise
+  /// control (the model perturbed by amounts that explain nothing), the other channel does not
+  /// get worse beyond the same margin, and that channel's validation cost falls by at least
+  /// this fraction.
+  double minimum_relative_gain = 0.05;
+  /// At most this many effects are added per axis (forward selection).
+  int max_effects = 4;
+  /// Effects to leave out of the catalogue (keys of effect_keys()).
+  std::vector<std::string> excluded;
+};
+
+/// One candidate effect fitted on the fit data and judged on the validation data.
+struct CandidateResult {
+  std::string effect;
+  std::map<std::string, double> parameters;  ///< names carry their units
+  int parameter_count = 0;
+  double validation_cost_before = 0.0;  ///< in noise units
+  double validation_cost_after = 0.0;
+  /// 1 - after / before on the evidence channel of the score (effort, or load minus motor)
+  double relative_gain = 0.0;
+  /// Per channel: before - after - max(k ln(N_val), 3 x the noise control's cost change); the
+  /// better channel's value, or negative when the other channel gets worse beyond its noise.
+  double score = 0.0;
+  bool found = false;
+  std::string evidence;  ///< what the residual shows for this effect, one sentence
+};
+
+/// Residual statistics of one class of samples.
+struct PhaseStatistics {
+  std::string phase;  ///< standstill, constant_velocity, acceleration, reversal
+  std::size_t samples = 0;
+  double effort_rms_A = 0.0, effort_mean_A = 0.0, effort_peak_A = 0.0;
+  double position_rms = 0.0;  ///< [joint unit]
+};
+
+/// Share of the effort residual's variance a regressor family explains.
+struct Relation {
+  std::string against;  ///< e.g. sign_velocity, position_mod_lead
+  double r2 = 0.0;
+  std::string note;
+};
+
+struct ResidualSummary {
+  double effort_rms_A = 0.0, effort_peak_A = 0.0;
+  double position_rms = 0.0, position_peak = 0.0;       ///< pos residual [joint unit]
+  double load_diff_rms = 0.0, load_diff_peak = 0.0;     ///< (pos2 - pos) residual
+  double weighted_rms = 0.0;  ///< sqrt(cost / N): 1 = noise level
+};
+
+struct AxisDiagnosis {
+  std::string axis_name;
+  int axis_index = -1;
+  std::string effort_signal;
+  double effort_noise_A = 0.0;  ///< white-noise level of the raw effort residual
+  /// The same after the zero-phase low-pass the effort residual is judged with.
+  double effort_noise_filtered_A = 0.0;
+  double load_diff_noise = 0.0;  ///< 0 when no .pos2
+  std::size_t fit_samples = 0, validation_samples = 0;
+  /// Largest change of the validation cost under model changes that explain nothing (first
+  /// round): what noise alone gives.
+  double noise_control_cost = 0.0;
+  double validation_cost_before = 0.0;  ///< baseline, in noise units
+  std::vector<PhaseStatistics> phases;  ///< of the baseline residual, all samples
+  std::vector<Relation> relations;      ///< of the baseline effort residual
+  std::vector<CandidateResult> first_round;  ///< every candidate against the baseline, ranked
+  std::vector<CandidateResult> found;        ///< in the order forward selection added them
+  ResidualSummary before, after;             ///< on the validation samples
+  DriveModel extended;
+  // Residual series for residuals.csv (validation data or the whole trace).
+  std::vector<double> t, effort_before, effort_after, position_before, position_after;
+};
+
+struct Diagnosis {
+  std::vector<AxisDiagnosis> axes;
+  std::string validation;  ///< "held-out blocks" or the validation file
+};
+
+/// Diagnoses every axis of `data` (the fitting trace). With `validation` non-empty (same axes,
+/// another run) it judges there; otherwise on held-out blocks of `data`.
+Diagnosis diagnose(const kinematics::MachineModel& machine, const std::vector<AxisMeasurement>& data,
+                   const std::vector<AxisMeasurement>& validation,
+                   const DiagnoseOptions& options = {});
+
+/// diagnosis.json (schema in identify/README.md), report.md and residuals.csv texts.
+std::string diagnosis_json(const Diagnosis& diagnosis, const kinematics::MachineModel& machine,
+                           const std::string& trace_file);
+std::string diagnosis_report(const Diagnosis& diagnosis, const kinematics::MachineModel& machine,
+                             const std::string& trace_file);
+std::string residuals_csv(const Diagnosis& diagnosis, const kinematics::MachineModel& machine);
+
+/// The machine with every axis replaced by its extended model; offsets go to `notes`.
+kinematics::MachineModel extended_machine(const kinematics::MachineModel& machine,
+                                          const Diagnosis& diagnosis,
+                                          std::vector<AxisNote>& notes);
+
+}  // namespace vmsim::identify

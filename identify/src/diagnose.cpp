@@ -1,0 +1,1080 @@
+// Diagnosis: residual analysis of the closed-loop simulation, a catalogue of candidate effects
+// fitted one by one, ranked by their gain on held-out data, and forward selection
+// (identify/README.md describes the method).
+#include <Eigen/Dense>
+#include <algorithm>
+#include <cmath>
+#include <functional>
+#include <numbers>
+#include <sstream>
+
+#include "internal.hpp"
+#include "vmsim/common/errors.hpp"
+#include "vmsim/common/files.hpp"
+#include "vmsim/identify/diagnose.hpp"
+
+namespace vmsim::identify {
+namespace {
+
+constexpr double kTwoPi = 2.0 * std::numbers::pi;
+using detail::sign_band;
+
+const std::vector<std::string> kEffects = {
+    "coulomb_friction", "viscous_friction", "asymmetric_friction", "stribeck_friction",
+    "backlash",         "cogging",          "pitch_error",         "compliance",
+    "delay",            "gravity",          "current_saturation",  "inertia"};
+
+// One run of the axis with its masks and the commanded signals the regressors use.
+struct Dataset {
+  const AxisMeasurement* m = nullptr;
+  std::vector<char> fit, val;
+  std::vector<double> vc, ac;  // commanded velocity and acceleration [joint unit/s, /s^2]
+  std::vector<double> diff;    // measured pos2 - pos; empty without pos2
+};
+
+struct Residuals {
+  std::vector<double> effort;  // filtered effort residual [A]
+  std::vector<double> raw_effort;
+  std::vector<double> position;  // pos residual
+  std::vector<double> diff;      // (pos2 - pos) residual, empty without pos2
+};
+
+struct Evaluation {
+  double fit = 0.0, val = 0.0;  // cost in noise units
+  double val_effort = 0.0, val_diff = 0.0;  // the validation cost per evidence channel
+  std::vector<Residuals> sets;
+};
+
+class Context {
+ public:
+  std::vector<Dataset> sets;
+  double sigma_e = 1.0, sigma_d = 1.0;
+  double sigma_p = 1.0;  // position residual noise: used only by the delay fit
+  double cutoff_hz = 0.0;
+  bool has_diff = false;
+  double vmax = 0.0, amax = 0.0;
+
+  Evaluation evaluate(const DriveModel& model, bool keep) const {
+    Evaluation e;
+    for (const Dataset& d : sets) {
+      const servo::AxisSignals s = simulate(model, *d.m);
+      Residuals r = residuals(d, s);
+      for (std::size_t i = 0; i < r.effort.size(); ++i) {
+        const double ce = std::pow(r.effort[i] / sigma_e, 2);
+        const double cd = r.diff.empty() ? 0.0 : std::pow(r.diff[i] / sigma_d, 2);
+        if (d.fit[i]) e.fit += ce + cd;
+        if (d.val[i]) {
+          e.val += ce + cd;
+          e.val_effort += ce;
+          e.val_diff += cd;
+        }
+      }
+      if (keep) e.sets.push_back(std::move(r));
+    }
+    return e;
+  }
+
+  // Fit cost with the position residual added: the delay shows in the position first
+  // (residual proportional to v), in the effort only through the acceleration.
+  double fit_cost_with_position(const DriveModel& model) const {
+    double cost = 0.0;
+    for (const Dataset& d : sets) {
+      const Residuals r = residuals(d, simulate(model, *d.m));
+      for (std::size_t i = 0; i < r.effort.size(); ++i) {
+        if (!d.fit[i]) continue;
+        cost += std::pow(r.effort[i] / sigma_e, 2) + std::pow(r.position[i] / sigma_p, 2);
+        if (!r.diff.empty()) cost += std::pow(r.diff[i] / sigma_d, 2);
+      }
+    }
+    return cost;
+  }
+
+  // Stacked, weighted residual on the fit samples (for Gauss-Newton).
+  Eigen::VectorXd fit_vector(const DriveModel& model) const {
+    std::vector<double> v;
+    for (const Dataset& d : sets) {
+      const Residuals r = residuals(d, simulate(model, *d.m));
+      for (std::size_t i = 0; i < r.effort.size(); ++i) {
+        if (!d.fit[i]) continue;
+        v.push_back(r.effort[i] / sigma_e);
+        if (!r.diff.empty()) v.push_back(r.diff[i] / sigma_d);
+      }
+    }
+    return Eigen::Map<Eigen::VectorXd>(v.data(), static_cast<Eigen::Index>(v.size()));
+  }
+
+  Residuals residuals(const Dataset& d, const servo::AxisSignals& s) const {
+    Residuals r;
+    const std::size_t n = d.m->t.size();
+    r.raw_effort.resize(n);
+    r.position.resize(n);
+    for (std::size_t i = 0; i < n; ++i) {
+      r.raw_effort[i] = d.m->effort_A[i] - s.current[i];
+      r.position[i] = d.m->pos[i] - s.pos[i];
+    }
+    r.effort = zero_phase_lowpass(r.raw_effort, d.m->period_s, cutoff_hz);
+    if (!d.diff.empty()) {
+      r.diff.resize(n);
+      for (std::size_t i = 0; i < n; ++i) r.diff[i] = d.diff[i] - (s.load_pos[i] - s.pos[i]);
+    }
+    return r;
+  }
+};
+
+// A fitted candidate model.
+struct Fit {
+  bool ok = false;
+  DriveModel model;
+  std::map<std::string, double> parameters;
+  int parameter_count = 0;
+  std::string evidence;
+};
+
+// Least squares of the baseline residual (effort, or diff when `on_diff`) on regressors, over
+// the fit samples. Returns the coefficients and the explained sum of squares.
+Eigen::VectorXd regress(const Context& ctx, const Evaluation& base,
+                        const std::function<void(const Dataset&, std::size_t, double*)>& row,
+                        int k, bool on_diff, double* explained = nullptr) {
+  Eigen::MatrixXd ata = Eigen::MatrixXd::Zero(k, k);
+  Eigen::VectorXd atb = Eigen::VectorXd::Zero(k);
+  std::vector<double> x(static_cast<std::size_t>(k));
+  for (std::size_t s = 0; s < ctx.sets.size(); ++s) {
+    const Dataset& d = ctx.sets[s];
+    const std::vector<double>& y = on_diff ? base.sets[s].diff : base.sets[s].effort;
+    if (y.empty()) continue;
+    for (std::size_t i = 0; i < y.size(); ++i) {
+      if (!d.fit[i]) continue;
+      row(d, i, x.data());
+      const Eigen::Map<const Eigen::VectorXd> xv(x.data(), k);
+      ata.noalias() += xv * xv.transpose();
+      atb.noalias() += xv * y[i];
+    }
+  }
+  const Eigen::VectorXd diag = ata.diagonal().cwiseMax(1e-300);
+  Eigen::MatrixXd scaled = ata;
+  for (int i = 0; i < k; ++i) {
+    for (int j = 0; j < k; ++j) scaled(i, j) /= std::sqrt(diag(i) * diag(j));
+  }
+  scaled += 1e-9 * Eigen::MatrixXd::Identity(k, k);
+  Eigen::VectorXd rhs = atb.cwiseQuotient(diag.cwiseSqrt());
+  Eigen::VectorXd c = scaled.ldlt().solve(rhs);
+  if (explained) *explained = c.dot(rhs);
+  return c.cwiseQuotient(diag.cwiseSqrt());
+}
+
+// Gauss-Newton on linear-ish parameters with a finite-difference Jacobian of the closed-loop
+// simulation.
+std::vector<double> gauss_newton(const Context& ctx,
+                                 const std::function<DriveModel(const std::vector<double>&)>& apply,
+                                 std::vector<double> theta, const std::vector<double>& steps,
+                                 int iterations = 3) {
+  const std::size_t k = theta.size();
+  Eigen::VectorXd r0 = ctx.fit_vector(apply(theta));
+  double c0 = r0.squaredNorm();
+  for (int it = 0; it < iterations; ++it) {
+    Eigen::MatrixXd jac(r0.size(), static_cast<Eigen::Index>(k));
+    for (std::size_t j = 0; j < k; ++j) {
+      std::vector<double> t = theta;
+      t[j] += steps[j];
+      jac.col(static_cast<Eigen::Index>(j)) = (ctx.fit_vector(apply(t)) - r0) / steps[j];
+    }
+    Eigen::MatrixXd h = jac.transpose() * jac;
+    h.diagonal() *= 1.0 + 1e-6;
+    h.diagonal().array() += 1e-12;
+    const Eigen::VectorXd delta = h.ldlt().solve(-jac.transpose() * r0);
+    bool accepted = false;
+    for (double f : {1.0, 0.5, 0.25}) {
+      std::vector<double> t = theta;
+      for (std::size_t j = 0; j < k; ++j) t[j] += f * delta(static_cast<Eigen::Index>(j));
+      const Eigen::VectorXd r = ctx.fit_vector(apply(t));
+      if (r.squaredNorm() < c0) {
+        theta = t;
+        r0 = r;
+        c0 = r.squaredNorm();
+        accepted = true;
+        break;
+      }
+    }
+    if (!accepted) break;
+  }
+  return theta;
+}
+
+double fit_cost(const Context& ctx, const DriveModel& m) { return ctx.fit_vector(m).squaredNorm(); }
+
+std::string fmt(double v, int digits = 3) {
+  std::ostringstream out;
+  out.precision(digits);
+  out << v;
+  return out.str();
+}
+
+double lead_of(const kinematics::Axis& axis) { return kTwoPi * axis.drive.ratio; }
+
+bool linear_axis(const kinematics::Axis& axis) {
+  return axis.type == kinematics::AxisType::linear;
+}
+
+// ----- the candidates ------------------------------------------------------------------------
+
+Fit fit_coulomb(const Context& ctx, const DriveModel& base, const Evaluation& ev) {
+  const double band = 1e-3 * ctx.vmax;
+  const Eigen::VectorXd c = regress(
+      ctx, ev, [&](const Dataset& d, std::size_t i, double* x) { x[0] = sign_band(d.vc[i], band); },
+      1, false);
+  auto apply = [&](const std::vector<double>& th) {
+    DriveModel m = base;
+    m.servo.axis.drive.friction_dry_A = std::max(0.0, th[0]);
+    return m;
+  };
+  const double b0 = base.servo.axis.drive.friction_dry_A;
+  const std::vector<double> th = gauss_newton(ctx, apply, {b0 + c(0)}, {0.1 + 0.2 * std::abs(b0)});
+  Fit f{true, apply(th), {{"friction_dry_A", std::max(0.0, th[0])}}, 1, ""};
+  f.evidence = "effort residual follows sign(v): dry friction " + fmt(b0) + " -> " +
+               fmt(std::max(0.0, th[0])) + " A";
+  return f;
+}
+
+Fit fit_viscous(const Context& ctx, const DriveModel& base, const Evaluation& ev) {
+  const Eigen::VectorXd c = regress(
+      ctx, ev, [&](const Dataset& d, std::size_t i, double* x) { x[0] = d.vc[i]; }, 1, false);
+  auto apply = [&](const std::vector<double>& th) {
+    DriveModel m = base;
+    m.servo.axis.drive.friction_viscous_A_per_joint_unit_per_s = std::max(0.0, th[0]);
+    return m;
+  };
+  const double a0 = base.servo.axis.drive.friction_viscous_A_per_joint_unit_per_s;
+  const double step = 0.3 * std::max(std::abs(a0), 0.1 / std::max(ctx.vmax, 1e-9));
+  const std::vector<double> th = gauss_newton(ctx, apply, {a0 + c(0)}, {step});
+  const std::string unit = linear_axis(base.servo.axis) ? "A_s_per_m" : "A_s_per_rad";
+  Fit f{true, apply(th), {{"friction_viscous_" + unit, std::max(0.0, th[0])}}, 1, ""};
+  f.evidence = "effort residual proportional to v: viscous friction " + fmt(a0) + " -> " +
+               fmt(std::max(0.0, th[0])) + " " + unit;
+  return f;
+}
+
+Fit fit_asymmetric(const Context& ctx, const DriveModel& base, const Evaluation& ev) {
+  const double band = 1e-3 * ctx.vmax;
+  const Eigen::VectorXd c = regress(
+      ctx, ev,
+      [&](const Dataset& d, std::size_t i, double* x) {
+        const bool pos = d.vc[i] > band, neg = d.vc[i] < -band;
+        x[0] = pos ? 1.0 : 0.0;
+        x[1] = neg ? -1.0 : 0.0;
+        x[2] = pos ? d.vc[i] : 0.0;
+        x[3] = neg ? d.vc[i] : 0.0;
+      },
+      4, false);
+  const auto& drive = base.servo.axis.drive;
+  auto apply = [&](const std::vector<double>& th) {
+    DriveModel m = base;
+    auto& a = m.servo.axis.effects.asymmetric_friction;
+    a.enabled = true;
+    a.dry_positive_A = std::max(0.0, th[0]);
+    a.dry_negative_A = std::max(0.0, th[1]);
+    a.viscous_positive_A_per_joint_unit_per_s = std::max(0.0, th[2]);
+    a.viscous_negative_A_per_joint_unit_per_s = std::max(0.0, th[3]);
+    auto& s = m.servo.axis.effects.stribeck;
+    if (s.enabled) s.static_friction_A = std::max(s.static_friction_A, std::max(th[0], th[1]));
+    return m;
+  };
+  const double b0 = drive.friction_dry_A, a0 = drive.friction_viscous_A_per_joint_unit_per_s;
+  const double step = 0.1 + 0.2 * b0;
+  const double vstep = 0.3 * std::max(a0, 0.1 / std::max(ctx.vmax, 1e-9));
+  const std::vector<double> th = gauss_newton(ctx, apply, {b0 + c(0), b0 + c(1), a0 + c(2), a0 + c(3)},
+                                              {step, step, vstep, vstep});
+  Fit f{true, apply(th), {}, 4, ""};
+  const auto& a = f.model.servo.axis.effects.asymmetric_friction;
+  const std::string unit = linear_axis(base.servo.axis) ? "_A_s_per_m" : "_A_s_per_rad";
+  f.parameters = {{"dry_positive_A", a.dry_positive_A},
+                  {"dry_negative_A", a.dry_negative_A},
+                  {"viscous_positive" + unit, a.viscous_positive_A_per_joint_unit_per_s},
+                  {"viscous_negative" + unit, a.viscous_negative_A_per_joint_unit_per_s}};
+  f.evidence = "effort residual differs by direction: dry friction +" + fmt(a.dry_positive_A) +
+               " / -" + fmt(a.dry_negative_A) + " A, viscous +" +
+               fmt(a.viscous_positive_A_per_joint_unit_per_s) + " / -" +
+               fmt(a.viscous_negative_A_per_joint_unit_per_s) + " (model " + fmt(b0) + " A, " +
+               fmt(a0) + " both ways)";
+  return f;
+}
+
+Fit fit_stribeck(const Context& ctx, const DriveModel& base, const Evaluation& ev) {
+  const double band = 1e-3 * ctx.vmax;
+  const double b0 = base.servo.axis.drive.friction_dry_A;
+  auto apply = [&](double vs, double extra) {
+    DriveModel m = base;
+    auto& s = m.servo.axis.effects.stribeck;
+    s.enabled = true;
+    s.velocity = vs;
+    s.exponent = 2.0;
+    double dry = b0;
+    const auto& a = m.servo.axis.effects.asymmetric_friction;
+    if (a.enabled) dry = std::max(a.dry_positive_A, a.dry_negative_A);
+    s.static_friction_A = dry + std::max(0.0, extra);
+    return m;
+  };
+  auto extra_for = [&](double vs) {
+    const Eigen::VectorXd c = regress(
+        ctx, ev,
+        [&](const Dataset& d, std::size_t i, double* x) {
+          x[0] = sign_band(d.vc[i], band) * std::exp(-std::pow(d.vc[i] / vs, 2));
+        },
+        1, false);
+    return std::max(0.0, c(0));
+  };
+  auto refit = [&](double v, int iterations) {
+    return gauss_newton(
+        ctx, [&](const std::vector<double>& t) { return apply(v, t[0]); }, {extra_for(v)},
+        {0.2 + 0.2 * b0}, iterations);
+  };
+  double best = 0.0;
+  double vs = detail::scan_minimum(
+      [&](double v) { return fit_cost(ctx, apply(v, refit(v, 1)[0])); }, ctx.vmax * 1e-3,
+      ctx.vmax * 0.2, 8, true, 0.05, best);
+  const std::vector<double> th = refit(vs, 3);
+  // The level, then the velocity again, by scans (the cost is rough, and the level and v_s
+  // trade against each other).
+  const double level0 = std::max(th[0], 0.05 + 0.1 * b0);
+  const double extra = detail::scan_minimum([&](double x) { return fit_cost(ctx, apply(vs, x)); },
+                                            0.3 * level0, 2.5 * level0, 9, false,
+                                            0.01 * level0, best);
+  vs = detail::scan_minimum([&](double v) { return fit_cost(ctx, apply(v, extra)); }, 0.4 * vs,
+                            2.5 * vs, 7, true, 0.03, best);
+  const bool lin = linear_axis(base.servo.axis);
+  Fit f{true, apply(vs, extra),
+        {{lin ? "velocity_m_per_s" : "velocity_rad_per_s", vs}, {"exponent", 2.0}}, 2, ""};
+  f.parameters["static_friction_A"] = f.model.servo.axis.effects.stribeck.static_friction_A;
+  f.evidence = "extra effort at low speed: +" + fmt(extra) + " A below about " +
+               fmt(vs * (lin ? 1e3 : 180.0 / std::numbers::pi)) + (lin ? " mm/s" : " deg/s");
+  return f;
+}
+
+Fit fit_backlash(const Context& ctx, const DriveModel& base) {
+  const auto& fx = base.servo.axis.effects;
+  if (!ctx.has_diff && !fx.compliance.enabled) {
+    Fit f;
+    f.evidence = "not observable: a rigid play shows only between motor and load; no .pos2 logged";
+    return f;
+  }
+  auto apply = [&](double gap) {
+    DriveModel m = base;
+    m.servo.axis.effects.backlash.enabled = true;
+    m.servo.axis.effects.backlash.gap = gap;
+    return m;
+  };
+  const double unit = linear_axis(base.servo.axis) ? 1e-6 : std::numbers::pi / 648000.0;
+  double best = 0.0;
+  const double gap = detail::scan_minimum([&](double g) { return fit_cost(ctx, apply(g)); },
+                                          0.3 * unit, 300.0 * unit, 10, true, 0.03, best);
+  const bool lin = linear_axis(base.servo.axis);
+  Fit f{true, apply(gap), {{lin ? "gap_m" : "gap_rad", gap}}, 1, ""};
+  f.evidence = "lost motion at reversals between motor and load: gap " +
+               fmt(gap / unit) + (lin ? " um" : " arcsec");
+  return f;
+}
+
+Fit fit_cogging(const Context& ctx, const DriveModel& base, const Evaluation& ev) {
+  const auto& axis = base.servo.axis;
+  const double r = axis.drive.ratio, kt = axis.drive.torque_constant_N_m_per_A;
+  const double band = 1e-3 * ctx.vmax;
+  int best_n = 1;
+  double best_explained = -1.0;
+  Eigen::VectorXd best_c;
+  for (int n = 1; n <= 64; ++n) {
+    double explained = 0.0;
+    const Eigen::VectorXd c = regress(
+        ctx, ev,
+        [&](const Dataset& d, std::size_t i, double* x) {
+          const double th = n * d.m->pos[i] / r;
+          x[0] = std::sin(th);
+          x[1] = std::cos(th);
+          x[2] = sign_band(d.vc[i], band);  // keeps a friction error from leaking in
+        },
+        3, false, &explained);
+    if (explained > best_explained) {
+      best_explained = explained;
+      best_n = n;
+      best_c = c;
+    }
+  }
+  auto apply = [&](const std::vector<double>& th) {
+    DriveModel m = base;
+    auto& c = m.servo.axis.effects.cogging;
+    c.enabled = true;
+    c.periods_per_rev = best_n;
+    c.amplitude_N_m = std::hypot(th[0], th[1]);
+    c.phase_rad = std::atan2(th[1], th[0]);
+    return m;
+  };
+  // Current residual = -tau_cog / Kt at low frequency (the drive works against it).
+  std::vector<double> th0 = {-best_c(0) * kt, -best_c(1) * kt};
+  const double step = 0.1 * kt + 0.3 * std::hypot(th0[0], th0[1]);
+  std::vector<double> th = gauss_newton(ctx, apply, th0, {step, step});
+  // The amplitude along the fitted phase by a scan: the cost is rough (quantisation noise
+  // re-arranges with every change), which slows Gauss-Newton down on a small ripple.
+  double best = 0.0;
+  const double scale = detail::scan_minimum(
+      [&](double k) { return fit_cost(ctx, apply({k * th[0], k * th[1]})); }, 0.5, 2.5, 9, false,
+      0.02, best);
+  th = {scale * th[0], scale * th[1]};
+  const double rotation = detail::scan_minimum(
+      [&](double d) {
+        return fit_cost(ctx, apply({std::cos(d) * th[0] - std::sin(d) * th[1],
+                                    std::sin(d) * th[0] + std::cos(d) * th[1]}));
+      },
+      -0.8, 0.8, 9, false, 0.02, best);
+  th = {std::cos(rotation) * th[0] - std::sin(rotation) * th[1],
+        std::sin(rotation) * th[0] + std::cos(rotation) * th[1]};
+  Fit f{true, apply(th), {}, 3, ""};
+  const auto& c = f.model.servo.axis.effects.cogging;
+  f.parameters = {{"amplitude_N_m", c.amplitude_N_m},
+                  {"periods_per_rev", c.periods_per_rev},
+                  {"phase_rad", c.phase_rad}};
+  f.evidence = "effort residual periodic in the motor angle, " + std::to_string(best_n) +
+               " periods per revolution, " + fmt(c.amplitude_N_m) + " N m";
+  return f;
+}
+
+Fit fit_pitch(const Context& ctx, const DriveModel& base, const Evaluation& ev) {
+  if (!ctx.has_diff) {
+    Fit f;
+    f.evidence = "not observable: the position error of the screw shows only on a load-side "
+                 "scale; no .pos2 logged";
+    return f;
+  }
+  const double lead = lead_of(base.servo.axis);
+  double best_explained = -1.0, best_period = lead;
+  Eigen::VectorXd best_c;
+  for (double ratio : {0.25, 1.0 / 3.0, 0.5, 1.0, 2.0, 3.0, 4.0}) {
+    const double period = ratio * lead;
+    double explained = 0.0;
+    const Eigen::VectorXd c = regress(
+        ctx, ev,
+        [&](const Dataset& d, std::size_t i, double* x) {
+          const double ph = kTwoPi * d.m->pos[i] / period;
+          x[0] = std::sin(ph);
+          x[1] = std::cos(ph);
+          x[2] = 1.0;
+        },
+        3, true, &explained);
+    if (explained > best_explained) {
+      best_explained = explained;
+      best_period = period;
+      best_c = c;
+    }
+  }
+  auto apply = [&](const std::vector<double>& th) {
+    DriveModel m = base;
+    auto& p = m.servo.axis.effects.pitch_error;
+    p.enabled = true;
+    p.period = best_period;
+    p.amplitude = std::hypot(th[0], th[1]);
+    p.phase_rad = std::atan2(th[1], th[0]);
+    return m;
+  };
+  const std::vector<double> th0 = {best_c(0), best_c(1)};
+  const double step = 0.5 * std::hypot(th0[0], th0[1]) + (linear_axis(base.servo.axis) ? 1e-6 : 5e-6);
+  const std::vector<double> th = gauss_newton(ctx, apply, th0, {step, step});
+  Fit f{true, apply(th), {}, 3, ""};
+  const auto& p = f.model.servo.axis.effects.pitch_error;
+  const bool lin = linear_axis(base.servo.axis);
+  f.parameters = {{lin ? "amplitude_m" : "amplitude_rad", p.amplitude},
+                  {lin ? "period_m" : "period_rad", p.period},
+                  {"phase_rad", p.phase_rad}};
+  f.evidence = "load minus motor position periodic in the position, period " +
+               fmt(p.period / lead) + " x the travel per motor turn, amplitude " +
+               fmt(p.amplitude * (lin ? 1e6 : 648000.0 / std::numbers::pi)) +
+               (lin ? " um" : " arcsec");
+  return f;
+}
+
+Fit fit_compliance(const Context& ctx, const DriveModel& base, double fastest_period_s) {
+  const auto& axis = base.servo.axis;
+  const double r = axis.drive.ratio;
+  const double j_eq = axis.drive.equivalent_inertia_kg_m2;
+  double jm = axis.drive.rotor_inertia_kg_m2;
+  if (!(jm > 0.0 && jm < j_eq)) jm = 0.7 * j_eq;
+  const double jl = j_eq - jm;
+  // Natural frequency of the two-mass mode -> joint stiffness.
+  auto stiffness_of = [&](double f_hz) {
+    const double w = kTwoPi * f_hz;
+    return w * w / (1.0 / jm + 1.0 / jl) / (r * r);
+  };
+  auto apply = [&](double f_hz, double zeta) {
+    DriveModel m = base;
+    auto& c = m.servo.axis.effects.compliance;
+    c.enabled = true;
+    c.stiffness = stiffness_of(f_hz);
+    c.damping_ratio = zeta;
+    c.motor_side_inertia_kg_m2 = jm;
+    return m;
+  };
+  const double f_max = std::min(0.3 / fastest_period_s, 2000.0);
+  double best = 0.0;
+  const double f_hz = detail::scan_minimum([&](double f) { return fit_cost(ctx, apply(f, 0.05)); },
+                                           10.0, f_max, 10, true, 0.02, best);
+  const double zeta = detail::scan_minimum(
+      [&](double z) { return fit_cost(ctx, apply(f_hz, z)); }, 0.005, 0.6, 6, true, 0.05, best);
+  const bool lin = linear_axis(axis);
+  Fit f{true, apply(f_hz, zeta), {}, 2, ""};
+  f.parameters = {{lin ? "stiffness_N_per_m" : "stiffness_N_m_per_rad", stiffness_of(f_hz)},
+                  {"damping_ratio", zeta},
+                  {"motor_side_inertia_kg_m2", jm},
+                  {"frequency_Hz", f_hz}};
+  f.evidence = "two-mass mode at " + fmt(f_hz) + " Hz (damping ratio " + fmt(zeta, 2) + ")";
+  return f;
+}
+
+Fit fit_delay(const Context& ctx, const DriveModel& base, double trace_period_s) {
+  auto apply = [&](double delay) {
+    DriveModel m = base;
+    m.servo.axis.controller.delay_s = delay;
+    return m;
+  };
+  const double d0 = base.servo.axis.controller.delay_s;
+  const double span = std::max(0.01, 5.0 * base.servo.axis.controller.position_period_s);
+  double best = 0.0;
+  const int grid = std::clamp(static_cast<int>(span / (0.5 * trace_period_s)) + 1, 11, 41);
+  const double delay = detail::scan_minimum([&](double d) { return ctx.fit_cost_with_position(apply(d)); }, 0.0,
+                                            d0 + span, grid, false, 0.01 * trace_period_s, best);
+  Fit f{true, apply(delay), {{"delay_s", delay}}, 1, ""};
+  f.evidence = "set point delayed by " + fmt(delay * 1e3) + " ms (model " + fmt(d0 * 1e3) + " ms)";
+  return f;
+}
+
+Fit fit_gravity(const Context& ctx, const DriveModel& base, const Evaluation& ev) {
+  const Eigen::VectorXd c = regress(
+      ctx, ev, [&](const Dataset&, std::size_t, double* x) { x[0] = 1.0; }, 1, false);
+  auto apply = [&](const std::vector<double>& th) {
+    DriveModel m = base;
+    m.offset_A = th[0];
+    return m;
+  };
+  const std::vector<double> th = gauss_newton(ctx, apply, {base.offset_A + c(0)}, {0.1});
+  const double kt = base.servo.axis.drive.torque_constant_N_m_per_A;
+  Fit f{true, apply(th), {{"offset_A", th[0]}, {"offset_N_m", th[0] * kt}}, 1, ""};
+  f.evidence = "constant effort offset of " + fmt(th[0]) + " A, the same in both directions";
+  return f;
+}
+
+Fit fit_saturation(const Context& ctx, const DriveModel& base) {
+  double peak = 0.0;
+  for (const Dataset& d : ctx.sets) {
+    for (double e : d.m->effort_A) peak = std::max(peak, std::abs(e));
+  }
+  const double limit0 = base.servo.axis.controller.current_max_A;
+  if (peak <= 0.0 || (limit0 > 0.0 && limit0 < 0.6 * peak)) {
+    Fit f;
+    f.evidence = "no effort near a limit below the model's";
+    return f;
+  }
+  auto apply = [&](double imax) {
+    DriveModel m = base;
+    m.servo.axis.controller.current_max_A = imax;
+    return m;
+  };
+  double best = 0.0;
+  const double hi = limit0 > 0.0 ? std::min(limit0, 1.2 * peak) : 1.2 * peak;
+  const double imax = detail::scan_minimum([&](double i) { return fit_cost(ctx, apply(i)); },
+                                           0.6 * peak, hi, 9, false, 0.002 * peak, best);
+  Fit f{true, apply(imax), {{"current_A", imax}}, 1, ""};
+  f.evidence = "effort flat at its limit: current saturation " + fmt(imax) + " A (model " +
+               (limit0 > 0.0 ? fmt(limit0) + " A)" : "none)");
+  return f;
+}
+
+Fit fit_inertia(const Context& ctx, const DriveModel& base, const Evaluation& ev) {
+  const auto& drive = base.servo.axis.drive;
+  const Eigen::VectorXd c = regress(
+      ctx, ev, [&](const Dataset& d, std::size_t i, double* x) { x[0] = d.ac[i]; }, 1, false);
+  auto apply = [&](const std::vector<double>& th) {
+    DriveModel m = base;
+    auto& dr = m.servo.axis.drive;
+    dr.equivalent_inertia_kg_m2 = std::max(th[0], 1e-3 * drive.equivalent_inertia_kg_m2);
+    dr.rotor_inertia_kg_m2 = std::min(dr.rotor_inertia_kg_m2, 0.999 * dr.equivalent_inertia_kg_m2);
+    auto& cmp = m.servo.axis.effects.compliance;
+    if (cmp.enabled && cmp.motor_side_inertia_kg_m2 >= dr.equivalent_inertia_kg_m2) {
+      cmp.motor_side_inertia_kg_m2 = 0.9 * dr.equivalent_inertia_kg_m2;
+    }
+    return m;
+  };
+  const double j0 = drive.equivalent_inertia_kg_m2;
+  // effort = J q'' / (Kt r): the coefficient on q'' times Kt r is the inertia error.
+  const double guess = j0 + c(0) * drive.torque_constant_N_m_per_A * drive.ratio;
+  std::vector<double> th =
+      gauss_newton(ctx, apply, {std::clamp(guess, 0.3 * j0, 3.0 * j0)}, {0.2 * j0});
+  double best = 0.0;
+  th[0] = detail::scan_minimum([&](double j) { return fit_cost(ctx, apply({j})); }, 0.6 * th[0],
+                               1.6 * th[0], 9, false, 0.002 * th[0], best);
+  Fit f{true, apply(th), {}, 1, ""};
+  const double j = f.model.servo.axis.drive.equivalent_inertia_kg_m2;
+  f.parameters = {{"equivalent_inertia_kg_m2", j}};
+  f.evidence = "effort residual proportional to the acceleration: J_eq " + fmt(j0) + " -> " +
+               fmt(j) + " kg m^2";
+  return f;
+}
+
+Fit fit_candidate(const std::string& key, const Context& ctx, const DriveModel& base,
+                  const Evaluation& ev, double fastest_period_s, double trace_period_s) {
+  if (key == "coulomb_friction") return fit_coulomb(ctx, base, ev);
+  if (key == "viscous_friction") return fit_viscous(ctx, base, ev);
+  if (key == "asymmetric_friction") return fit_asymmetric(ctx, base, ev);
+  if (key == "stribeck_friction") return fit_stribeck(ctx, base, ev);
+  if (key == "backlash") return fit_backlash(ctx, base);
+  if (key == "cogging") return fit_cogging(ctx, base, ev);
+  if (key == "pitch_error") return fit_pitch(ctx, base, ev);
+  if (key == "compliance") return fit_compliance(ctx, base, fastest_period_s);
+  if (key == "delay") return fit_delay(ctx, base, trace_period_s);
+  if (key == "gravity") return fit_gravity(ctx, base, ev);
+  if (key == "current_saturation") return fit_saturation(ctx, base);
+  if (key == "inertia") return fit_inertia(ctx, base, ev);
+  return {};
+}
+
+// ----- residual analysis --------------------------------------------------------------------
+
+double r2_of(const std::vector<double>& y, const std::vector<char>& use,
+             const std::function<void(std::size_t, double*)>& row, int k) {
+  Eigen::MatrixXd ata = Eigen::MatrixXd::Zero(k + 1, k + 1);
+  Eigen::VectorXd atb = Eigen::VectorXd::Zero(k + 1);
+  std::vector<double> x(static_cast<std::size_t>(k + 1));
+  double sum = 0.0, sum2 = 0.0, n = 0.0;
+  for (std::size_t i = 0; i < y.size(); ++i) {
+    if (!use[i]) continue;
+    row(i, x.data());
+    x[static_cast<std::size_t>(k)] = 1.0;
+    const Eigen::Map<const Eigen::VectorXd> xv(x.data(), k + 1);
+    ata.noalias() += xv * xv.transpose();
+    atb.noalias() += xv * y[i];
+    sum += y[i];
+    sum2 += y[i] * y[i];
+    n += 1.0;
+  }
+  if (n < 3.0) return 0.0;
+  const double sst = sum2 - sum * sum / n;
+  if (sst <= 0.0) return 0.0;
+  ata.diagonal().array() += 1e-12 * (ata.diagonal().maxCoeff() + 1.0);
+  const Eigen::VectorXd c = ata.ldlt().solve(atb);
+  const double explained = c.dot(atb) - sum * sum / n;
+  return std::clamp(explained / sst, 0.0, 1.0);
+}
+
+void analyse_residual(AxisDiagnosis& out, const Context& ctx, const Evaluation& ev,
+                      const kinematics::Axis& axis) {
+  // Phases on every sample of every dataset.
+  const double vband = 0.01 * ctx.vmax, aband = 0.05 * ctx.amax;
+  struct Acc {
+    double n = 0, sum = 0, sum2 = 0, peak = 0, p2 = 0;
+  };
+  std::map<std::string, Acc> acc;
+  std::vector<double> y, q, v, a, since_jerk;
+  std::vector<char> all;
+  for (std::size_t s = 0; s < ctx.sets.size(); ++s) {
+    const Dataset& d = ctx.sets[s];
+    const Residuals& r = ev.sets[s];
+    const std::size_t n = d.vc.size();
+    const double h = d.m->period_s;
+    // Reversals: sign changes of the commanded velocity (outside the dead band).
+    std::vector<char> reversal(n, 0);
+    double last_sign = 0.0;
+    std::size_t last_index = 0;
+    for (std::size_t i = 0; i < n; ++i) {
+      const double sg = sign_band(d.vc[i], vband);
+      if (sg != 0.0) {
+        if (last_sign != 0.0 && sg != last_sign && i - last_index < static_cast<std::size_t>(0.5 / h)) {
+          const std::size_t w = static_cast<std::size_t>(0.03 / h);
+          for (std::size_t j = (last_index > w ? last_index - w : 0); j < std::min(n, i + w); ++j) {
+            reversal[j] = 1;
+          }
+        }
+        last_sign = sg;
+        last_index = i;
+      }
+    }
+    double t_event = -1.0;
+    bool accelerating = false;
+    for (std::size_t i = 0; i < n; ++i) {
+      std::string phase = "standstill";
+      const bool acc_now = std::abs(d.ac[i]) > aband;
+      if (reversal[i]) {
+        phase = "reversal";
+      } else if (acc_now) {
+        phase = "acceleration";
+      } else if (std::abs(d.vc[i]) > vband) {
+        phase = "constant_velocity";
+      }
+      if (acc_now != accelerating) t_event = d.m->t[i];
+      accelerating = acc_now;
+      Acc& x = acc[phase];
+      x.n += 1;
+      x.sum += r.raw_effort[i];
+      x.sum2 += r.effort[i] * r.effort[i];
+      x.peak = std::max(x.peak, std::abs(r.effort[i]));
+      x.p2 += r.position[i] * r.position[i];
+      y.push_back(r.effort[i]);
+      q.push_back(d.m->pos[i]);
+      v.push_back(d.vc[i]);
+      a.push_back(d.ac[i]);
+      since_jerk.push_back(t_event < 0.0 ? 1e9 : d.m->t[i] - t_event);
+      all.push_back(1);
+    }
+  }
+  for (const char* name : {"standstill", "constant_velocity", "acceleration", "reversal"}) {
+    const Acc& x = acc[name];
+    PhaseStatistics p;
+    p.phase = name;
+    p.samples = static_cast<std::size_t>(x.n);
+    if (x.n > 0) {
+      p.effort_rms_A = std::sqrt(x.sum2 / x.n);
+      p.effort_mean_A = x.sum / x.n;
+      p.effort_peak_A = x.peak;
+      p.position_rms = std::sqrt(x.p2 / x.n);
+    }
+    out.phases.push_back(p);
+  }
+  const double r = axis.drive.ratio, lead = lead_of(axis);
+  auto rel = [&](const std::string& name, int k, const std::function<void(std::size_t, double*)>& row,
+                 const std::string& note) {
+    out.relations.push_back({name, r2_of(y, all, row, k), note});
+  };
+  rel("sign_velocity", 1, [&](std::size_t i, double* x) { x[0] = sign_band(v[i], vband); },
+      "Coulomb friction error");
+  rel("velocity", 1, [&](std::size_t i, double* x) { x[0] = v[i]; }, "viscous friction error");
+  rel("direction", 2,
+      [&](std::size_t i, double* x) {
+        x[0] = v[i] > vband ? 1.0 : 0.0;
+        x[1] = v[i] < -vband ? 1.0 : 0.0;
+      },
+      "direction-dependent friction");
+  rel("low_speed", 1,
+      [&](std::size_t i, double* x) {
+        x[0] = sign_band(v[i], 1e-3 * ctx.vmax) * std::exp(-std::pow(v[i] / (0.02 * ctx.vmax), 2));
+      },
+      "Stribeck: sign(v) exp(-(v / 2 % of v_max)^2)");
+  rel("acceleration", 1, [&](std::size_t i, double* x) { x[0] = a[i]; }, "inertia error or delay");
+  rel("sign_acceleration", 1, [&](std::size_t i, double* x) { x[0] = sign_band(a[i], aband); },
+      "");
+  rel("position", 1, [&](std::size_t i, double* x) { x[0] = q[i]; }, "position-dependent load");
+  rel("position_mod_lead", 4,
+      [&](std::size_t i, double* x) {
+        const double ph = kTwoPi * q[i] / lead;
+        x[0] = std::sin(ph);
+        x[1] = std::cos(ph);
+        x[2] = std::sin(2.0 * ph);
+        x[3] = std::cos(2.0 * ph);
+      },
+      "first two harmonics of the travel per motor turn (screw lead)");
+  double best_r2 = 0.0;
+  int best_n = 0;
+  for (int n = 3; n <= 64; ++n) {
+    const double r2 = r2_of(
+        y, all,
+        [&](std::size_t i, double* x) {
+          x[0] = std::sin(n * q[i] / r);
+          x[1] = std::cos(n * q[i] / r);
+        },
+        2);
+    if (r2 > best_r2) {
+      best_r2 = r2;
+      best_n = n;
+    }
+  }
+  out.relations.push_back({"motor_angle", best_r2,
+                           "best harmonic of the motor angle: " + std::to_string(best_n) +
+                               " periods per revolution"});
+  rel("time_after_jerk_change", 25,
+      [&](std::size_t i, double* x) {
+        for (int b = 0; b < 25; ++b) x[b] = 0.0;
+        const long bin = static_cast<long>(since_jerk[i] / 0.004);
+        if (bin >= 0 && bin < 25) x[bin] = 1.0;
+      },
+      "event-locked mean over 100 ms after each start or end of an acceleration (4 ms bins)");
+}
+
+ResidualSummary summarise(const Context& ctx, const Evaluation& ev, bool validation) {
+  ResidualSummary s;
+  double n = 0.0, e2 = 0.0, p2 = 0.0, d2 = 0.0, cost = 0.0;
+  for (std::size_t k = 0; k < ctx.sets.size(); ++k) {
+    const Dataset& d = ctx.sets[k];
+    const Residuals& r = ev.sets[k];
+    for (std::size_t i = 0; i < r.effort.size(); ++i) {
+      if (!(validation ? d.val[i] : d.fit[i])) continue;
+      n += 1.0;
+      e2 += r.effort[i] * r.effort[i];
+      p2 += r.position[i] * r.position[i];
+      s.effort_peak_A = std::max(s.effort_peak_A, std::abs(r.effort[i]));
+      s.position_peak = std::max(s.position_peak, std::abs(r.position[i]));
+      cost += std::pow(r.effort[i] / ctx.sigma_e, 2);
+      if (!r.diff.empty()) {
+        d2 += r.diff[i] * r.diff[i];
+        s.load_diff_peak = std::max(s.load_diff_peak, std::abs(r.diff[i]));
+        cost += std::pow(r.diff[i] / ctx.sigma_d, 2);
+      }
+    }
+  }
+  if (n > 0.0) {
+    s.effort_rms_A = std::sqrt(e2 / n);
+    s.position_rms = std::sqrt(p2 / n);
+    s.load_diff_rms = std::sqrt(d2 / n);
+    s.weighted_rms = std::sqrt(cost / n);
+  }
+  return s;
+}
+
+AxisDiagnosis diagnose_axis(const kinematics::MachineModel& machine,
+                            const std::vector<const AxisMeasurement*>& fit_runs,
+                            const std::vector<const AxisMeasurement*>& val_runs,
+                            const DiagnoseOptions& options) {
+  const AxisMeasurement& first = *fit_runs.front();
+  const kinematics::Axis& axis = machine.axes[static_cast<std::size_t>(first.axis_index)];
+  AxisDiagnosis out;
+  out.axis_name = axis.name;
+  out.axis_index = first.axis_index;
+  out.effort_signal = first.effort_signal;
+
+  Context ctx;
+  const double period = first.period_s;
+  ctx.cutoff_hz = std::min(0.1 / period, 200.0);
+  bool all_diff = true;
+  auto add = [&](const AxisMeasurement* m, int mode) {  // 0 fit only, 1 val only, 2 blocks
+    Dataset d;
+    d.m = m;
+    const std::size_t n = m->t.size();
+    d.fit.assign(n, mode == 0 ? 1 : 0);
+    d.val.assign(n, mode == 1 ? 1 : 0);
+    if (mode == 2) {
+      const int blocks = std::max(2, options.blocks);
+      for (std::size_t i = 0; i < n; ++i) {
+        const int b = static_cast<int>(i * static_cast<std::size_t>(blocks) / n);
+        (b % 2 == 0 ? d.fit[i] : d.val[i]) = 1;
+      }
+    }
+    d.vc = detail::derivative(m->cmd, m->period_s);
+    d.ac = detail::derivative(d.vc, m->period_s);
+    if (!m->pos2.empty()) {
+      d.diff.resize(n);
+      for (std::size_t i = 0; i < n; ++i) d.diff[i] = m->pos2[i] - m->pos[i];
+    } else {
+      all_diff = false;
+    }
+    for (std::size_t i = 0; i < n; ++i) {
+      ctx.vmax = std::max(ctx.vmax, std::abs(d.vc[i]));
+      ctx.amax = std::max(ctx.amax, std::abs(d.ac[i]));
+    }
+    ctx.sets.push_back(std::move(d));
+  };
+  if (val_runs.empty()) {
+    for (const auto* m : fit_runs) add(m, 2);
+  } else {
+    for (const auto* m : fit_runs) add(m, 0);
+    for (const auto* m : val_runs) add(m, 1);
+  }
+  if (!all_diff) {
+    for (Dataset& d : ctx.sets) d.diff.clear();
+  }
+  ctx.has_diff = all_diff;
+  for (const Dataset& d : ctx.sets) {
+    for (std::size_t i = 0; i < d.fit.size(); ++i) {
+      out.fit_samples += d.fit[i] ? 1u : 0u;
+      out.validation_samples += d.val[i] ? 1u : 0u;
+    }
+  }
+
+  DriveModel model = make_drive_model(machine, first.axis_index);
+  // Noise levels from the baseline residual's high-frequency part.
+  {
+    Evaluation ev = ctx.evaluate(model, true);
+    std::vector<double> re, rd, rp;
+    for (const auto& r : ev.sets) {
+      re.insert(re.end(), r.raw_effort.begin(), r.raw_effort.end());
+      rd.insert(rd.end(), r.diff.begin(), r.diff.end());
+      rp.insert(rp.end(), r.position.begin(), r.position.end());
+    }
+    double peak = 0.0;
+    for (const Dataset& d : ctx.sets) {
+      for (double e : d.m->effort_A) peak = std::max(peak, std::abs(e));
+    }
+    ctx.sigma_e = std::max(noise_level(re), 1e-4 * std::max(peak, 1e-3));
+    const double count = axis.controller.encoder_counts_per_rev;
+    const double quantum = count > 0.0 ? kTwoPi * axis.drive.ratio / count : 0.0;
+    ctx.sigma_d = std::max({ctx.has_diff ? noise_level(rd) : 0.0, quantum / std::sqrt(12.0),
+                            linear_axis(axis) ? 1e-9 : 1e-8});
+    ctx.sigma_p = std::max({noise_level(rp), quantum / std::sqrt(12.0), linear_axis(axis) ? 1e-9 : 1e-8});
+  }
+  out.effort_noise_A = ctx.sigma_e;
+  out.effort_noise_filtered_A = ctx.sigma_e * std::sqrt(std::min(1.0, 2.0 * ctx.cutoff_hz * period));
+  out.load_diff_noise = ctx.has_diff ? ctx.sigma_d : 0.0;
+  // Effective validation samples per channel: the effort residual is low-passed to cutoff_hz.
+  const double n_val = static_cast<double>(out.validation_samples);
+  const double penalty_effort =
+      std::log(std::max(2.0, n_val * std::min(1.0, 2.0 * ctx.cutoff_hz * period)));
+  const double penalty_diff = std::log(std::max(2.0, n_val));
+  double fastest = servo::base_period_s(axis.controller);
+
+  Evaluation base_ev = ctx.evaluate(model, true);
+  analyse_residual(out, ctx, base_ev, axis);
+  out.before = summarise(ctx, base_ev, true);
+  out.validation_cost_before = base_ev.val;
+
+  std::vector<std::string> remaining;
+  for (const auto& key : kEffects) {
+    if (std::find(options.excluded.begin(), options.excluded.end(), key) == options.excluded.end()) {
+      remaining.push_back(key);
+    }
+  }
+  for (int round = 0; round < options.max_effects && !remaining.empty(); ++round) {
+    // Noise control: the validation cost moves by this much for model changes that explain
+    // nothing (the encoder and current quantisation re-arrange their noise).
+    double control_effort = 0.0, control_diff = 0.0;
+    for (int k = 1; k <= 4; ++k) {
+      DriveModel m = model;
+      m.servo.axis.drive.equivalent_inertia_kg_m2 *= 1.0 + (k % 2 == 0 ? 1.0 : -1.0) * 1e-4 * k;
+      m.servo.axis.drive.friction_dry_A += 1e-4 * k;
+      const Evaluation e = ctx.evaluate(m, false);
+      control_effort = std::max(control_effort, std::abs(e.val_effort - base_ev.val_effort));
+      control_diff = std::max(control_diff, std::abs(e.val_diff - base_ev.val_diff));
+    }
+    if (round == 0) out.noise_control_cost = control_effort + control_diff;
+    std::vector<CandidateResult> results;
+    std::vector<Fit> fits;
+    for (const auto& key : remaining) {
+      Fit f = fit_candidate(key, ctx, model, base_ev, fastest, period);
+      CandidateResult c;
+      c.effect = key;
+      c.evidence = f.evidence;
+      c.validation_cost_before = base_ev.val;
+      c.validation_cost_after = base_ev.val;
+      if (f.ok) {
+        const Evaluation e = ctx.evaluate(f.model, false);
+        c.parameters = f.parameters;
+        c.parameter_count = f.parameter_count;
+        c.validation_cost_after = e.val;
+        // Judged per evidence channel (effort; load minus motor), each against its own noise
+        // control and penalty: a channel at its noise level would only dilute the other. The
+        // score is the better channel's margin; the other channel must not get worse beyond
+        // its noise.
+        const double k = f.parameter_count;
+        const double margin_effort = base_ev.val_effort - e.val_effort -
+                                     std::max(k * penalty_effort, 3.0 * control_effort);
+        const double margin_diff =
+            ctx.has_diff ? base_ev.val_diff - e.val_diff - std::max(k * penalty_diff, 3.0 * control_diff)
+                         : -1e300;
+        const bool effort_channel = margin_effort >= margin_diff;
+        c.score = std::max(margin_effort, margin_diff);
+        const double before_c = effort_channel ? base_ev.val_effort : base_ev.val_diff;
+        const double after_c = effort_channel ? e.val_effort : e.val_diff;
+        c.relative_gain = before_c > 0.0 ? 1.0 - after_c / before_c : 0.0;
+        const bool other_holds =
+            effort_channel
+                ? (!ctx.has_diff || e.val_diff - base_ev.val_diff <= std::max(3.0 * control_diff, k * penalty_diff))
+                : e.val_effort - base_ev.val_effort <= std::max(3.0 * control_effort, k * penalty_effort);
+        if (!other_holds) c.score = std::min(c.score, -1.0);
+        c.found = c.score > 0.0 && c.relative_gain >= options.minimum_relative_gain;
+      } else {
+        c.score = -1e300;
+      }
+      results.push_back(c);
+      fits.push_back(std::move(f));
+    }
+    std::vector<std::size_t> order(results.size());
+    for (std::size_t i = 0; i < order.size(); ++i) order[i] = i;
+    std::stable_sort(order.begin(), order.end(),
+                     [&](std::size_t x, std::size_t y) { return results[x].score > results[y].score; });
+    // Parsimony: among found candidates whose gain on the same channel is within 2 points of
+    // the best one's, prefer the one with the fewest parameters (a richer effect that explains
+    // no more is not evidence of itself).
+    if (results[order.front()].found) {
+      const CandidateResult& top = results[order.front()];
+      std::size_t pick = 0;
+      for (std::size_t j = 1; j < order.size(); ++j) {
+        const CandidateResult& c = results[order[j]];
+        if (c.found && c.relative_gain >= top.relative_gain - 0.02 &&
+            c.parameter_count < results[order[pick]].parameter_count) {
+          pick = j;
+        }
+      }
+      std::rotate(order.begin(), order.begin() + static_cast<std::ptrdiff_t>(pick),
+                  order.begin() + static_cast<std::ptrdiff_t>(pick) + 1);
+    }
+    if (round == 0) {
+      for (std::size_t i : order) out.first_round.push_back(results[i]);
+    }
+    const std::size_t best = order.front();
+    if (!results[best].found) break;
+    out.found.push_back(results[best]);
+    model = fits[best].model;
+    base_ev = ctx.evaluate(model, true);
+    remaining.erase(remaining.begin() + static_cast<std::ptrdiff_t>(best));
+  }
+  out.extended = model;
+  const Evaluation after = ctx.evaluate(model, true);
+  out.after = summarise(ctx, after, true);
+
+  // Residual series on the validation samples (the whole first run when held-out blocks).
+  const Evaluation before_ev = ctx.evaluate(make_drive_model(machine, first.axis_index), true);
+  for (std::size_t k = 0; k < ctx.sets.size(); ++k) {
+    const Dataset& d = ctx.sets[k];
+    const bool whole = val_runs.empty();
+    if (!whole && !d.val[0]) continue;
+    for (std::size_t i = 0; i < d.m->t.size(); ++i) {
+      out.t.push_back(d.m->t[i]);
+      out.effort_before.push_back(before_ev.sets[k].effort[i]);
+      out.effort_after.push_back(after.sets[k].effort[i]);
+      out.position_before.push_back(before_ev.sets[k].position[i]);
+      out.position_after.push_back(after.sets[k].position[i]);
+    }
+    break;  // one run is enough for the plot
+  }
+  return out;
+}
+
+}  // namespace
+
+const std::vector<std::string>& effect_keys() { return kEffects; }
+
+Diagnosis diagnose(const kinematics::MachineModel& machine, const std::vector<AxisMeasurement>& data,
+                   const std::vector<AxisMeasurement>& validation, const DiagnoseOptions& options) {
+  for (const auto& key : options.excluded) {
+    if (std::find(kEffects.begin(), kEffects.end(), key) == kEffects.end()) {
+      throw InputError("unknown effect '" + key + "' (known: coulomb_friction, viscous_friction, "
+                       "asymmetric_friction, stribeck_friction, backlash, cogging, pitch_error, "
+                       "compliance, delay, gravity, current_saturation, inertia)");
+    }
+  }
+  Diagnosis result;
+  result.validation = validation.empty() ? "held-out blocks" : validation.front().source;
+  for (int a = 0; a < static_cast<int>(machine.axes.size()); ++a) {
+    std::vector<const AxisMeasurement*> fit, val;
+    for (const auto& m : data) {
+      if (m.axis_index == a) fit.push_back(&m);
+    }
+    for (const auto& m : validation) {
+      if (m.axis_index == a) val.push_back(&m);
+    }
+    if (fit.empty()) continue;
+    if (!validation.empty() && val.empty()) {
+      throw InputError(validation.front().source + ": no data for axis " +
+                       machine.axes[static_cast<std::size_t>(a)].name +
+                       " (the validation trace needs the same axes as the trace)");
+    }
+    result.axes.push_back(diagnose_axis(machine, fit, val, options));
+  }
+  return result;
+}
+
+kinematics::MachineModel extended_machine(const kinematics::MachineModel& machine,
+                                          const Diagnosis& diagnosis,
+                                          std::vector<AxisNote>& notes) {
+  kinematics::MachineModel result = machine;
+  for (const auto& axis : diagnosis.axes) {
+    result.axes[static_cast<std::size_t>(axis.axis_index)] = axis.extended.servo.axis;
+    if (axis.extended.offset_A != 0.0) {  // only a found gravity/offset effect sets it
+      notes.push_back({axis.axis_name,
+                       "constant effort offset " + format_double(axis.extended.offset_A) +
+                           " A found (gravity or offset): the machine file has no key for it"});
+    }
+  }
+  return result;
+}
+
+}  // namespace vmsim::identify
