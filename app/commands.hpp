@@ -17,6 +17,7 @@ struct CommandContext {
 
 void add_kinematics_command(CLI::App& app, CommandContext& context);
 void add_dynamics_command(CLI::App& app, CommandContext& context);
+void add_plan_command(CLI::App& app, CommandContext& context);
 void add_servo_command(CLI::App& app, CommandContext& context);
 void add_remove_command(CLI::App& app, CommandContext& context);
 void add_identify_command(CLI::App& app, CommandContext& context);

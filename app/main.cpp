@@ -18,6 +18,7 @@ int main(int argc, char** argv) {
   app.add_flag("-q,--quiet", context.quiet, "print nothing but warnings and errors");
   add_kinematics_command(app, context);
   add_dynamics_command(app, context);
+  add_plan_command(app, context);
   add_servo_command(app, context);
   add_remove_command(app, context);
   add_identify_command(app, context);

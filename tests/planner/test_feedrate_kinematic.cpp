@@ -1,0 +1,218 @@
+// Feedrate interpolation with kinematic limits: exact references (closed-form jerk-limited
+// profile on a straight line, an independent acceleration-limited time-optimal integration) and
+// the limits on the written set points.
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <numbers>
+
+#include "feedrate_test_support.hpp"
+#include "vmsim/common/errors.hpp"
+#include "vmsim/kinematics/sample_models.hpp"
+#include "vmsim/planner/feedrate.hpp"
+
+namespace vmsim::planner {
+namespace {
+
+using test::finite_difference_ratios;
+using test::sample_path;
+
+kinematics::MachineModel line_machine(double v, double a, double j) {
+  auto m = kinematics::make_table_table_sample();
+  for (auto& axis : m.axes) axis.limits = {100.0, 1000.0, 1e5};
+  m.axes[0].limits = {v, a, j};
+  m.interpolation_period_s = 0.002;
+  return m;
+}
+
+kinematics::PathKinematics straight_line(double length, std::size_t points) {
+  return sample_path(5, length, points, [](double s, Eigen::VectorXd& q, Eigen::VectorXd& q_s,
+                                           Eigen::VectorXd& q_ss, Eigen::VectorXd& q_sss) {
+    q.setZero();
+    q_s.setZero();
+    q_ss.setZero();
+    q_sss.setZero();
+    q(0) = s;
+    q_s(0) = 1.0;
+  });
+}
+
+/// Duration of the symmetric rest-to-rest jerk-limited (seven-phase) profile over distance L.
+double seven_phase_duration(double L, double v, double a, double j) {
+  // Time and distance to reach speed w from rest (and the same to stop).
+  auto ramp = [&](double w, double& time, double& distance) {
+    time = w >= a * a / j ? w / a + a / j : 2.0 * std::sqrt(w / j);
+    distance = 0.5 * w * time;  // symmetric S-curve: mean speed w / 2
+  };
+  double ta = 0, da = 0;
+  ramp(v, ta, da);
+  if (2.0 * da <= L) return 2.0 * ta + (L - 2.0 * da) / v;
+  double lo = 0.0, hi = v;
+  for (int i = 0; i < 200; ++i) {
+    const double mid = 0.5 * (lo + hi);
+    ramp(mid, ta, da);
+    (2.0 * da > L ? hi : lo) = mid;
+  }
+  ramp(lo, ta, da);
+  return 2.0 * ta;
+}
+
+TEST(SevenPhaseReference, KnownCase) {
+  // v = 1, a = 1, j = 1, L = 10: ramp time 2 s, ramp distance 1 m, cruise 8 s.
+  EXPECT_NEAR(seven_phase_duration(10.0, 1.0, 1.0, 1.0), 12.0, 1e-12);
+}
+
+struct LineCase {
+  double length, v, a, j;
+};
+
+class StraightLineJerk : public ::testing::TestWithParam<LineCase> {};
+
+TEST_P(StraightLineJerk, DurationEqualsSevenPhaseProfile) {
+  const LineCase c = GetParam();
+  const auto machine = line_machine(c.v, c.a, c.j);
+  const auto path = straight_line(c.length, 10001);
+  FeedrateOptions options;
+  options.max_grid_step_m = 1.0;  // the 10 000 path segments are the grid
+  const FeedratePlan plan = plan_feedrate(machine, path, options);
+  const double reference = seven_phase_duration(c.length, c.v, c.a, c.j);
+  EXPECT_NEAR(plan.duration_s / reference, 1.0, 1e-3)
+      << "T = " << plan.duration_s << " reference " << reference;
+  EXPECT_GE(plan.duration_s, reference * (1.0 - 1e-9));  // nothing beats the optimum
+  // The profile runs at its limits (bang-bang); the finite differences are exact means of the
+  // continuous derivatives, so the allowance is rounding only: 8 eps |q| / T^3 = 2e-7 m/s^3
+  // for |q| <= 1 m at T = 2 ms, i.e. below 1e-7 of these limits; 1e-6 is stated.
+  const auto r = finite_difference_ratios(plan.setpoints, plan.limits);
+  EXPECT_LE(r.velocity, 1.0 + 1e-6);
+  EXPECT_LE(r.acceleration, 1.0 + 1e-6);
+  EXPECT_LE(r.jerk, 1.0 + 1e-6);
+  EXPECT_LE(plan.lower_bound_s, plan.duration_s);
+}
+
+INSTANTIATE_TEST_SUITE_P(Cases, StraightLineJerk,
+                         ::testing::Values(LineCase{0.5, 0.5, 2.5, 50.0},   // a and v reached
+                                           LineCase{0.3, 0.5, 2.5, 20.0},   // a and v reached
+                                           LineCase{1.0, 0.5, 2.1, 5.0}));  // v reached, a not
+
+// Known gap, disabled until fixed (run with --gtest_also_run_disabled_tests): a short line on
+// which the forward pass must join the backward pass's deceleration without a cruise (v and a
+// never reached, L = 0.1 m, j = 5 m/s^3). The pass crashes to a crawl and the plan is refused
+// ("near stop inside a stretch"); the seven-phase optimum is 0.862 s.
+TEST(StraightLineJerkKnownGap, DISABLED_ShortMoveIsAdmissible) {
+  const auto machine = line_machine(0.5, 2.5, 5.0);
+  const auto path = straight_line(0.1, 10001);
+  FeedrateOptions options;
+  options.max_grid_step_m = 1.0;
+  const FeedratePlan plan = plan_feedrate(machine, path, options);
+  const auto r = finite_difference_ratios(plan.setpoints, plan.limits);
+  EXPECT_LE(r.jerk, 1.0 + 1e-4);
+  EXPECT_LE(r.acceleration, 1.0 + 1e-4);
+  EXPECT_GE(plan.duration_s, seven_phase_duration(0.1, 0.5, 2.5, 5.0));
+}
+
+// ---------------------------------------------------------------------------------------------
+// Acceleration limits only: an independent time-optimal reference (explicit forward-backward
+// integration of the phase plane on a 400 000-point grid of the analytic path).
+
+constexpr double kWave = 0.004;     // amplitude of Y [m]
+constexpr double kLength = 0.2;     // path length along X [m]
+constexpr double kOmega = 2.0 * std::numbers::pi / 0.05;
+
+void wave(double s, Eigen::VectorXd& q, Eigen::VectorXd& q_s, Eigen::VectorXd& q_ss,
+          Eigen::VectorXd& q_sss) {
+  q.setZero();
+  q_s.setZero();
+  q_ss.setZero();
+  q_sss.setZero();
+  q(0) = s;
+  q_s(0) = 1.0;
+  q(1) = kWave * std::sin(kOmega * s);
+  q_s(1) = kWave * kOmega * std::cos(kOmega * s);
+  q_ss(1) = -kWave * kOmega * kOmega * std::sin(kOmega * s);
+  q_sss(1) = -kWave * kOmega * kOmega * kOmega * std::cos(kOmega * s);
+}
+
+/// Time-optimal duration under |q_s sd| <= v and |q_s sdd + q_ss sd^2| <= a (two axes).
+double reference_duration(double v0, double a0, double v1, double a1) {
+  const std::size_t n = 400000;
+  const double h = kLength / static_cast<double>(n);
+  Eigen::VectorXd q(5), qs(5), qss(5), qsss(5);
+  std::vector<double> mvc(n + 1), lo_u(n + 1), hi_u(n + 1);
+  auto bounds = [&](double s, double x, double& lo, double& hi) {
+    wave(s, q, qs, qss, qsss);
+    lo = -1e300;
+    hi = 1e300;
+    const double v[2] = {v0, v1}, a[2] = {a0, a1};
+    for (int j = 0; j < 2; ++j) {
+      if (std::abs(qs(j)) < 1e-15) continue;
+      const double p = (a[j] - qss(j) * x) / qs(j), m = (-a[j] - qss(j) * x) / qs(j);
+      lo = std::max(lo, std::min(p, m));
+      hi = std::min(hi, std::max(p, m));
+    }
+    (void)v;
+  };
+  for (std::size_t i = 0; i <= n; ++i) {
+    const double s = h * static_cast<double>(i);
+    wave(s, q, qs, qss, qsss);
+    double xv = 1e300;
+    if (std::abs(qs(0)) > 0) xv = std::min(xv, std::pow(v0 / std::abs(qs(0)), 2));
+    if (std::abs(qs(1)) > 0) xv = std::min(xv, std::pow(v1 / std::abs(qs(1)), 2));
+    double lo = 0, hi = xv;  // largest x with a non-empty u interval
+    double l = 0, u = 0;
+    bounds(s, hi, l, u);
+    if (l > u) {
+      for (int it = 0; it < 100; ++it) {
+        const double mid = 0.5 * (lo + hi);
+        bounds(s, mid, l, u);
+        (l <= u ? lo : hi) = mid;
+      }
+      hi = lo;
+    }
+    mvc[i] = hi;
+  }
+  std::vector<double> back(n + 1), fwd(n + 1);
+  back[n] = 0.0;
+  for (std::size_t i = n; i-- > 0;) {
+    double l = 0, u = 0;
+    bounds(h * static_cast<double>(i + 1), back[i + 1], l, u);
+    back[i] = std::min(mvc[i], back[i + 1] - 2.0 * h * l);
+  }
+  fwd[0] = 0.0;
+  double t = 0.0;
+  for (std::size_t i = 0; i < n; ++i) {
+    double l = 0, u = 0;
+    bounds(h * static_cast<double>(i), fwd[i], l, u);
+    fwd[i + 1] = std::max(0.0, std::min(back[i + 1], fwd[i] + 2.0 * h * u));
+    t += 2.0 * h / (std::sqrt(fwd[i]) + std::sqrt(fwd[i + 1]));
+  }
+  return t;
+}
+
+class AccelerationOnly : public ::testing::TestWithParam<std::pair<std::size_t, double>> {};
+
+TEST_P(AccelerationOnly, MatchesIndependentTimeOptimalReference) {
+  const auto [points, tolerance] = GetParam();
+  auto machine = kinematics::make_table_table_sample();
+  for (auto& axis : machine.axes) axis.limits = {100.0, 1000.0, 1e5};
+  machine.axes[0].limits = {0.5, 2.5, 5.0};
+  machine.axes[1].limits = {0.3, 3.0, 5.0};
+  machine.interpolation_period_s = 0.002;
+  const auto path = sample_path(5, kLength, points, wave);
+  FeedrateOptions options;
+  options.third_order = false;
+  options.max_grid_step_m = 1.0;
+  const FeedratePlan plan = plan_feedrate(machine, path, options);
+  static const double reference = reference_duration(0.5, 2.5, 0.3, 3.0);
+  EXPECT_NEAR(plan.duration_s / reference, 1.0, tolerance)
+      << "T = " << plan.duration_s << " reference " << reference << " at " << points << " points";
+  const auto r = finite_difference_ratios(plan.setpoints, plan.limits);
+  EXPECT_LE(r.velocity, 1.0 + 1e-4);
+  EXPECT_LE(r.acceleration, 1.0 + 1e-4);
+}
+
+INSTANTIATE_TEST_SUITE_P(Grids, AccelerationOnly,
+                         ::testing::Values(std::make_pair(std::size_t{10001}, 1e-3),
+                                           std::make_pair(std::size_t{1001}, 1e-2)));
+
+}  // namespace
+}  // namespace vmsim::planner

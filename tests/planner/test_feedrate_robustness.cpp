@@ -1,0 +1,134 @@
+// Feedrate interpolation on hard paths: dense, only velocity-continuous, with axis reversals and
+// near-zero path velocity; the singular zone of the table-table machine (path 2). And the
+// quintic interpolation of q(s) the set points use.
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <numbers>
+#include <string>
+
+#include "feedrate_test_support.hpp"
+#include "vmsim/kinematics/machine_loader.hpp"
+#include "vmsim/kinematics/sample_models.hpp"
+#include "vmsim/planner/feedrate.hpp"
+#include "vmsim/planner/toolpath.hpp"
+
+namespace vmsim::planner {
+namespace {
+
+using test::finite_difference_ratios;
+using test::sample_path;
+
+TEST(PathSpline, ReproducesAQuinticAndItsDerivatives) {
+  // q(s) = 1 + 2 s - s^2 + 3 s^3 - 4 s^4 + 5 s^5 on [0, 1], sampled at 7 points.
+  auto f = [](double s, Eigen::VectorXd& q, Eigen::VectorXd& qs, Eigen::VectorXd& qss,
+              Eigen::VectorXd& qsss) {
+    q.setZero(); qs.setZero(); qss.setZero(); qsss.setZero();
+    q(0) = 1 + 2 * s - s * s + 3 * s * s * s - 4 * std::pow(s, 4) + 5 * std::pow(s, 5);
+    qs(0) = 2 - 2 * s + 9 * s * s - 16 * std::pow(s, 3) + 25 * std::pow(s, 4);
+    qss(0) = -2 + 18 * s - 48 * s * s + 100 * std::pow(s, 3);
+    qsss(0) = 18 - 96 * s + 300 * s * s;
+  };
+  const auto path = sample_path(1, 1.0, 7, f);
+  const PathSpline spline(path);
+  Eigen::VectorXd q(1), qs(1), qss(1), qsss(1), a, b, c, d;
+  for (double s = 0.0; s <= 1.0; s += 0.0137) {
+    f(s, q, qs, qss, qsss);
+    const auto seg = spline.segment_of(s);
+    spline.evaluate(seg, s - spline.s_m()[seg], &a, &b, &c, &d);
+    EXPECT_NEAR(a(0), q(0), 1e-12);
+    EXPECT_NEAR(b(0), qs(0), 1e-10);
+    EXPECT_NEAR(c(0), qss(0), 1e-9);
+    EXPECT_NEAR(d(0), qsss(0), 1e-7);
+  }
+}
+
+/// Dense path (12 000 points over 0.12 m), only velocity-continuous: Y is piecewise quadratic in
+/// s (its q_ss jumps every 10 mm), it reverses several times, and X nearly stops (q_s of X
+/// down to 1e-3), so that the path velocity limit from X is large there while Y limits it.
+void dense(double s, Eigen::VectorXd& q, Eigen::VectorXd& qs, Eigen::VectorXd& qss,
+           Eigen::VectorXd& qsss) {
+  q.setZero(); qs.setZero(); qss.setZero(); qsss.setZero();
+  const double piece = 0.01;
+  const int k = static_cast<int>(std::floor(s / piece));
+  const double c = (k % 2 == 0 ? 40.0 : -40.0);  // curvature of Y, alternating
+  // Y: integrate piecewise-constant curvature, velocity-continuous; starts with slope 0.3.
+  double y = 0.0, ys = 0.3;
+  for (int i = 0; i < k; ++i) {
+    const double ci = (i % 2 == 0 ? 40.0 : -40.0);
+    y += ys * piece + 0.5 * ci * piece * piece;
+    ys += ci * piece;
+  }
+  const double r = s - k * piece;
+  q(1) = y + ys * r + 0.5 * c * r * r;
+  qs(1) = ys + c * r;
+  qss(1) = c;
+  // X: smooth, q_s between 1e-3 and 1.
+  const double w = 2.0 * std::numbers::pi / 0.06;
+  q(0) = 0.5005 * s - 0.4995 * std::sin(w * s) / w;
+  qs(0) = 0.5005 - 0.4995 * std::cos(w * s);
+  qss(0) = 0.4995 * w * std::sin(w * s);
+  qsss(0) = 0.4995 * w * w * std::cos(w * s);
+}
+
+kinematics::MachineModel limited_machine() {
+  auto m = kinematics::make_table_table_sample();
+  for (auto& axis : m.axes) axis.limits = {0.5, 2.5, 50.0};
+  m.interpolation_period_s = 0.002;
+  return m;
+}
+
+TEST(DensePath, SecondOrderNeverOvershoots) {
+  const auto machine = limited_machine();
+  const auto path = sample_path(5, 0.12, 12001, dense);
+  FeedrateOptions options;
+  options.third_order = false;
+  options.max_grid_step_m = 1.0;
+  const FeedratePlan plan = plan_feedrate(machine, path, options);
+  const auto r = finite_difference_ratios(plan.setpoints, plan.limits);
+  // Allowance 1e-4: the planner checks its rows at both ends of each grid segment and its set
+  // points at that level (finite differences are exact means, so rounding is far below).
+  EXPECT_LE(r.velocity, 1.0 + 1e-4);
+  EXPECT_LE(r.acceleration, 1.0 + 1e-4);
+  EXPECT_GT(r.acceleration, 0.9);
+  EXPECT_GE(plan.duration_s, plan.lower_bound_s);
+}
+
+// Known gap, disabled until fixed (run with --gtest_also_run_disabled_tests): the third-order
+// passes find no admissible profile on this path (the bang-bang search fails where the jerk rows,
+// not the second-order cap, force a slow-down). The planner refuses rather than overshoots.
+TEST(DensePath, DISABLED_ThirdOrderNeverOvershoots) {
+  const auto machine = limited_machine();
+  const auto path = sample_path(5, 0.12, 12001, dense);
+  FeedrateOptions options;
+  options.max_grid_step_m = 1.0;
+  const FeedratePlan plan = plan_feedrate(machine, path, options);
+  const auto r = finite_difference_ratios(plan.setpoints, plan.limits);
+  EXPECT_LE(r.velocity, 1.0 + 1e-4);
+  EXPECT_LE(r.acceleration, 1.0 + 1e-4);
+  EXPECT_LE(r.jerk, 1.0 + 1e-4);
+}
+
+TEST(Path2Blade, SingularZoneSecondOrder) {
+  const std::string root = VMSIM_SOURCE_DIR;
+  const auto machine = kinematics::load_machine(root + "/samples/machines/mikron_ucp710.yaml");
+  const Toolpath tp = read_apt(root + "/samples/parts/path2_blade/toolpath.apt");
+  std::vector<kinematics::PathPose> poses;
+  for (const auto& p : tp.points) {
+    if (!poses.empty() && (poses.back().pose.tip_W_m - p.tip_W_m).norm() < 1e-12) continue;
+    poses.push_back({{p.tip_W_m, p.axis_W}, p.block});
+  }
+  const auto path =
+      kinematics::solve_path_kinematics(machine, poses, machine.home_positions(), 0.060, {});
+  FeedrateOptions options;
+  options.third_order = false;
+  options.feed_m_per_s = 10.0 / 60.0;
+  const FeedratePlan plan = plan_feedrate(machine, path, options);
+  const auto r = finite_difference_ratios(plan.setpoints, plan.limits);
+  EXPECT_LE(r.velocity, 1.0 + 1e-4);
+  EXPECT_LE(r.acceleration, 1.0 + 1e-4);
+  EXPECT_TRUE(std::isfinite(plan.duration_s));
+}
+
+}  // namespace
+}  // namespace vmsim::planner
