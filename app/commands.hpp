@@ -16,11 +16,13 @@ struct CommandContext {
 };
 
 void add_kinematics_command(CLI::App& app, CommandContext& context);
+void add_simulate_part_command(CLI::App& app, CommandContext& context);
 void add_dynamics_command(CLI::App& app, CommandContext& context);
 void add_plan_command(CLI::App& app, CommandContext& context);
 void add_servo_command(CLI::App& app, CommandContext& context);
-void add_remove_command(CLI::App& app, CommandContext& context);
+void add_plot_command(CLI::App& app, CommandContext& context);
 void add_identify_command(CLI::App& app, CommandContext& context);
 void add_diagnose_command(CLI::App& app, CommandContext& context);
+void add_remove_command(CLI::App& app, CommandContext& context);
 
 }  // namespace vmsim::app

@@ -7,6 +7,7 @@
 #include "commands.hpp"
 #include "exit_codes.hpp"
 #include "vmsim/common/errors.hpp"
+#include "vmsim/viz/display.hpp"
 
 int main(int argc, char** argv) {
   using namespace vmsim::app;
@@ -16,13 +17,15 @@ int main(int argc, char** argv) {
   app.require_subcommand(1);
   CommandContext context;
   app.add_flag("-q,--quiet", context.quiet, "print nothing but warnings and errors");
+  add_simulate_part_command(app, context);
   add_kinematics_command(app, context);
   add_dynamics_command(app, context);
   add_plan_command(app, context);
   add_servo_command(app, context);
-  add_remove_command(app, context);
+  add_plot_command(app, context);
   add_identify_command(app, context);
   add_diagnose_command(app, context);
+  add_remove_command(app, context);
 
   try {
     app.parse(argc, argv);
@@ -39,6 +42,9 @@ int main(int argc, char** argv) {
   } catch (const vmsim::InfeasibleError& error) {
     std::cerr << "error: " << error.what() << '\n';
     return kInfeasible;
+  } catch (const vmsim::viz::NoDisplayError& error) {
+    std::cerr << "error: " << error.what() << '\n';
+    return kNoDisplay;
   } catch (const std::exception& error) {
     std::cerr << "internal error: " << error.what()
               << "\n(this is a bug in vmsim: please report it with the command line)\n";

@@ -82,6 +82,30 @@ PartDescription load_part(const std::string& path) {
   } else if (part.tool.type == ToolType::ball) {
     part.tool.corner_radius_m = part.tool.diameter_m / 2.0;
   }
+  if (root["stock"]) {
+    const YAML::Node box = required(path, root["stock"], "box", "stock.");
+    auto corner = [&](const char* key) {
+      const YAML::Node node = required(path, box, key, "stock.box.");
+      if (!node.IsSequence() || node.size() != 3) {
+        fail(path, node, std::string("stock.box.") + key + ": expected [x, y, z] in mm");
+      }
+      Eigen::Vector3d corner_m;
+      for (std::size_t i = 0; i < 3; ++i) {
+        try {
+          corner_m[static_cast<Eigen::Index>(i)] = node[i].as<double>() * 1e-3;
+        } catch (const YAML::Exception&) {
+          fail(path, node[i], std::string("stock.box.") + key + ": '" + node[i].Scalar() +
+                                  "' is not a number");
+        }
+      }
+      return corner_m;
+    };
+    StockBox stock{corner("min_mm"), corner("max_mm")};
+    if (!(stock.min_W_m.array() < stock.max_W_m.array()).all()) {
+      fail(path, box, "stock.box: min_mm must be below max_mm in x, y and z");
+    }
+    part.stock = stock;
+  }
   const YAML::Node feeds = required(path, root, "feeds", "");
   part.production_feed_m_per_s =
       positive_number(path, feeds, "production_mm_per_min", "feeds.") * 1e-3 / 60.0;

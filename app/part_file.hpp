@@ -1,6 +1,7 @@
 #pragma once
 // A part description (samples/parts/<part>/part.yaml): machine, tool path, tool, stock, feeds.
 // Documented in samples/parts/README.md. Paths inside are relative to the part file.
+#include <Eigen/Core>
 #include <optional>
 #include <string>
 
@@ -15,6 +16,12 @@ struct ToolDescription {
   double length_m = 0.0;  ///< from the spindle gauge point to the tool tip
 };
 
+/// The stock box [m, W].
+struct StockBox {
+  Eigen::Vector3d min_W_m = Eigen::Vector3d::Zero();
+  Eigen::Vector3d max_W_m = Eigen::Vector3d::Zero();
+};
+
 struct PartDescription {
   std::string file;
   std::string name;
@@ -22,6 +29,7 @@ struct PartDescription {
   std::string machine_path;   ///< resolved against the part file's folder
   std::string toolpath_path;  ///< resolved against the part file's folder
   ToolDescription tool;
+  std::optional<StockBox> stock;  ///< `stock: {box: {min_mm, max_mm}}` where given
   double production_feed_m_per_s = 0.0;
   double reference_feed_m_per_s = 0.0;
 };

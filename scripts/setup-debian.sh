@@ -15,6 +15,8 @@ packages=(
   liborocos-kdl-dev      # independent reference for the kinematics tests
   libtbb-dev             # parallel loops
   libopenvdb-dev libboost-iostreams-dev  # level-set material removal (OpenVDB's CMake needs boost_iostreams)
+  libvtk9-dev xvfb xauth libgl1-mesa-dri   # off-screen rendering (viz)
+  fonts-dejavu-core      # viz text: VTK 9.1's embedded Arial draws [ ] as ( )
 )
 
 missing=()

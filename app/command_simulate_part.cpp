@@ -1,0 +1,163 @@
+// vmsim simulate-part: the main job (see simulate_part.hpp).
+#include <unistd.h>
+
+#include <chrono>
+#include <cstdio>
+#include <filesystem>
+#include <iostream>
+
+#include "commands.hpp"
+#include "effects_option.hpp"
+#include "simulate_part.hpp"
+#include "vmsim/common/errors.hpp"
+#include "vmsim/common/files.hpp"
+
+namespace vmsim::app {
+namespace {
+
+struct CommandOptions {
+  std::string part_path;
+  std::string out_dir = "out/simulate-part";
+  std::string method = "kinematic";
+  std::string limits = "tuned";
+  std::string effects = "all";
+  double production_feed_mm_per_min = 0.0;
+  double reference_feed_mm_per_min = 0.0;
+  double grid_um = 20.0;
+  double mark_threshold_um = 2.0;
+  bool no_renders = false;
+  bool no_commanded_check = false;
+  bool perfect_drives = false;
+  int threads = 0;
+};
+
+// The built-in sample: part 1 of the second paper on the Mikron sample, from the source tree
+// this program was built from, or from ./samples when run from a checkout.
+std::string built_in_part() {
+  const std::string relative = "samples/parts/part1_tangency/part.yaml";
+  const std::string in_source = std::string(VMSIM_SOURCE_DIR) + "/" + relative;
+  if (std::filesystem::exists(in_source)) return in_source;
+  if (std::filesystem::exists(relative)) return relative;
+  throw InputError("the built-in sample " + relative +
+                   " is not there (neither in the source tree nor here): give --part");
+}
+
+int run(const CommandOptions& command, const CommandContext& context) {
+  SimulatePartOptions options;
+  options.part_path = command.part_path.empty() ? built_in_part() : command.part_path;
+  options.out_dir = command.out_dir;
+  if (command.method == "kinematic") {
+    options.method = planner::FeedrateMethod::kinematic;
+  } else if (command.method == "dynamic") {
+    options.method = planner::FeedrateMethod::dynamic;
+  } else {
+    throw InputError("--method: '" + command.method + "' is not kinematic or dynamic");
+  }
+  if (command.limits == "tuned") {
+    options.limits = planner::DynamicLimitSource::tuned;
+  } else if (command.limits == "actuator") {
+    options.limits = planner::DynamicLimitSource::actuator;
+  } else {
+    throw InputError("--limits: '" + command.limits + "' is not tuned or actuator");
+  }
+  options.effects = parse_effects(command.effects);
+  if (command.production_feed_mm_per_min < 0 || command.reference_feed_mm_per_min < 0) {
+    throw InputError("feeds must be > 0");
+  }
+  options.production_feed_m_per_s = command.production_feed_mm_per_min * 1e-3 / 60.0;
+  options.reference_feed_m_per_s = command.reference_feed_mm_per_min * 1e-3 / 60.0;
+  if (!(command.grid_um > 0)) throw InputError("--grid-um must be > 0, got " + format_double(command.grid_um));
+  if (!(command.mark_threshold_um > 0)) {
+    throw InputError("--mark-threshold-um must be > 0, got " + format_double(command.mark_threshold_um));
+  }
+  options.grid_m = command.grid_um * 1e-6;
+  options.mark_threshold_m = command.mark_threshold_um * 1e-6;
+  options.renders = !command.no_renders;
+  options.commanded_check = !command.no_commanded_check;
+  options.perfect_drives = command.perfect_drives;
+  options.threads = command.threads;
+
+  const auto start = std::chrono::steady_clock::now();
+  const bool terminal = ::isatty(STDOUT_FILENO) != 0;
+  const ProgressSink progress = [&](const std::string& line) {
+    if (context.quiet) return;
+    const double elapsed = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+    char stamp[32];
+    std::snprintf(stamp, sizeof stamp, "[%6.1f s] ", elapsed);
+    // On a terminal each stage overwrites the previous line; in a log every line stays.
+    if (terminal) {
+      std::cout << '\r' << stamp << line << "\033[K" << std::flush;
+    } else {
+      std::cout << stamp << line << '\n';
+    }
+  };
+  const nlohmann::json report = simulate_part(options, progress);
+  if (terminal && !context.quiet) std::cout << '\n';
+
+  context.say("wrote " + options.out_dir + "/ (report.json, report.html, surfaces, images)");
+  const auto& production = report["runs"]["production"];
+  const auto& reference = report["runs"]["reference"];
+  context.say("production " + format_double(production["feed_mm_per_min"].get<double>()) +
+              " mm/min: T = " + format_double(std::round(production["duration_s"].get<double>() * 1e3) / 1e3) +
+              " s; reference " + format_double(reference["feed_mm_per_min"].get<double>()) +
+              " mm/min: T = " + format_double(std::round(reference["duration_s"].get<double>() * 1e3) / 1e3) + " s");
+  context.say("marks deeper than " + format_double(options.mark_threshold_m * 1e6) +
+              " um: " + std::to_string(report["marks"].size()));
+  std::size_t shown = 0;
+  for (const auto& mark : report["marks"]) {
+    if (shown++ == 5) break;
+    std::string places;
+    for (const auto& place : mark["place"]) places += (places.empty() ? "" : ", ") + place.get<std::string>();
+    std::string axes;
+    for (const auto& axis : mark["responsible_axes"]) axes += (axes.empty() ? "" : ",") + axis.get<std::string>();
+    char line[400];
+    std::snprintf(line, sizeof line, "  %-6s %7.2f um, %8.3f mm2, at s = %.2f mm (%s)%s%s%s",
+                  mark["kind"].get<std::string>().c_str(), mark["depth_um"].get<double>(),
+                  mark["area_mm2"].get<double>(), mark["s_mm"].get<double>(),
+                  mark["block"].get<std::string>().c_str(), places.empty() ? "" : ", ",
+                  places.c_str(), axes.empty() ? "" : (", axes " + axes).c_str());
+    context.say(line);
+  }
+  if (report["renders"].contains("skipped")) {
+    context.warn("no images: " + report["renders"]["skipped"].get<std::string>() +
+                 " (every numerical result was written)");
+  }
+  return 0;
+}
+
+}  // namespace
+
+void add_simulate_part_command(CLI::App& app, CommandContext& context) {
+  auto options = std::make_shared<CommandOptions>();
+  CLI::App* command = app.add_subcommand(
+      "simulate-part",
+      "the whole chain for one part at production and reference feed: marks found and related "
+      "to the tool path, report and images (no arguments: the built-in sample, part 1)");
+  command->add_option("--part", options->part_path, "part file (part.yaml)")->check(CLI::ExistingFile);
+  command->add_option("--out", options->out_dir, "output folder (replaced)")->capture_default_str();
+  command->add_option("--method", options->method, "feedrate planning: kinematic or dynamic")
+      ->capture_default_str();
+  command->add_option("--limits", options->limits,
+                      "dynamic limits: tuned (Eq. 10 from the kinematic limits) or actuator (Table 2)")
+      ->capture_default_str();
+  command->add_option("--effects", options->effects, "dynamic effects: H,Hcpl,B,C,G,F or all")
+      ->capture_default_str();
+  command->add_option("--feed-mm-per-min", options->production_feed_mm_per_min,
+                      "production feed (default: the part file's)");
+  command->add_option("--reference-feed-mm-per-min", options->reference_feed_mm_per_min,
+                      "reference feed (default: the part file's)");
+  command->add_option("--grid-um", options->grid_um, "Z-map line spacing [um]")->capture_default_str();
+  command->add_option("--mark-threshold-um", options->mark_threshold_um,
+                      "a mark is a connected region deviating by more than this [um]")
+      ->capture_default_str();
+  command->add_option("--threads", options->threads, "threads for the removal (0: all)")
+      ->capture_default_str();
+  command->add_flag("--perfect-drives", options->perfect_drives,
+                    "the axes follow the planned motion exactly (no servo): what the planner alone does");
+  command->add_flag("--no-renders", options->no_renders, "write no images");
+  command->add_flag("--no-commanded-check", options->no_commanded_check,
+                    "skip cutting the commanded path to check the reference run");
+  command->callback([options, &context] { context.result = run(*options, context); });
+}
+
+}  // namespace vmsim::app

@@ -1,0 +1,779 @@
+#include "simulate_part.hpp"
+
+#include <unistd.h>
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <filesystem>
+#include <map>
+#include <numbers>
+#include <optional>
+#include <sstream>
+
+#include "chain_inputs.hpp"
+#include "part_file.hpp"
+#include "vmsim/common/errors.hpp"
+#include "vmsim/common/files.hpp"
+#include "vmsim/common/trace.hpp"
+#include "vmsim/kinematics/kinematics.hpp"
+#include "vmsim/kinematics/path_kinematics.hpp"
+#include "vmsim/removal/marks.hpp"
+#include "vmsim/removal/nbuffer.hpp"
+#include "vmsim/removal/output.hpp"
+#include "vmsim/servo/servo.hpp"
+#include "vmsim/viz/display.hpp"
+#include "vmsim/viz/plot.hpp"
+#include "vmsim/viz/surface.hpp"
+
+namespace vmsim::app {
+namespace {
+
+using Clock = std::chrono::steady_clock;
+using Json = nlohmann::json;
+
+double seconds_since(Clock::time_point start) {
+  return std::chrono::duration<double>(Clock::now() - start).count();
+}
+
+double round_to(double value, double step) { return std::round(value / step) * step; }
+
+// Everything one run (one feed) produces.
+struct Run {
+  Run(std::string run_name, double feed, removal::NBuffer grid)
+      : name(std::move(run_name)), feed_m_per_s(feed), buffer(std::move(grid)) {}
+  std::string name;
+  double feed_m_per_s = 0.0;
+  planner::FeedratePlan plan;
+  Trace servo;                          ///< t, <AXIS>.cmd|pos|...: the simulated drives
+  std::vector<double> t_s;              ///< servo sample times
+  Eigen::MatrixXd q_cmd, q_actual;      ///< per axis (rows), per servo sample (SI)
+  std::vector<removal::Pose> trajectory;  ///< actual tool poses, thinned
+  std::vector<double> trajectory_t_s;   ///< the time of each kept pose
+  std::size_t samples = 0;              ///< servo samples before thinning
+  removal::NBuffer buffer;
+  std::map<std::string, double> stage_seconds;
+};
+
+// The servo samples a chord of at most `max_chord_m` at the feed, at a whole multiple of every
+// axis's fastest loop period, never longer than the interpolation period.
+double record_period_s(const kinematics::MachineModel& machine, double feed_m_per_s,
+                       double max_chord_m) {
+  double base = 0.0;
+  for (const auto& axis : machine.axes) base = std::max(base, servo::base_period_s(axis.controller));
+  const double wanted = max_chord_m / feed_m_per_s;
+  const double multiple = std::max(1.0, std::floor(wanted / base + 1e-9));
+  const double ipo_multiple = std::max(1.0, std::floor(machine.interpolation_period_s / base + 1e-9));
+  return base * std::min(multiple, ipo_multiple);
+}
+
+Trace setpoint_trace(const kinematics::MachineModel& machine, const planner::SetPoints& setpoints) {
+  Trace trace;
+  trace.add_column("t", setpoints.t_s);
+  for (std::size_t j = 0; j < machine.axes.size(); ++j) {
+    std::vector<double> column(setpoints.t_s.size());
+    for (std::size_t k = 0; k < column.size(); ++k) {
+      column[k] = to_trace_unit(machine.axes[j], setpoints.q(static_cast<Eigen::Index>(j),
+                                                             static_cast<Eigen::Index>(k)));
+    }
+    trace.add_column(machine.axes[j].name + ".cmd", std::move(column));
+  }
+  return trace;
+}
+
+double from_trace_unit(const kinematics::Axis& axis, double value) {
+  return axis.type == kinematics::AxisType::linear ? value * 1e-3 : value * std::numbers::pi / 180.0;
+}
+
+// Keeps the samples needed so that every dropped sample's tool (tip, and tip + length * axis)
+// lies within `tolerance_m` of the straight interpolation between the kept neighbours.
+std::vector<std::size_t> thin_trajectory(const std::vector<removal::Pose>& poses,
+                                         double tool_length_m, double tolerance_m) {
+  constexpr std::size_t kMaxWindow = 256;  // bounds the cost on long straight stretches
+  std::vector<std::size_t> kept{0};
+  if (poses.size() < 2) return kept;
+  auto deviation = [&](std::size_t a, std::size_t b, std::size_t k) {
+    const double f = static_cast<double>(k - a) / static_cast<double>(b - a);
+    const Eigen::Vector3d tip = (1 - f) * poses[a].tip_W_m + f * poses[b].tip_W_m;
+    const Eigen::Vector3d top = tip + tool_length_m * ((1 - f) * poses[a].axis_W + f * poses[b].axis_W);
+    const Eigen::Vector3d top_k = poses[k].tip_W_m + tool_length_m * poses[k].axis_W;
+    return std::max((poses[k].tip_W_m - tip).norm(), (top_k - top).norm());
+  };
+  std::size_t anchor = 0;
+  while (anchor + 1 < poses.size()) {
+    std::size_t end = anchor + 1;
+    while (end + 1 < poses.size() && end + 1 - anchor <= kMaxWindow) {
+      const std::size_t candidate = end + 1;
+      bool ok = true;
+      for (std::size_t k = anchor + 1; k < candidate && ok; ++k) {
+        ok = deviation(anchor, candidate, k) <= tolerance_m;
+      }
+      if (!ok) break;
+      end = candidate;
+    }
+    kept.push_back(end);
+    anchor = end;
+  }
+  return kept;
+}
+
+class StageTimer {
+ public:
+  StageTimer(Run& run, std::string stage, const ProgressSink& progress)
+      : run_(run), stage_(std::move(stage)), start_(Clock::now()) {
+    progress(run.name + ": " + stage_ + " ...");
+  }
+  ~StageTimer() { run_.stage_seconds[stage_] += seconds_since(start_); }
+
+ private:
+  Run& run_;
+  std::string stage_;
+  Clock::time_point start_;
+};
+
+struct Context {
+  const SimulatePartOptions& options;
+  const ProgressSink& progress;
+  PartDescription part;
+  ChainInputs inputs;
+  kinematics::PathKinematics path;
+  removal::Tool tool;
+  removal::Box stock;
+};
+
+// s of the plan at time t (linear interpolation in the set points).
+double plan_s_at(const planner::FeedratePlan& plan, double t_s) {
+  const auto& t = plan.setpoints.t_s;
+  const auto& s = plan.setpoints.s_m;
+  if (t_s <= t.front()) return s.front();
+  if (t_s >= t.back()) return s.back();
+  const auto it = std::upper_bound(t.begin(), t.end(), t_s);
+  const std::size_t k = static_cast<std::size_t>(it - t.begin());
+  const double f = (t_s - t[k - 1]) / (t[k] - t[k - 1]);
+  return s[k - 1] + f * (s[k] - s[k - 1]);
+}
+
+// The commanded and actual (load) positions of every axis from the servo trace, in SI.
+void read_servo_positions(const kinematics::MachineModel& machine, Run& run) {
+  run.t_s = run.servo.column("t");
+  run.samples = run.t_s.size();
+  const auto n = static_cast<Eigen::Index>(run.samples);
+  run.q_cmd.resize(static_cast<Eigen::Index>(machine.axes.size()), n);
+  run.q_actual.resize(static_cast<Eigen::Index>(machine.axes.size()), n);
+  for (std::size_t j = 0; j < machine.axes.size(); ++j) {
+    const auto& axis = machine.axes[j];
+    const auto& cmd = run.servo.column(axis.name + ".cmd");
+    // The load position where the servo distinguishes it (backlash, compliance, pitch error).
+    const auto load_column = run.servo.column_index(axis.name + ".pos2");
+    const auto& actual = run.servo.column(load_column ? axis.name + ".pos2" : axis.name + ".pos");
+    for (Eigen::Index k = 0; k < n; ++k) {
+      run.q_cmd(static_cast<Eigen::Index>(j), k) = from_trace_unit(axis, cmd[static_cast<std::size_t>(k)]);
+      run.q_actual(static_cast<Eigen::Index>(j), k) = from_trace_unit(axis, actual[static_cast<std::size_t>(k)]);
+    }
+  }
+}
+
+Run simulate_run(const Context& context, const std::string& name, double feed_m_per_s) {
+  const kinematics::MachineModel& machine = context.inputs.machine;
+  Run run(name, feed_m_per_s, removal::NBuffer::zmap(context.stock, context.options.grid_m));
+  {
+    StageTimer timer(run, "plan", context.progress);
+    planner::FeedrateOptions plan_options;
+    plan_options.method = context.options.method;
+    plan_options.limits = context.options.limits;
+    plan_options.effects = context.options.effects;
+    // The run's feed replaces the programmed one on cutting moves (a feed override); rapids
+    // keep no feed limit and go as fast as the axes allow, identically in both runs.
+    plan_options.point_feed_m_per_s.resize(context.inputs.path.size());
+    for (std::size_t i = 0; i < context.inputs.path.size(); ++i) {
+      const auto& point = context.inputs.toolpath.points[context.inputs.toolpath_point[i]];
+      plan_options.point_feed_m_per_s[i] = point.kind == planner::MotionKind::rapid ? 0.0 : feed_m_per_s;
+    }
+    try {
+      run.plan = planner::plan_feedrate(machine, context.path, plan_options);
+    } catch (const InfeasibleError& error) {
+      // The third-order (jerk / torque-rate) planner does not yet hold on every path: plan with
+      // velocity, acceleration (or torque) limits only, and say so in the report.
+      plan_options.third_order = false;
+      run.plan = planner::plan_feedrate(machine, context.path, plan_options);
+      run.plan.notes.push_back(std::string("jerk / torque-rate limits NOT applied: the third-order "
+                                           "planner failed on this path (") + error.what() +
+                               "); planned with velocity and acceleration (or torque) limits only");
+      context.progress(name + ": warning: third-order planning failed, jerk limits not applied");
+    }
+  }
+  const double record_s = record_period_s(machine, feed_m_per_s, context.options.max_sample_chord_m);
+  if (context.options.perfect_drives) {
+    StageTimer timer(run, "perfect drives", context.progress);
+    const planner::PathSpline spline(context.path);
+    const double duration = run.plan.setpoints.t_s.back();
+    const auto n = static_cast<std::size_t>(std::ceil(duration / record_s)) + 1;
+    run.q_cmd.resize(static_cast<Eigen::Index>(machine.axes.size()), static_cast<Eigen::Index>(n));
+    for (std::size_t k = 0; k < n; ++k) {
+      run.t_s.push_back(std::min(duration, static_cast<double>(k) * record_s));
+      run.q_cmd.col(static_cast<Eigen::Index>(k)) = spline.position(plan_s_at(run.plan, run.t_s.back()));
+    }
+    run.q_actual = run.q_cmd;
+    run.samples = n;
+  } else {
+    StageTimer timer(run, "servo", context.progress);
+    servo::SimulationOptions servo_options;
+    servo_options.record_period_s = record_s;
+    run.servo = servo::simulate_machine(machine, setpoint_trace(machine, run.plan.setpoints),
+                                        name + " set points", servo_options);
+  }
+  {
+    StageTimer timer(run, "direct kinematics", context.progress);
+    if (!context.options.perfect_drives) read_servo_positions(machine, run);
+    if (name == "production" && context.options.production_disturbance) {
+      for (std::size_t k = 0; k < run.samples; ++k) {
+        Eigen::VectorXd q = run.q_actual.col(static_cast<Eigen::Index>(k));
+        context.options.production_disturbance(run.t_s[k], q);
+        run.q_actual.col(static_cast<Eigen::Index>(k)) = q;
+      }
+    }
+    std::vector<removal::Pose> poses(run.samples);
+    for (std::size_t k = 0; k < run.samples; ++k) {
+      const kinematics::ToolPose pose = kinematics::forward_kinematics(
+          machine, run.q_actual.col(static_cast<Eigen::Index>(k)), context.inputs.tool_length_m);
+      poses[k] = {pose.tip_W_m, pose.axis_W};
+    }
+    const std::vector<std::size_t> kept =
+        thin_trajectory(poses, context.tool.length_m, context.options.trajectory_tolerance_m);
+    for (std::size_t k : kept) {
+      run.trajectory.push_back(poses[k]);
+      run.trajectory_t_s.push_back(run.t_s[k]);
+    }
+  }
+  {
+    StageTimer timer(run, "removal", context.progress);
+    removal::CutOptions cut_options;
+    cut_options.threads = context.options.threads;
+    double reported = 0.0;
+    cut_options.interrupted = [&](double fraction) {
+      if (fraction >= reported + 0.25) {
+        reported = std::floor(fraction * 4) / 4;
+        context.progress(name + ": removal " + std::to_string(static_cast<int>(reported * 100)) + " %");
+      }
+      return false;
+    };
+    run.buffer.cut(context.tool, run.trajectory, cut_options);
+  }
+  return run;
+}
+
+std::size_t nearest_path_point(const kinematics::PathKinematics& path, double s_m) {
+  const auto it = std::lower_bound(path.s_m.begin(), path.s_m.end(), s_m);
+  std::size_t i = static_cast<std::size_t>(it - path.s_m.begin());
+  if (i >= path.s_m.size()) i = path.s_m.size() - 1;
+  if (i > 0 && std::abs(path.s_m[i - 1] - s_m) < std::abs(path.s_m[i] - s_m)) --i;
+  return i;
+}
+
+// Curvature of the commanded tip path at each point [1/m]: turning angle over the mean length
+// of the two segments around it.
+std::vector<double> tip_curvature(const std::vector<kinematics::PathPose>& path) {
+  std::vector<double> curvature(path.size(), 0.0);
+  for (std::size_t i = 1; i + 1 < path.size(); ++i) {
+    const Eigen::Vector3d a = path[i].pose.tip_W_m - path[i - 1].pose.tip_W_m;
+    const Eigen::Vector3d b = path[i + 1].pose.tip_W_m - path[i].pose.tip_W_m;
+    if (a.norm() < 1e-12 || b.norm() < 1e-12) continue;
+    const double angle = std::atan2(a.cross(b).norm(), a.dot(b));
+    curvature[i] = angle / (0.5 * (a.norm() + b.norm()));
+  }
+  return curvature;
+}
+
+Json relate_mark(const Context& context, const Run& production, const removal::Mark& mark,
+                 const std::vector<double>& curvature) {
+  const kinematics::MachineModel& machine = context.inputs.machine;
+  // The sample whose tool centre came closest to the deepest point cut it.
+  const double centre_offset = context.tool.corner_radius_m;
+  std::size_t best = 0;
+  double best_distance = std::numeric_limits<double>::infinity();
+  for (std::size_t k = 0; k < production.trajectory.size(); ++k) {
+    const removal::Pose& pose = production.trajectory[k];
+    const double distance =
+        (pose.tip_W_m + centre_offset * pose.axis_W - mark.deepest_point_W_m).norm();
+    if (distance < best_distance) {
+      best_distance = distance;
+      best = k;
+    }
+  }
+  const double t = production.trajectory_t_s[best];
+  const double s = plan_s_at(production.plan, t);
+  const std::size_t point = nearest_path_point(context.path, s);
+  const int block = context.inputs.path[point].block;
+  Json related;
+  related["time_s"] = t;
+  related["s_mm"] = s * 1e3;
+  related["block"] = block >= 0 ? context.inputs.block_names[static_cast<std::size_t>(block)] : "";
+  related["line"] = block >= 0 ? context.inputs.toolpath.blocks[static_cast<std::size_t>(block)].line : 0;
+
+  // Each axis's following error at that time, and the tool-tip deviation it alone causes
+  // (the direct kinematics with that one axis at its actual position, the others commanded).
+  const auto k_servo = static_cast<Eigen::Index>(
+      std::lower_bound(production.t_s.begin(), production.t_s.end(), t) - production.t_s.begin());
+  const Eigen::VectorXd q_cmd = production.q_cmd.col(std::min<Eigen::Index>(k_servo, production.q_cmd.cols() - 1));
+  const Eigen::VectorXd q_act = production.q_actual.col(std::min<Eigen::Index>(k_servo, production.q_actual.cols() - 1));
+  const kinematics::ToolPose commanded = kinematics::forward_kinematics(machine, q_cmd, context.inputs.tool_length_m);
+  Json axes = Json::array();
+  std::vector<std::pair<double, std::string>> contributions;
+  for (std::size_t j = 0; j < machine.axes.size(); ++j) {
+    Eigen::VectorXd q = q_cmd;
+    q[static_cast<Eigen::Index>(j)] = q_act[static_cast<Eigen::Index>(j)];
+    const kinematics::ToolPose moved = kinematics::forward_kinematics(machine, q, context.inputs.tool_length_m);
+    const double tip_um = (moved.tip_W_m - commanded.tip_W_m).norm() * 1e6;
+    const auto& axis = machine.axes[j];
+    const double error = q_cmd[static_cast<Eigen::Index>(j)] - q_act[static_cast<Eigen::Index>(j)];
+    Json entry{{"axis", axis.name}, {"tip_deviation_um", tip_um}};
+    if (axis.type == kinematics::AxisType::linear) {
+      entry["following_error_um"] = error * 1e6;
+    } else {
+      entry["following_error_mdeg"] = error * 180.0 / std::numbers::pi * 1e3;
+    }
+    axes.push_back(entry);
+    contributions.emplace_back(tip_um, axis.name);
+  }
+  std::sort(contributions.rbegin(), contributions.rend());
+  related["axes"] = axes;
+  Json responsible = Json::array();
+  for (const auto& [tip_um, axis_name] : contributions) {
+    if (tip_um >= 0.25 * contributions.front().first && tip_um > 0.1) responsible.push_back(axis_name);
+  }
+  related["responsible_axes"] = responsible;
+
+  // The kind of place: within one tool radius of the mark along the path.
+  const double window_m = std::max(context.tool.diameter_m / 2, 1e-3);
+  Json places = Json::array();
+  for (const auto& corner : context.path.corners) {
+    if (std::abs(corner.s_m - s) <= window_m) {
+      places.push_back("corner");
+      break;
+    }
+  }
+  double kappa_min = std::numeric_limits<double>::infinity(), kappa_max = 0.0;
+  for (std::size_t i = 0; i < context.path.s_m.size(); ++i) {
+    if (std::abs(context.path.s_m[i] - s) > window_m) continue;
+    kappa_min = std::min(kappa_min, curvature[i]);
+    kappa_max = std::max(kappa_max, curvature[i]);
+  }
+  // A change of curvature of 10 1/m (a radius of 100 mm appearing or vanishing) or more.
+  if (kappa_max - kappa_min >= 10.0) places.push_back("tangency_or_curvature_change");
+  const auto& q_plan = production.plan.setpoints.q;
+  const auto& s_plan = production.plan.setpoints.s_m;
+  for (Eigen::Index j = 0; j < q_plan.rows(); ++j) {
+    int last_sign = 0;
+    bool reversal = false;
+    for (std::size_t k = 1; k < s_plan.size() && !reversal; ++k) {
+      if (std::abs(s_plan[k] - s) > window_m) continue;
+      const double dq = q_plan(j, static_cast<Eigen::Index>(k)) - q_plan(j, static_cast<Eigen::Index>(k - 1));
+      if (std::abs(dq) < 1e-9) continue;
+      const int sign = dq > 0 ? 1 : -1;
+      reversal = last_sign != 0 && sign != last_sign;
+      last_sign = sign;
+    }
+    if (reversal) {
+      places.push_back("reversal of " + machine.axes[static_cast<std::size_t>(j)].name);
+    }
+  }
+  related["place"] = places;
+  return related;
+}
+
+viz::HeightField height_field(const removal::NBuffer& buffer, const std::vector<double>* deviation,
+                              int stride) {
+  viz::HeightField field;
+  const Eigen::Vector3d origin = buffer.zmap_origin_m();
+  field.origin_x_m = origin.x();
+  field.origin_y_m = origin.y();
+  field.spacing_x_m = field.spacing_y_m = buffer.spacing_m() * stride;
+  field.nx = (buffer.nu() - 1) / stride + 1;
+  field.ny = (buffer.nv() - 1) / stride + 1;
+  for (int j = 0; j < field.ny; ++j) {
+    for (int i = 0; i < field.nx; ++i) {
+      field.height_m.push_back(origin.z() + buffer.length(i * stride, j * stride));
+      if (deviation) {
+        field.deviation_m.push_back(
+            (*deviation)[static_cast<std::size_t>(i * stride) +
+                         static_cast<std::size_t>(buffer.nu()) * static_cast<std::size_t>(j * stride)]);
+      }
+    }
+  }
+  return field;
+}
+
+Json stage_times(const Run& run) {
+  Json times;
+  for (const auto& [stage, seconds] : run.stage_seconds) times[stage] = seconds;
+  return times;
+}
+
+Json run_summary(const Context& context, const Run& run) {
+  Json summary;
+  summary["feed_mm_per_min"] = run.feed_m_per_s * 60e3;
+  summary["duration_s"] = run.plan.duration_s;
+  summary["lower_bound_s"] = run.plan.lower_bound_s;
+  summary["setpoint_check_worst_ratio"] = run.plan.check.worst();
+  summary["servo_samples"] = run.samples;
+  summary["trajectory_poses_cut"] = run.trajectory.size();
+  summary["stage_seconds"] = stage_times(run);
+  summary["plan_notes"] = run.plan.notes;
+  Json axes = Json::array();
+  const auto& machine = context.inputs.machine;
+  for (std::size_t j = 0; j < machine.axes.size(); ++j) {
+    const auto& axis = machine.axes[j];
+    const double peak = (run.q_cmd.row(static_cast<Eigen::Index>(j)) - run.q_actual.row(static_cast<Eigen::Index>(j)))
+                            .cwiseAbs()
+                            .maxCoeff();
+    Json entry{{"axis", axis.name}};
+    if (axis.type == kinematics::AxisType::linear) {
+      entry["following_error_peak_um"] = peak * 1e6;
+    } else {
+      entry["following_error_peak_mdeg"] = peak * 180.0 / std::numbers::pi * 1e3;
+    }
+    axes.push_back(entry);
+  }
+  summary["axes"] = axes;
+  return summary;
+}
+
+std::string html_escape(const std::string& text) {
+  std::string out;
+  for (char c : text) {
+    if (c == '<') out += "&lt;";
+    else if (c == '>') out += "&gt;";
+    else if (c == '&') out += "&amp;";
+    else out += c;
+  }
+  return out;
+}
+
+std::string html_report(const Json& report, const std::vector<std::string>& images) {
+  std::ostringstream html;
+  html << "<!doctype html><html><head><meta charset=\"utf-8\"><title>vmsim: "
+       << html_escape(report["part"]["name"].get<std::string>())
+       << "</title><style>body{font-family:sans-serif;max-width:1100px;margin:auto}"
+          "table{border-collapse:collapse}td,th{border:1px solid #999;padding:3px 8px}"
+          "img{max-width:100%}</style></head><body>\n";
+  html << "<h1>" << html_escape(report["part"]["name"].get<std::string>()) << "</h1>\n<p>"
+       << html_escape(report["part"]["description"].get<std::string>()) << "</p>\n";
+  html << "<p>Machine: " << html_escape(report["machine"].get<std::string>())
+       << "; method: " << report["method"].get<std::string>() << "; grid "
+       << report["surface"]["grid_um"].get<double>() << " um.</p>\n";
+  html << "<h2>Runs</h2><table><tr><th>run</th><th>feed [mm/min]</th><th>T [s]</th><th>T_lb [s]</th>"
+          "<th>following error peaks</th></tr>\n";
+  for (const char* name : {"production", "reference"}) {
+    const Json& run = report["runs"][name];
+    html << "<tr><td>" << name << "</td><td>" << run["feed_mm_per_min"].get<double>() << "</td><td>"
+         << run["duration_s"].get<double>() << "</td><td>" << run["lower_bound_s"].get<double>()
+         << "</td><td>";
+    for (const auto& axis : run["axes"]) {
+      html << axis["axis"].get<std::string>() << " ";
+      if (axis.contains("following_error_peak_um")) {
+        html << round_to(axis["following_error_peak_um"].get<double>(), 0.01) << " um; ";
+      } else {
+        html << round_to(axis["following_error_peak_mdeg"].get<double>(), 0.0001) << " mdeg; ";
+      }
+    }
+    html << "</td></tr>\n";
+  }
+  html << "</table>\n<h2>Marks</h2>\n";
+  if (report["marks"].empty()) {
+    html << "<p>No mark deeper than " << report["surface"]["mark_threshold_um"].get<double>()
+         << " um.</p>\n";
+  } else {
+    html << "<table><tr><th>#</th><th>kind</th><th>depth [um]</th><th>area [mm2]</th>"
+            "<th>at (x, y, z) [mm]</th><th>s [mm]</th><th>block</th><th>place</th><th>axes</th></tr>\n";
+    int index = 1;
+    for (const auto& mark : report["marks"]) {
+      html << "<tr><td>" << index++ << "</td><td>" << mark["kind"].get<std::string>() << "</td><td>"
+           << round_to(mark["depth_um"].get<double>(), 0.01) << "</td><td>"
+           << round_to(mark["area_mm2"].get<double>(), 0.001) << "</td><td>";
+      for (double c : mark["deepest_point_mm"]) html << round_to(c, 0.001) << " ";
+      html << "</td><td>" << round_to(mark["s_mm"].get<double>(), 0.01) << "</td><td>"
+           << html_escape(mark["block"].get<std::string>()) << "</td><td>";
+      for (const auto& place : mark["place"]) html << html_escape(place.get<std::string>()) << " ";
+      html << "</td><td>";
+      for (const auto& axis : mark["responsible_axes"]) html << axis.get<std::string>() << " ";
+      html << "</td></tr>\n";
+    }
+    html << "</table>\n";
+  }
+  if (report["renders"].contains("skipped")) {
+    html << "<p><b>Renders skipped:</b> " << html_escape(report["renders"]["skipped"].get<std::string>())
+         << "</p>\n";
+  }
+  for (const std::string& image : images) {
+    html << "<h3>" << html_escape(image) << "</h3><img src=\"" << html_escape(image) << "\">\n";
+  }
+  html << "<h2>Stage times [s]</h2><pre>" << html_escape(report["stage_seconds"].dump(2))
+       << "</pre>\n</body></html>\n";
+  return html.str();
+}
+
+void write_renders(const Context& context, const Run& production, const Run& reference,
+                   const std::vector<double>& deviation, const removal::MarkMap& marks,
+                   const std::filesystem::path& folder, Json& report,
+                   std::vector<std::string>& images) {
+  std::string why_not;
+  if (!context.options.renders) {
+    report["renders"]["skipped"] = "--no-renders";
+    return;
+  }
+  if (!viz::display_available(why_not)) {
+    report["renders"]["skipped"] = why_not;
+    context.progress("renders skipped: " + why_not);
+    return;
+  }
+  const removal::NBuffer& buffer = production.buffer;
+  const int stride = std::max(1, static_cast<int>(std::ceil(std::sqrt(
+                                     static_cast<double>(buffer.line_count()) / 400000.0))));
+  viz::HeightField field = height_field(buffer, &deviation, stride);
+  viz::SurfaceRenderOptions surface_options;
+  surface_options.title = context.part.name + ": production minus reference";
+  for (int j = 0; j < field.ny; ++j) {
+    for (int i = 0; i < field.nx; ++i) {
+      const int label = marks.label[static_cast<std::size_t>(i * stride) +
+                                    static_cast<std::size_t>(buffer.nu()) * static_cast<std::size_t>(j * stride)];
+      surface_options.region_mask.push_back(label >= 0 ? 1 : 0);
+    }
+  }
+  viz::render_surface_png((folder / "surface_deviation.png").string(), field, surface_options);
+  images.push_back("surface_deviation.png");
+  if (!marks.marks.empty()) {
+    const removal::Mark& worst = marks.marks.front();
+    const double margin = std::max(2e-3, 2 * context.tool.diameter_m);
+    viz::HeightField close = height_field(buffer, &deviation, 1);
+    // Crop to the close-up box (keeps the render small at full resolution).
+    const int i0 = std::max(0, worst.iu_min - static_cast<int>(margin / buffer.spacing_m()));
+    const int i1 = std::min(buffer.nu() - 1, worst.iu_max + static_cast<int>(margin / buffer.spacing_m()));
+    const int j0 = std::max(0, worst.iv_min - static_cast<int>(margin / buffer.spacing_m()));
+    const int j1 = std::min(buffer.nv() - 1, worst.iv_max + static_cast<int>(margin / buffer.spacing_m()));
+    viz::HeightField crop;
+    crop.origin_x_m = close.origin_x_m + i0 * buffer.spacing_m();
+    crop.origin_y_m = close.origin_y_m + j0 * buffer.spacing_m();
+    crop.spacing_x_m = crop.spacing_y_m = buffer.spacing_m();
+    crop.nx = i1 - i0 + 1;
+    crop.ny = j1 - j0 + 1;
+    viz::SurfaceRenderOptions close_options;
+    close_options.title = "Deepest mark: " + std::to_string(round_to(worst.depth_m * 1e6, 0.1)).substr(0, 6) + " um";
+    for (int j = j0; j <= j1; ++j) {
+      for (int i = i0; i <= i1; ++i) {
+        const std::size_t index = close.index(i, j);
+        crop.height_m.push_back(close.height_m[index]);
+        crop.deviation_m.push_back(close.deviation_m[index]);
+        close_options.region_mask.push_back(
+            marks.label[static_cast<std::size_t>(i) + static_cast<std::size_t>(buffer.nu()) * static_cast<std::size_t>(j)] == 0 ? 1 : 0);
+      }
+    }
+    viz::render_surface_png((folder / "worst_mark.png").string(), crop, close_options);
+    images.push_back("worst_mark.png");
+  }
+  // Feedrate along s: programmed, limit, planned and actual (production run).
+  viz::FeedratePlotInput feed;
+  feed.title = context.part.name + ": feedrate (production run)";
+  const auto& profile = production.plan.profile;
+  // Around the deepest mark (one pass of a finishing program), else the whole path.
+  double s_from = -std::numeric_limits<double>::infinity(), s_to = std::numeric_limits<double>::infinity();
+  if (report.contains("marks") && !report["marks"].empty()) {
+    const double s_mark = report["marks"][0]["s_mm"].get<double>() * 1e-3;
+    s_from = s_mark - 0.06;
+    s_to = s_mark + 0.06;
+    feed.title += " near the deepest mark";
+  }
+  auto in_window = [&](double s) { return s >= s_from && s <= s_to; };
+  for (std::size_t i = 0; i < profile.s_m.size(); ++i) {
+    if (!in_window(profile.s_m[i])) continue;
+    feed.limit.x.push_back(profile.s_m[i]);
+    feed.limit.y.push_back(std::min(profile.sd_lim[i], 2 * production.feed_m_per_s));
+    feed.planned.x.push_back(profile.s_m[i]);
+    feed.planned.y.push_back(profile.sd[i]);
+  }
+  feed.programmed.x = {std::max(profile.s_m.front(), s_from), std::min(profile.s_m.back(), s_to)};
+  feed.programmed.y = {production.feed_m_per_s, production.feed_m_per_s};
+  for (std::size_t k = 1; k < production.trajectory.size(); ++k) {
+    const double dt = production.trajectory_t_s[k] - production.trajectory_t_s[k - 1];
+    if (dt <= 0) continue;
+    const double s_actual = plan_s_at(production.plan, production.trajectory_t_s[k]);
+    if (!in_window(s_actual)) continue;
+    feed.actual.x.push_back(s_actual);
+    feed.actual.y.push_back((production.trajectory[k].tip_W_m - production.trajectory[k - 1].tip_W_m).norm() / dt);
+  }
+  viz::plot_feedrate((folder / "feedrate.png").string(), feed);
+  images.push_back("feedrate.png");
+  std::vector<viz::AxisErrorSeries> errors;
+  const auto& machine = context.inputs.machine;
+  const std::size_t step = std::max<std::size_t>(1, production.samples / 20000);
+  for (std::size_t j = 0; j < machine.axes.size(); ++j) {
+    viz::AxisErrorSeries series;
+    series.axis = machine.axes[j].name;
+    series.rotary = machine.axes[j].type == kinematics::AxisType::rotary;
+    for (std::size_t k = 0; k < production.samples; k += step) {
+      series.t_s.push_back(production.t_s[k]);
+      series.error.push_back(production.q_cmd(static_cast<Eigen::Index>(j), static_cast<Eigen::Index>(k)) -
+                             production.q_actual(static_cast<Eigen::Index>(j), static_cast<Eigen::Index>(k)));
+    }
+    errors.push_back(std::move(series));
+  }
+  viz::plot_following_error((folder / "following_error.png").string(), errors,
+                            context.part.name + ": following error (production run)");
+  images.push_back("following_error.png");
+  // Histogram over the lines the reference run cut.
+  std::vector<double> machined;
+  const double top = context.stock.max_W_m.z() - context.stock.min_W_m.z();
+  for (std::size_t i = 0; i < deviation.size(); ++i) {
+    const int iu = static_cast<int>(i % static_cast<std::size_t>(buffer.nu()));
+    const int iv = static_cast<int>(i / static_cast<std::size_t>(buffer.nu()));
+    if (reference.buffer.length(iu, iv) < top - 1e-9) machined.push_back(deviation[i]);
+  }
+  if (!machined.empty()) {
+    viz::plot_deviation_histogram((folder / "deviation_histogram.png").string(), machined, 60,
+                                  context.part.name + ": production minus reference");
+    images.push_back("deviation_histogram.png");
+  }
+  report["renders"]["images"] = images;
+}
+
+}  // namespace
+
+Json simulate_part(const SimulatePartOptions& options, const ProgressSink& progress) {
+  const Clock::time_point start = Clock::now();
+  Json report;
+  Json stage_seconds;
+  auto stage_clock = Clock::now();
+
+  ChainInputOptions chain_options;
+  chain_options.part_path = options.part_path;
+  Context context{options, progress, load_part(options.part_path), load_chain_inputs(chain_options), {}, {}, {}};
+  if (!context.part.stock) {
+    throw InputError(options.part_path + ": simulate-part needs a stock (stock: {box: {min_mm, max_mm}})");
+  }
+  context.stock = {context.part.stock->min_W_m, context.part.stock->max_W_m};
+  context.tool.type = context.part.tool.type == ToolType::ball   ? removal::ToolType::ball
+                      : context.part.tool.type == ToolType::flat ? removal::ToolType::flat
+                                                                 : removal::ToolType::bull;
+  context.tool.diameter_m = context.part.tool.diameter_m;
+  context.tool.corner_radius_m = context.part.tool.corner_radius_m;
+  context.tool.length_m = context.part.tool.length_m;
+  context.tool.validate();
+  for (const std::string& warning : context.inputs.warnings) progress("warning: " + warning);
+  const double production_feed =
+      options.production_feed_m_per_s > 0 ? options.production_feed_m_per_s : context.part.production_feed_m_per_s;
+  const double reference_feed =
+      options.reference_feed_m_per_s > 0 ? options.reference_feed_m_per_s : context.part.reference_feed_m_per_s;
+  progress("part " + context.part.name + ": " + std::to_string(context.inputs.path.size()) +
+           " path points; inverse kinematics ...");
+  context.path = kinematics::solve_path_kinematics(context.inputs.machine, context.inputs.path,
+                                                   context.inputs.machine.home_positions(),
+                                                   context.inputs.tool_length_m,
+                                                   context.inputs.block_names);
+  stage_seconds["load_and_inverse_kinematics"] = seconds_since(stage_clock);
+
+  Run reference = simulate_run(context, "reference", reference_feed);
+  Run production = simulate_run(context, "production", production_feed);
+
+  stage_clock = Clock::now();
+  progress("comparison ...");
+  const std::vector<double> deviation = removal::difference(production.buffer, reference.buffer);
+  removal::MarkOptions mark_options;
+  mark_options.threshold_m = options.mark_threshold_m;
+  const removal::MarkMap marks = removal::find_marks(production.buffer, deviation, mark_options);
+  const std::vector<double> curvature = tip_curvature(context.inputs.path);
+  Json mark_list = Json::array();
+  for (const removal::Mark& mark : marks.marks) {
+    Json entry = relate_mark(context, production, mark, curvature);
+    entry["kind"] = mark.kind == removal::MarkKind::gouge ? "gouge" : "excess";
+    entry["depth_um"] = mark.depth_m * 1e6;
+    entry["area_mm2"] = mark.area_m2 * 1e6;
+    entry["lines"] = mark.line_count;
+    entry["deepest_point_mm"] = {mark.deepest_point_W_m.x() * 1e3, mark.deepest_point_W_m.y() * 1e3,
+                                 mark.deepest_point_W_m.z() * 1e3};
+    entry["centroid_mm"] = {mark.centroid_W_m.x() * 1e3, mark.centroid_W_m.y() * 1e3,
+                            mark.centroid_W_m.z() * 1e3};
+    mark_list.push_back(entry);
+  }
+  double deviation_min = 0, deviation_max = 0, sum_squares = 0;
+  for (double d : deviation) {
+    deviation_min = std::min(deviation_min, d);
+    deviation_max = std::max(deviation_max, d);
+    sum_squares += d * d;
+  }
+  Json surface{{"grid_um", options.grid_m * 1e6},
+               {"lines", production.buffer.line_count()},
+               {"nx", production.buffer.nu()},
+               {"ny", production.buffer.nv()},
+               {"mark_threshold_um", options.mark_threshold_m * 1e6},
+               {"trajectory_tolerance_um", options.trajectory_tolerance_m * 1e6},
+               {"deviation_min_um", deviation_min * 1e6},
+               {"deviation_max_um", deviation_max * 1e6},
+               {"deviation_rms_um", std::sqrt(sum_squares / static_cast<double>(deviation.size())) * 1e6}};
+  stage_seconds["comparison"] = seconds_since(stage_clock);
+
+  if (options.commanded_check) {
+    // The reference against the commanded tool path's own surface: what the low feed changes.
+    stage_clock = Clock::now();
+    progress("commanded tool path surface (check of the reference) ...");
+    removal::NBuffer commanded = removal::NBuffer::zmap(context.stock, options.grid_m);
+    std::vector<removal::Pose> poses;
+    for (const auto& point : context.inputs.path) poses.push_back({point.pose.tip_W_m, point.pose.axis_W});
+    removal::CutOptions cut_options;
+    cut_options.threads = options.threads;
+    commanded.cut(context.tool, poses, cut_options);
+    const std::vector<double> reference_vs_commanded = removal::difference(reference.buffer, commanded);
+    double worst = 0.0;
+    for (double d : reference_vs_commanded) worst = std::max(worst, std::abs(d));
+    surface["reference_vs_commanded_max_um"] = worst * 1e6;
+    stage_seconds["commanded_check"] = seconds_since(stage_clock);
+  }
+
+  report["part"] = {{"name", context.part.name}, {"description", context.part.description},
+                    {"file", context.part.file}};
+  report["machine"] = context.inputs.machine.name + " (" + context.inputs.machine.source_file + ")";
+  report["toolpath"] = context.part.toolpath_path;
+  report["method"] = options.method == planner::FeedrateMethod::kinematic ? "kinematic" : "dynamic";
+  report["runs"]["production"] = run_summary(context, production);
+  report["runs"]["reference"] = run_summary(context, reference);
+  report["surface"] = surface;
+  report["marks"] = mark_list;
+  report["corners"] = context.path.corners.size();
+  report["singular_zones"] = context.path.singular_zones.size();
+  report["renders"] = Json::object();
+
+  // Assemble the output folder under a temporary name; rename it into place at the end.
+  const std::filesystem::path out(options.out_dir);
+  const std::filesystem::path staging = out.string() + ".tmp-" + std::to_string(::getpid());
+  std::filesystem::remove_all(staging);
+  std::filesystem::create_directories(staging);
+  try {
+    stage_clock = Clock::now();
+    progress("writing surfaces ...");
+    write_file_atomically((staging / "production_heights.bin").string(), removal::heights_binary(production.buffer));
+    write_file_atomically((staging / "reference_heights.bin").string(), removal::heights_binary(reference.buffer));
+    // .vtp at most about 1 M points (the exact heights are in the .bin files).
+    const int stride = std::max(1, static_cast<int>(std::ceil(std::sqrt(
+                                       static_cast<double>(production.buffer.line_count()) / 1.0e6))));
+    viz::write_surface_vtp((staging / "production.vtp").string(), height_field(production.buffer, &deviation, stride));
+    viz::write_surface_vtp((staging / "reference.vtp").string(), height_field(reference.buffer, nullptr, stride));
+    surface["vtp_stride"] = stride;
+    report["surface"] = surface;
+    std::vector<std::string> images;
+    write_renders(context, production, reference, deviation, marks, staging, report, images);
+    stage_seconds["outputs"] = seconds_since(stage_clock);
+    stage_seconds["production"] = stage_times(production);
+    stage_seconds["reference"] = stage_times(reference);
+    stage_seconds["total"] = seconds_since(start);
+    report["stage_seconds"] = stage_seconds;
+    write_file_atomically((staging / "report.json").string(), report.dump(2) + "\n");
+    write_file_atomically((staging / "report.html").string(), html_report(report, images));
+    std::filesystem::remove_all(out);
+    if (!out.parent_path().empty()) std::filesystem::create_directories(out.parent_path());
+    std::filesystem::rename(staging, out);
+  } catch (...) {
+    std::filesystem::remove_all(staging);
+    throw;
+  }
+  return report;
+}
+
+}  // namespace vmsim::app

@@ -1,0 +1,60 @@
+#pragma once
+// simulate-part: the whole chain for one part, at the production feed and at a low reference
+// feed (second paper, Section 4):
+//   tool path -> IKT and path derivatives -> feedrate plan (set points at the interpolation
+//   period) -> servo simulation of every axis -> direct kinematics of the simulated (load)
+//   positions: the actual tool trajectory -> N-buffer removal on one Z-map grid per run ->
+//   production minus reference, line by line -> marks -> each mark related to the tool path.
+// Both runs use identical grids, so grid, scallop and tool-shape effects cancel exactly and what
+// remains is the trajectory follow-up.
+#include <nlohmann/json.hpp>
+
+#include <Eigen/Core>
+#include <functional>
+#include <string>
+#include <vector>
+
+#include "vmsim/kinematics/dynamics.hpp"
+#include "vmsim/planner/feedrate.hpp"
+
+namespace vmsim::app {
+
+struct SimulatePartOptions {
+  std::string part_path;
+  std::string out_dir;
+  planner::FeedrateMethod method = planner::FeedrateMethod::kinematic;
+  planner::DynamicLimitSource limits = planner::DynamicLimitSource::tuned;
+  kinematics::EffectSet effects = kinematics::EffectSet::all();
+  double production_feed_m_per_s = 0.0;  ///< 0 = the part file's
+  double reference_feed_m_per_s = 0.0;   ///< 0 = the part file's
+  double grid_m = 20e-6;                 ///< Z-map line spacing
+  double mark_threshold_m = 2e-6;        ///< |deviation| above which a line belongs to a mark
+  /// The actual trajectory is thinned to the samples needed to keep every dropped sample within
+  /// this distance of the straight segment that replaces it (tip, and tool axis times the tool
+  /// length): the removal then differs from cutting every sample by at most this much.
+  double trajectory_tolerance_m = 0.05e-6;
+  /// Largest distance the tool moves between two recorded servo samples [m] (chords of a curved
+  /// motion stay far below the mark threshold: sagitta = chord^2 / (8 radius)).
+  double max_sample_chord_m = 20e-6;
+  /// Perfect drives: the axes follow the planned motion exactly (q(s(t)) on the path spline),
+  /// no servo simulation. Separates what the planner does from what the drives do; with it a
+  /// tool path must leave no mark.
+  bool perfect_drives = false;
+  /// Optional: changes the actual axis positions of the production run (SI joint units) at
+  /// time t, after the servo; for tests that plant a known deviation.
+  std::function<void(double t_s, Eigen::VectorXd& q)> production_disturbance;
+  bool commanded_check = true;  ///< also cut the commanded tool path and compare the reference
+  bool renders = true;
+  int threads = 0;
+};
+
+/// Progress lines for the long stages (the command prints them).
+using ProgressSink = std::function<void(const std::string& line)>;
+
+/// Runs the chain and writes everything into options.out_dir (complete or not at all: the
+/// folder is assembled under a temporary name and renamed). Returns the report (also written
+/// as report.json). Renders are skipped, with the reason in the report, when no display is
+/// there; every numerical result is written all the same.
+nlohmann::json simulate_part(const SimulatePartOptions& options, const ProgressSink& progress);
+
+}  // namespace vmsim::app

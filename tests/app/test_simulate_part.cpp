@@ -1,0 +1,105 @@
+// The whole chain (simulate_part) on a small fixed case: three passes of the second paper's
+// part 1 (plane, concave cylinder, inclined plane) on the Mikron sample.
+//  - perfect drives leave no mark;
+//  - a deviation planted in the axis positions shows up as a mark of that depth at that place;
+//  - the reference-feed surface matches the commanded tool path's surface.
+#include <gtest/gtest.h>
+
+#include <fstream>
+#include <sstream>
+
+#include "cli_runner.hpp"
+#include "simulate_part.hpp"
+#include "vmsim/common/files.hpp"
+
+namespace vmsim {
+namespace {
+
+const std::string kRoot = VMSIM_SOURCE_DIR;
+
+// Writes a part file with the first `passes` passes of sample part 1 and a stock strip around
+// them; returns its path.
+std::string small_part(const std::filesystem::path& folder, int passes) {
+  std::istringstream apt(read_file(kRoot + "/samples/parts/part1_tangency/toolpath.apt"));
+  std::ostringstream out;
+  int rapids = 0;
+  for (std::string line; std::getline(apt, line);) {
+    if (line == "RAPID" && ++rapids > 2 * passes) break;
+    out << line << '\n';
+  }
+  out << "FINI\n";
+  std::ofstream(folder / "toolpath.apt") << out.str();
+  std::ofstream(folder / "part.yaml")
+      << "name: part1_three_passes\n"
+         "description: the first passes of sample part 1\n"
+         "machine: " << kRoot << "/samples/machines/mikron_ucp710.yaml\n"
+         "toolpath: toolpath.apt\n"
+         "tool: {type: ball, diameter_mm: 10, corner_radius_mm: 5, length_mm: 60}\n"
+         "stock: {box: {min_mm: [-12, -5, 0], max_mm: [16, -4.5, 40]}}\n"
+         "feeds: {production_mm_per_min: 10000, reference_mm_per_min: 100}\n";
+  return (folder / "part.yaml").string();
+}
+
+app::SimulatePartOptions options_for(const std::filesystem::path& folder) {
+  app::SimulatePartOptions options;
+  options.part_path = small_part(folder, 3);
+  options.out_dir = (folder / "out").string();
+  options.grid_m = 25e-6;
+  options.renders = false;
+  return options;
+}
+
+const app::ProgressSink kSilent = [](const std::string&) {};
+
+TEST(SimulatePart, PerfectDrivesLeaveNoMark) {
+  const auto folder = test::fresh_folder("simulate_perfect");
+  app::SimulatePartOptions options = options_for(folder);
+  options.perfect_drives = true;
+  const nlohmann::json report = app::simulate_part(options, kSilent);
+  EXPECT_TRUE(report["marks"].empty()) << report["marks"].dump(2);
+  // Both runs cut the same geometry: the difference is the thinning tolerance (0.05 um per run).
+  EXPECT_LT(std::abs(report["surface"]["deviation_min_um"].get<double>()), 0.2);
+  EXPECT_LT(std::abs(report["surface"]["deviation_max_um"].get<double>()), 0.2);
+  EXPECT_TRUE(std::filesystem::exists(folder / "out" / "report.json"));
+  EXPECT_TRUE(std::filesystem::exists(folder / "out" / "production.vtp"));
+}
+
+TEST(SimulatePart, APlantedDeviationIsAMarkOfThatDepthAtThatPlace) {
+  const auto folder = test::fresh_folder("simulate_planted");
+  app::SimulatePartOptions options = options_for(folder);
+  options.perfect_drives = true;
+  // Z 20 um lower while X is between -6 and -4 mm on the middle pass (Y = -4.75 mm): on this
+  // machine at A = C = 0, X and Y are the tip's x and y in W.
+  options.production_disturbance = [](double, Eigen::VectorXd& q) {
+    if (q[0] >= -6e-3 && q[0] <= -4e-3 && std::abs(q[1] + 4.75e-3) < 1e-6) q[2] -= 20e-6;
+  };
+  const nlohmann::json report = app::simulate_part(options, kSilent);
+  ASSERT_FALSE(report["marks"].empty());
+  const auto& mark = report["marks"][0];
+  EXPECT_EQ(mark["kind"], "gouge");
+  EXPECT_NEAR(mark["depth_um"].get<double>(), 20.0, 0.5);
+  const double x_mm = mark["deepest_point_mm"][0].get<double>();
+  const double y_mm = mark["deepest_point_mm"][1].get<double>();
+  EXPECT_GT(x_mm, -6.0 - 0.05);
+  EXPECT_LT(x_mm, -4.0 + 0.05);
+  EXPECT_NEAR(y_mm, -4.75, 0.3);
+  EXPECT_NEAR(mark["deepest_point_mm"][2].get<double>(), 20.0 - 0.02, 0.01);
+  // Related to the tool path: the line of the APT file that programmed that stretch, and Z.
+  EXPECT_NE(mark["block"].get<std::string>().find("toolpath.apt:"), std::string::npos);
+  EXPECT_EQ(mark["responsible_axes"][0], "Z");
+}
+
+TEST(SimulatePart, TheReferenceRunMatchesTheCommandedSurface) {
+  const auto folder = test::fresh_folder("simulate_reference");
+  app::SimulatePartOptions options = options_for(folder);
+  const nlohmann::json report = app::simulate_part(options, kSilent);
+  // 0.1 m/min: the drives follow within a fraction of a micrometre across the surface.
+  EXPECT_LT(report["surface"]["reference_vs_commanded_max_um"].get<double>(), 1.0)
+      << report["surface"].dump(2);
+  // Every stage was timed.
+  EXPECT_GT(report["stage_seconds"]["total"].get<double>(), 0.0);
+  EXPECT_TRUE(report["stage_seconds"]["production"].contains("servo"));
+}
+
+}  // namespace
+}  // namespace vmsim
