@@ -39,20 +39,8 @@ std::string number(double value) {
 
 int run_plan(const PlanOptions& options, const CommandContext& context) {
   planner::FeedrateOptions fo;
-  if (options.method == "kinematic") {
-    fo.method = planner::FeedrateMethod::kinematic;
-  } else if (options.method == "dynamic") {
-    fo.method = planner::FeedrateMethod::dynamic;
-  } else {
-    throw InputError("--method must be kinematic or dynamic, got '" + options.method + "'");
-  }
-  if (options.limits == "tuned") {
-    fo.limits = planner::DynamicLimitSource::tuned;
-  } else if (options.limits == "actuator") {
-    fo.limits = planner::DynamicLimitSource::actuator;
-  } else {
-    throw InputError("--limits must be tuned or actuator, got '" + options.limits + "'");
-  }
+  fo.method = parse_method(options.method);
+  fo.limits = parse_limit_source(options.limits);
   fo.effects = parse_effects(options.effects);
   fo.third_order = !options.no_third_order;
   if (options.feed_mm_per_min < 0.0) {

@@ -46,20 +46,8 @@ int run(const CommandOptions& command, const CommandContext& context) {
   SimulatePartOptions options;
   options.part_path = command.part_path.empty() ? built_in_part() : command.part_path;
   options.out_dir = command.out_dir;
-  if (command.method == "kinematic") {
-    options.method = planner::FeedrateMethod::kinematic;
-  } else if (command.method == "dynamic") {
-    options.method = planner::FeedrateMethod::dynamic;
-  } else {
-    throw InputError("--method: '" + command.method + "' is not kinematic or dynamic");
-  }
-  if (command.limits == "tuned") {
-    options.limits = planner::DynamicLimitSource::tuned;
-  } else if (command.limits == "actuator") {
-    options.limits = planner::DynamicLimitSource::actuator;
-  } else {
-    throw InputError("--limits: '" + command.limits + "' is not tuned or actuator");
-  }
+  options.method = parse_method(command.method);
+  options.limits = parse_limit_source(command.limits);
   options.effects = parse_effects(command.effects);
   if (command.production_feed_mm_per_min < 0 || command.reference_feed_mm_per_min < 0) {
     throw InputError("feeds must be > 0");

@@ -1,11 +1,12 @@
 #pragma once
-// The --effects option: which dynamic effects of the first paper's Eq. 4 are switched on,
-// written H,Hcpl,B,C,G,F (uncoupled inertia, coupled inertia, centrifugal, Coriolis, gravity,
-// friction) or "all".
+// The planning options shared by several commands: --method, --limits, and --effects, the
+// dynamic effects of the first paper's Eq. 4 switched on, written H,Hcpl,B,C,G,F (uncoupled
+// inertia, coupled inertia, centrifugal, Coriolis, gravity, friction) or "all".
 #include <string>
 
 #include "vmsim/common/errors.hpp"
 #include "vmsim/kinematics/dynamics.hpp"
+#include "vmsim/planner/feedrate.hpp"
 
 namespace vmsim::app {
 
@@ -37,6 +38,20 @@ inline kinematics::EffectSet parse_effects(const std::string& text) {
     start = comma + 1;
   }
   return effects;
+}
+
+/// --method kinematic|dynamic
+inline planner::FeedrateMethod parse_method(const std::string& text) {
+  if (text == "kinematic") return planner::FeedrateMethod::kinematic;
+  if (text == "dynamic") return planner::FeedrateMethod::dynamic;
+  throw InputError("--method must be kinematic or dynamic, got '" + text + "'");
+}
+
+/// --limits tuned|actuator
+inline planner::DynamicLimitSource parse_limit_source(const std::string& text) {
+  if (text == "tuned") return planner::DynamicLimitSource::tuned;
+  if (text == "actuator") return planner::DynamicLimitSource::actuator;
+  throw InputError("--limits must be tuned or actuator, got '" + text + "'");
 }
 
 }  // namespace vmsim::app
