@@ -14,8 +14,9 @@ struct RunResult {
   std::string output;  ///< stdout and stderr
 };
 
-inline RunResult run_vmsim(const std::string& arguments) {
-  const std::string command = std::string(VMSIM_BINARY) + " " + arguments + " 2>&1";
+/// Runs `<prefix> vmsim <arguments>` through the shell; prefix e.g. "env -u DISPLAY".
+inline RunResult run_vmsim_with_env(const std::string& prefix, const std::string& arguments) {
+  const std::string command = prefix + " " + VMSIM_BINARY + " " + arguments + " 2>&1";
   RunResult result;
   FILE* pipe = popen(command.c_str(), "r");
   if (!pipe) return result;
@@ -25,6 +26,8 @@ inline RunResult run_vmsim(const std::string& arguments) {
   result.exit_code = WIFEXITED(status) ? WEXITSTATUS(status) : -1;
   return result;
 }
+
+inline RunResult run_vmsim(const std::string& arguments) { return run_vmsim_with_env("", arguments); }
 
 /// A fresh empty folder under the system's temporary folder.
 inline std::filesystem::path fresh_folder(const std::string& name) {

@@ -9,41 +9,11 @@
 #include <fstream>
 #include <string>
 
+#include "../app/cli_runner.hpp"
 #include "vmsim/viz/image_compare.hpp"
 
 namespace vmsim {
 namespace {
-
-namespace test {
-
-struct RunResult {
-  int exit_code = -1;
-  std::string output;  ///< stdout and stderr
-};
-
-// Runs `<prefix> vmsim <arguments>` through the shell; prefix e.g. "env -u DISPLAY".
-RunResult run_vmsim_with_env(const std::string& prefix, const std::string& arguments) {
-  const std::string command = prefix + " " + VMSIM_BINARY + " " + arguments + " 2>&1";
-  RunResult result;
-  FILE* pipe = popen(command.c_str(), "r");
-  if (!pipe) return result;
-  std::array<char, 4096> buffer{};
-  while (fgets(buffer.data(), static_cast<int>(buffer.size()), pipe)) result.output += buffer.data();
-  const int status = pclose(pipe);
-  result.exit_code = WIFEXITED(status) ? WEXITSTATUS(status) : -1;
-  return result;
-}
-
-RunResult run_vmsim(const std::string& arguments) { return run_vmsim_with_env("", arguments); }
-
-std::filesystem::path fresh_folder(const std::string& name) {
-  const auto folder = std::filesystem::temp_directory_path() / ("vmsim_test_" + name);
-  std::filesystem::remove_all(folder);
-  std::filesystem::create_directories(folder);
-  return folder;
-}
-
-}  // namespace test
 
 const char* kCsv =
     "# a comment line before the header\n"
