@@ -5,6 +5,7 @@
 #include <string>
 
 #include "vmsim/common/errors.hpp"
+#include "reader_test_support.hpp"
 #include "vmsim/planner/toolpath.hpp"
 
 namespace vmsim::planner {
@@ -14,20 +15,10 @@ Toolpath apt(const std::string& text) { return parse_apt(text, "part.apt"); }
 
 /// The message of the InputError that parsing `text` throws ("" when it does not throw).
 std::string apt_error(const std::string& text) {
-  try {
-    apt(text);
-  } catch (const InputError& e) {
-    return e.what();
-  }
-  return "";
+  return test::input_error_of([&] { apt(text); });
 }
 
-void expect_vector(const Eigen::Vector3d& actual, const Eigen::Vector3d& expected,
-                   double tolerance = 1e-15) {
-  EXPECT_NEAR(actual.x(), expected.x(), tolerance);
-  EXPECT_NEAR(actual.y(), expected.y(), tolerance);
-  EXPECT_NEAR(actual.z(), expected.z(), tolerance);
-}
+using test::expect_vector;
 
 TEST(AptReader, FromIsARapidStartAndGotoIsLinearInMetres) {
   const Toolpath path = apt("FROM/0,0,100\nFEDRAT/600\nGOTO/10,20,30\n");

@@ -9,6 +9,7 @@
 #include <vector>
 
 #include "vmsim/common/errors.hpp"
+#include "reader_test_support.hpp"
 #include "vmsim/planner/toolpath.hpp"
 
 namespace vmsim::planner {
@@ -22,20 +23,10 @@ Toolpath gcode(const std::string& text, const ReaderOptions& options = {}) {
 }
 
 std::string gcode_error(const std::string& text, const ReaderOptions& options = {}) {
-  try {
-    gcode(text, options);
-  } catch (const InputError& e) {
-    return e.what();
-  }
-  return "";
+  return test::input_error_of([&] { gcode(text, options); });
 }
 
-void expect_vector(const Eigen::Vector3d& actual, const Eigen::Vector3d& expected,
-                   double tolerance = 1e-15) {
-  EXPECT_NEAR(actual.x(), expected.x(), tolerance);
-  EXPECT_NEAR(actual.y(), expected.y(), tolerance);
-  EXPECT_NEAR(actual.z(), expected.z(), tolerance);
-}
+using test::expect_vector;
 
 /// An arc in the plane (u, v) with normal w, as indices into X Y Z.
 struct Plane {
