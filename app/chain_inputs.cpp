@@ -83,6 +83,19 @@ ChainInputs load_chain_inputs(const ChainInputOptions& options) {
   for (const auto& warning : inputs.toolpath.warnings) {
     inputs.warnings.push_back(located_message(warning.file, warning.line, 0, warning.message));
   }
+  if (options.corner_tolerance_m > 0.0) {
+    planner::CornerBlendOptions blend;
+    blend.tolerance_m = options.corner_tolerance_m;
+    blend.axis_tolerance_rad = options.corner_axis_tolerance_rad;
+    blend.corner_angle_rad = inputs.path_kinematics.corner_angle_rad;
+    blend.corner_baseline_m = inputs.path_kinematics.fit_half_window_m;
+    planner::CornerBlendResult result = planner::blend_corners(inputs.toolpath, blend);
+    inputs.path_kinematics.fit_half_window_m =
+        result.fit_half_window_m(inputs.path_kinematics.fit_half_window_m);
+    inputs.toolpath = std::move(result.toolpath);
+    inputs.blended_corners = std::move(result.blended);
+    inputs.exact_stop_corners = std::move(result.exact_stops);
+  }
   for (const auto& block : inputs.toolpath.blocks) {
     std::string name = block.file + ":" + std::to_string(block.line);
     if (block.block_number >= 0) name += " N" + std::to_string(block.block_number);

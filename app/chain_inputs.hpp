@@ -7,6 +7,7 @@
 
 #include "vmsim/kinematics/machine_model.hpp"
 #include "vmsim/kinematics/path_kinematics.hpp"
+#include "vmsim/planner/corner_blend.hpp"
 #include "vmsim/planner/toolpath.hpp"
 
 namespace vmsim::app {
@@ -16,6 +17,11 @@ struct ChainInputOptions {
   std::string machine_path;
   std::string toolpath_path;
   double tool_length_mm = -1.0;
+  /// Corner blending (planner/corner_blend.hpp): the largest distance between the blended and
+  /// the programmed path [m]; 0 = no blending (exact stop at every corner).
+  double corner_tolerance_m = 0.0;
+  /// Largest angle between the blended and the programmed tool axis at a corner [rad].
+  double corner_axis_tolerance_rad = planner::CornerBlendOptions{}.axis_tolerance_rad;
 };
 
 /// Adds --part, --machine, --toolpath, --tool-length-mm to a subcommand.
@@ -23,6 +29,8 @@ void add_chain_input_options(CLI::App& command, ChainInputOptions& options);
 
 struct ChainInputs {
   kinematics::MachineModel machine;
+  /// The tool path as executed: corners blended when ChainInputOptions::corner_tolerance_m > 0
+  /// (blend points carry the block of the corner they replace), else as read.
   planner::Toolpath toolpath;
   double tool_length_m = 0.0;
   /// The tool path as poses for the kinematics; consecutive duplicate poses merged.
@@ -33,6 +41,12 @@ struct ChainInputs {
   std::vector<std::string> block_names;
   /// Warnings for the user (reader warnings, merged points), each naming its file and line.
   std::vector<std::string> warnings;
+  /// The corners blended and those left as exact stops (point indices of the tool path as read).
+  std::vector<planner::BlendedCorner> blended_corners;
+  std::vector<planner::KeptCorner> exact_stop_corners;
+  /// The options to differentiate `path` with (kinematics::solve_path_kinematics): the
+  /// defaults, with a fit window small enough to resolve the blends when corners were blended.
+  kinematics::PathKinematicsOptions path_kinematics;
 };
 
 /// Loads and checks everything; throws vmsim::InputError with file, line and value.

@@ -1,12 +1,15 @@
 // vmsim plan: feedrate interpolation (the NC's interpolator): the maximum feedrate profile
 // (first paper, Sec. 2), the executed profile under every limit, and the axis set points at the
-// machine's interpolation period.
+// machine's interpolation period; optionally with the corners blended within a tolerance
+// (planner/corner_blend.hpp); a plot of sd_lim and the executed feedrate along s (PNG).
 #include <nlohmann/json.hpp>
 
+#include <algorithm>
 #include <cmath>
 #include <filesystem>
 #include <iomanip>
 #include <memory>
+#include <numbers>
 #include <sstream>
 
 #include "chain_inputs.hpp"
@@ -16,6 +19,8 @@
 #include "vmsim/common/files.hpp"
 #include "vmsim/common/trace.hpp"
 #include "vmsim/planner/feedrate.hpp"
+#include "vmsim/viz/display.hpp"
+#include "vmsim/viz/plot.hpp"
 
 namespace vmsim::app {
 namespace {
@@ -28,13 +33,60 @@ struct PlanOptions {
   std::string effects = "all";
   double feed_mm_per_min = 0.0;
   double corner_tolerance_mm = 0.0;
+  double corner_axis_tolerance_deg = planner::CornerBlendOptions{}.axis_tolerance_rad * 180.0 / std::numbers::pi;
   bool exact_stop = false;
   bool no_third_order = false;
+  bool no_plot = false;
 };
 
 std::string number(double value) {
   if (std::isinf(value)) return "inf";
   return format_double(value);
+}
+
+// plan.png: sd_lim of each constraint kind in force (the paper's prediction, sdd = sddd = 0),
+// the admissible feed (their minimum, lowered where the set-point checks asked) and the
+// executed feedrate, in m/min along s in mm. Limits far above the executed feed (e.g. +inf:
+// acceleration on a straight line) are clipped at the top of the plot.
+viz::LinePlot feedrate_plot(const planner::FeedrateProfile& prof, const std::string& title) {
+  constexpr double kMPerMin = 60.0;
+  viz::LinePlot plot;
+  plot.title = title;
+  plot.x_title = "s [mm]";
+  plot.y_title = "feedrate [m/min]";
+  std::vector<double> s_mm(prof.s_m.size());
+  for (std::size_t i = 0; i < s_mm.size(); ++i) s_mm[i] = prof.s_m[i] * 1e3;
+  double top = 0.0;
+  for (std::size_t i = 0; i < prof.s_m.size(); ++i) {
+    top = std::max(top, prof.sd[i]);
+    if (std::isfinite(prof.sd_lim[i])) top = std::max(top, prof.sd_lim[i]);
+  }
+  top = (top > 0.0 ? 1.15 * top : 1.0) * kMPerMin;
+  plot.y_range = viz::Range{0.0, top};
+  auto series = [&](const std::string& name, const std::vector<double>& sd, viz::LineStyle style,
+                    double width_px) {
+    viz::Series out;
+    out.name = name;
+    out.x = s_mm;
+    out.y.resize(sd.size());
+    for (std::size_t i = 0; i < sd.size(); ++i) out.y[i] = std::min(sd[i] * kMPerMin, top);
+    out.style = style;
+    out.line_width_px = width_px;
+    plot.series.push_back(std::move(out));
+  };
+  for (int kind = 0; kind < planner::kConstraintKindCount; ++kind) {
+    const auto& values = prof.sd_lim_by_kind[static_cast<std::size_t>(kind)];
+    if (std::none_of(values.begin(), values.end(), [](double v) { return std::isfinite(v); })) {
+      continue;  // not in force on this path
+    }
+    series("sd_lim " +
+               std::string(planner::constraint_name(static_cast<planner::ConstraintKind>(kind))),
+           values, viz::LineStyle::dotted, 2.0);
+  }
+  series("admissible (lowest sd_lim, after set-point checks)", prof.sd_cap, viz::LineStyle::dashed,
+         1.5);
+  series("executed", prof.sd, viz::LineStyle::solid, 2.5);
+  return plot;
 }
 
 int run_plan(const PlanOptions& options, const CommandContext& context) {
@@ -47,16 +99,17 @@ int run_plan(const PlanOptions& options, const CommandContext& context) {
     throw InputError("--feed-mm-per-min must be > 0, got " + format_double(options.feed_mm_per_min));
   }
   fo.feed_m_per_s = options.feed_mm_per_min * 1e-3 / 60.0;
-  if (options.corner_tolerance_mm > 0.0 && !options.exact_stop) {
-    throw InputError("--corner-tolerance-mm: corner blending is not implemented yet; use "
-                     "--exact-stop (the default: feed 0 at every corner)");
+  ChainInputOptions input_options = options.inputs;
+  if (!options.exact_stop) {
+    input_options.corner_tolerance_m = options.corner_tolerance_mm * 1e-3;
+    input_options.corner_axis_tolerance_rad = options.corner_axis_tolerance_deg * std::numbers::pi / 180.0;
   }
 
-  const ChainInputs inputs = load_chain_inputs(options.inputs);
+  const ChainInputs inputs = load_chain_inputs(input_options);
   for (const std::string& warning : inputs.warnings) context.warn(warning);
   const kinematics::PathKinematics path = kinematics::solve_path_kinematics(
       inputs.machine, inputs.path, inputs.machine.home_positions(), inputs.tool_length_m,
-      inputs.block_names);
+      inputs.block_names, inputs.path_kinematics);
   fo.point_feed_m_per_s.resize(path.s_m.size(), 0.0);
   for (std::size_t i = 0; i < path.s_m.size(); ++i) {
     const planner::PathPoint& point = inputs.toolpath.points[inputs.toolpath_point[i]];
@@ -121,7 +174,32 @@ int run_plan(const PlanOptions& options, const CommandContext& context) {
   summary["limits"] = options.limits;
   summary["effects"] = options.effects;
   summary["third_order"] = fo.third_order;
-  summary["corners"] = "exact stop";
+  auto block_name = [&inputs](int block) {
+    return block >= 0 ? inputs.block_names[static_cast<std::size_t>(block)] : std::string("-");
+  };
+  nlohmann::json corners = nlohmann::json::object();
+  corners["mode"] = input_options.corner_tolerance_m > 0.0 ? "blended" : "exact stop";
+  if (input_options.corner_tolerance_m > 0.0) {
+    corners["tolerance_mm"] = options.corner_tolerance_mm;
+    corners["axis_tolerance_deg"] = options.corner_axis_tolerance_deg;
+    corners["blended"] = inputs.blended_corners.size();
+    double deviation = 0.0, axis_deviation = 0.0;
+    for (const auto& blend : inputs.blended_corners) {
+      deviation = std::max(deviation, blend.deviation_m);
+      axis_deviation = std::max(axis_deviation, blend.axis_deviation_rad);
+    }
+    corners["largest_deviation_mm"] = deviation * 1e3;
+    corners["largest_axis_deviation_deg"] = axis_deviation * 180.0 / std::numbers::pi;
+    nlohmann::json kept = nlohmann::json::array();
+    for (const auto& corner : inputs.exact_stop_corners) {
+      kept.push_back({{"block", block_name(corner.block)},
+                      {"turn_angle_deg", corner.turn_angle_rad * 180.0 / std::numbers::pi},
+                      {"reason", corner.reason}});
+    }
+    corners["exact_stops"] = kept;
+  }
+  corners["corners_in_planned_path"] = path.corners.size();
+  summary["corners"] = corners;
   summary["period_s"] = plan.setpoints.period_s;
   summary["setpoints"] = plan.setpoints.t_s.size();
   summary["grid_points"] = prof.s_m.size();
@@ -159,9 +237,22 @@ int run_plan(const PlanOptions& options, const CommandContext& context) {
   }
   summary["limit_values"] = limit_values;
 
-  // Everything computed: write.
+  // The plot needs an X display; without one every numerical file is still written and the
+  // reason goes to the summary and the terminal (as simulate-part does with its images).
+  std::string no_display;
+  const bool plot = !options.no_plot && viz::display_available(no_display);
+  summary["plot"] = plot ? std::string("plan.png")
+                         : options.no_plot ? std::string("skipped: --no-plot")
+                                           : "skipped: " + no_display;
+
+  // Everything computed: write (the plot first: a failed render leaves no numerical file).
   std::filesystem::create_directories(options.out_dir);
   const std::filesystem::path dir(options.out_dir);
+  if (plot) {
+    viz::write_line_plot_png((dir / "plan.png").string(),
+                             feedrate_plot(prof, "Feedrate along the path: sd_lim and executed (" +
+                                                     options.method + ")"));
+  }
   write_file_atomically((dir / "limits.csv").string(), limits_csv.str());
   write_file_atomically((dir / "setpoints.csv").string(), format_trace(trace));
   write_file_atomically((dir / "summary.json").string(), summary.dump(2) + "\n");
@@ -170,9 +261,24 @@ int run_plan(const PlanOptions& options, const CommandContext& context) {
   line << std::setprecision(5) << "T = " << plan.duration_s << " s, T_lb = " << plan.lower_bound_s
        << " s (T / T_lb = " << plan.duration_s / plan.lower_bound_s << "), "
        << plan.setpoints.t_s.size() << " set points at " << plan.setpoints.period_s * 1e3
-       << " ms; wrote " << options.out_dir << "/{limits.csv,setpoints.csv,summary.json}";
+       << " ms; wrote " << options.out_dir << "/{limits.csv,setpoints.csv,summary.json"
+       << (plot ? ",plan.png}" : "}");
   context.say(line.str());
+  if (input_options.corner_tolerance_m > 0.0) {
+    std::ostringstream blended;
+    blended << std::setprecision(4) << "corners: " << inputs.blended_corners.size()
+            << " blended within " << options.corner_tolerance_mm << " mm (largest deviation "
+            << corners["largest_deviation_mm"].get<double>() << " mm), "
+            << inputs.exact_stop_corners.size() << " exact stops";
+    context.say(blended.str());
+    for (const auto& corner : inputs.exact_stop_corners) {
+      context.say("  exact stop at " + block_name(corner.block) + ": " + corner.reason);
+    }
+  }
   for (const auto& note : plan.notes) context.say("note: " + note);
+  if (!plot && !options.no_plot) {
+    context.warn("no plot: " + no_display + " (every numerical file was written)");
+  }
   return 0;
 }
 
@@ -195,14 +301,29 @@ void add_plan_command(CLI::App& app, CommandContext& context) {
       ->capture_default_str();
   command->add_option("--feed-mm-per-min", options->feed_mm_per_min,
                       "feed for the whole path (default: the programmed feeds; rapids unlimited)");
-  auto* tolerance = command->add_option("--corner-tolerance-mm", options->corner_tolerance_mm,
-                                        "corner blending tolerance (not implemented yet)");
-  command->add_flag("--exact-stop", options->exact_stop, "stop at every corner (the default)")
+  auto* tolerance = command->add_option(
+      "--corner-tolerance-mm", options->corner_tolerance_mm,
+      "blend the corners of G1 polylines (tip tangent turning by more than 5 deg) with "
+      "curvature-continuous curves that stay within this distance of the programmed path [mm]; "
+      "rapids, reversals (> 176 deg) and orientation changes on the spot stay exact stops");
+  tolerance->check(CLI::PositiveNumber);
+  auto* axis_tolerance =
+      command->add_option("--corner-axis-tolerance-deg", options->corner_axis_tolerance_deg,
+                          "with --corner-tolerance-mm: largest angle between the blended and the "
+                          "programmed tool axis at a corner [deg]")
+          ->check(CLI::PositiveNumber)
+          ->capture_default_str();
+  axis_tolerance->needs(tolerance);
+  command->add_flag("--exact-stop", options->exact_stop,
+                    "stop at every corner (the default without --corner-tolerance-mm)")
       ->excludes(tolerance);
   command->add_flag("--no-third-order", options->no_third_order,
                     "leave out the jerk / torque-rate limits");
+  command->add_flag("--no-plot", options->no_plot, "write no plan.png");
   command->add_option("--out", options->out_dir,
-                      "output folder: limits.csv, setpoints.csv, summary.json")
+                      "output folder: limits.csv, setpoints.csv, summary.json and plan.png (sd_lim "
+                      "per constraint and the executed feedrate along s; needs an X display: run "
+                      "under xvfb-run -a on a headless machine, else skipped with a warning)")
       ->required();
   command->callback([options, &context] { context.result = run_plan(*options, context); });
 }

@@ -1,7 +1,8 @@
-// vmsim remove: material removal alone (N-buffer Z-map with exact swept volumes) on the
-// commanded tool path, or on the axis positions of a simulated or measured trace through the
-// direct kinematics. Writes the heights (binary and optional CSV), the machined surface (STL)
-// and a summary (JSON) into --out.
+// vmsim remove: material removal alone on the commanded tool path, or on the axis positions of
+// a simulated or measured trace through the direct kinematics. Two models: the N-buffer Z-map
+// with exact swept volumes (default; writes the heights, binary and optional CSV), or the
+// OpenVDB level set (--model level-set; writes the grids as stock.vdb and the surface as .vtp).
+// Both write the machined surface (STL) and a summary (JSON) into --out.
 #include <yaml-cpp/yaml.h>
 
 #include <nlohmann/json.hpp>
@@ -9,7 +10,9 @@
 #include <chrono>
 #include <cmath>
 #include <filesystem>
+#include <functional>
 #include <numbers>
+#include <optional>
 #include <sstream>
 
 #include "commands.hpp"
@@ -20,8 +23,10 @@
 #include "vmsim/kinematics/kinematics.hpp"
 #include "vmsim/kinematics/machine_loader.hpp"
 #include "vmsim/planner/toolpath.hpp"
+#include "vmsim/removal/level_set.hpp"
 #include "vmsim/removal/nbuffer.hpp"
 #include "vmsim/removal/output.hpp"
+#include "vmsim/removal/stl.hpp"
 
 namespace vmsim::app {
 namespace {
@@ -34,8 +39,12 @@ struct RemoveOptions {
   double grid_mm = 0.05;
   bool csv = false;
   int threads = 0;
-  double orientation_tolerance_um = 0.05;
+  double orientation_tolerance_um = -1.0;  // < 0: the model's default
   std::size_t stl_max_triangles = 4'000'000;
+  std::string model = "nbuffer";
+  std::string stock_stl;
+  double voxel_mm = 0.05, region_voxel_mm = 0.02;
+  std::vector<double> regions_mm;  // 6 numbers per region
 };
 
 Eigen::Vector3d vector_mm(const std::vector<double>& v) { return Eigen::Vector3d(v[0], v[1], v[2]) * 1e-3; }
@@ -110,6 +119,85 @@ std::vector<removal::Pose> poses_from_trace(const std::string& machine_path, con
   return poses;
 }
 
+// Prints the progress of a cut every 10 % (both models' interrupted callbacks); never stops it.
+std::function<bool(double)> progress_printer(const CommandContext& context) {
+  return [&context, last_percent = -10](double fraction) mutable {
+    const int percent = static_cast<int>(fraction * 100.0);
+    if (percent >= last_percent + 10) {
+      last_percent = percent;
+      context.say("  " + std::to_string(percent) + " %");
+    }
+    return false;
+  };
+}
+
+// The level-set model: the stock (box or closed STL) as OpenVDB grids, cut along the poses;
+// writes stock.vdb, surface.stl, surface.vtp (point data z_mm) and summary.json.
+int run_level_set(const RemoveOptions& o, const CommandContext& context, const removal::Tool& tool,
+                  const removal::Box& stock, const std::optional<removal::TriangleMesh>& stock_mesh,
+                  const std::vector<removal::Pose>& poses, const std::string& source) {
+  removal::LevelSetOptions options;
+  options.voxel_m = o.voxel_mm * 1e-3;
+  for (std::size_t i = 0; i < o.regions_mm.size(); i += 6) {
+    const std::vector<double> lo(o.regions_mm.begin() + i, o.regions_mm.begin() + i + 3);
+    const std::vector<double> hi(o.regions_mm.begin() + i + 3, o.regions_mm.begin() + i + 6);
+    options.regions.push_back(removal::LevelSetRegion{removal::Box{vector_mm(lo), vector_mm(hi)}, o.region_voxel_mm * 1e-3});
+  }
+  removal::LevelSetStock grids = stock_mesh ? removal::LevelSetStock::mesh(*stock_mesh, options)
+                                            : removal::LevelSetStock::box(stock, options);
+  removal::LevelSetCutOptions cut;
+  cut.threads = o.threads;
+  const double tolerance_um = o.orientation_tolerance_um > 0.0 ? o.orientation_tolerance_um : 1.0;
+  cut.orientation_tolerance_m = tolerance_um * 1e-6;
+  cut.interrupted = progress_printer(context);
+  context.say("removal: " + std::to_string(poses.size()) + " samples from " + source + "; level set at " +
+              format_double(o.voxel_mm) + " mm voxels, " + std::to_string(options.regions.size()) + " fine region(s) at " +
+              format_double(o.region_voxel_mm) + " mm");
+  const auto start = std::chrono::steady_clock::now();
+  const removal::LevelSetCutStatistics stats = grids.cut(tool, poses, cut);
+  const double seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+  const removal::TriangleMesh surface = grids.surface();
+  std::vector<double> z_mm;
+  z_mm.reserve(surface.vertices_m.size());
+  for (const auto& v : surface.vertices_m) z_mm.push_back(v.z() * 1e3);
+
+  std::filesystem::create_directories(o.out_dir);
+  const std::filesystem::path dir(o.out_dir);
+  write_file_atomically((dir / "stock.vdb").string(), grids.vdb_bytes());
+  write_file_atomically((dir / "surface.stl").string(), removal::mesh_stl(surface));
+  write_file_atomically((dir / "surface.vtp").string(), removal::mesh_vtp(surface, &z_mm, "z_mm"));
+  nlohmann::json regions = nlohmann::json::array();
+  for (const auto& r : options.regions) {
+    regions.push_back({{"min_mm", {r.box_W_m.min_W_m.x() * 1e3, r.box_W_m.min_W_m.y() * 1e3, r.box_W_m.min_W_m.z() * 1e3}},
+                       {"max_mm", {r.box_W_m.max_W_m.x() * 1e3, r.box_W_m.max_W_m.y() * 1e3, r.box_W_m.max_W_m.z() * 1e3}},
+                       {"voxel_mm", r.voxel_m * 1e3}});
+  }
+  nlohmann::json summary = {
+      {"model", "level-set"},
+      {"source", source},
+      {"samples", poses.size()},
+      {"sub_segments", stats.sub_segments},
+      {"stock", stock_mesh ? o.stock_stl : std::string("box")},
+      {"voxel_mm", o.voxel_mm},
+      {"regions", regions},
+      {"band_mm", grids.band_m() * 1e3},
+      {"tool", {{"type", o.tool_type.empty() ? "part" : o.tool_type}, {"diameter_mm", tool.diameter_m * 1e3},
+                {"corner_radius_mm", tool.corner_radius() * 1e3}, {"length_mm", tool.length_m * 1e3}}},
+      {"voxels_evaluated", stats.voxels_evaluated},
+      {"voxels_changed", stats.voxels_changed},
+      {"active_voxels", grids.active_voxel_count()},
+      {"memory_mb", static_cast<double>(grids.memory_bytes()) / 1e6},
+      {"surface_triangles", surface.triangles.size()},
+      {"seconds", seconds},
+      {"orientation_tolerance_um", tolerance_um}};
+  write_file_atomically((dir / "summary.json").string(), summary.dump(2) + "\n");
+  std::ostringstream line;
+  line << "cut " << poses.size() << " samples in " << seconds << " s; wrote " << o.out_dir
+       << "/{stock.vdb,surface.stl,surface.vtp,summary.json}";
+  context.say(line.str());
+  return 0;
+}
+
 int run_remove(const RemoveOptions& o, const CommandContext& context) {
   removal::Tool tool;
   removal::Box stock;
@@ -140,10 +228,29 @@ int run_remove(const RemoveOptions& o, const CommandContext& context) {
   if (!have_tool || (o.part_path.empty() && (o.tool_type.empty() || o.tool_diameter_mm <= 0.0))) {
     throw InputError("no tool: give --part or --tool-type and --tool-diameter-mm");
   }
+  if (o.model != "nbuffer" && o.model != "level-set") {
+    throw InputError("--model '" + o.model + "': expected nbuffer or level-set");
+  }
+  std::optional<removal::TriangleMesh> stock_mesh;
+  if (!o.stock_stl.empty()) {
+    stock_mesh = removal::read_stl(o.stock_stl);
+    stock = stock_mesh->bounds();
+    have_stock = true;
+  }
   if (!o.stock_min_mm.empty()) stock.min_W_m = vector_mm(o.stock_min_mm), have_stock = true;
   if (!o.stock_max_mm.empty()) stock.max_W_m = vector_mm(o.stock_max_mm), have_stock = true;
-  if (!have_stock || (o.part_path.empty() && (o.stock_min_mm.empty() || o.stock_max_mm.empty()))) {
-    throw InputError("no stock: give --part or --stock-min-mm and --stock-max-mm");
+  if (!have_stock || (o.part_path.empty() && !stock_mesh && (o.stock_min_mm.empty() || o.stock_max_mm.empty()))) {
+    throw InputError("no stock: give --part, --stock-stl, or --stock-min-mm and --stock-max-mm");
+  }
+  if (stock_mesh && (!o.stock_min_mm.empty() || !o.stock_max_mm.empty())) {
+    throw InputError("--stock-stl and --stock-min-mm/--stock-max-mm: give one stock");
+  }
+  if (o.regions_mm.size() % 6 != 0) {
+    throw InputError("--regions-mm: " + std::to_string(o.regions_mm.size()) +
+                     " numbers; expected 6 per region (x0,y0,z0,x1,y1,z1)");
+  }
+  if (o.model != "level-set" && !o.regions_mm.empty()) {
+    throw InputError("--regions-mm needs --model level-set");
   }
   tool.validate();
 
@@ -163,19 +270,14 @@ int run_remove(const RemoveOptions& o, const CommandContext& context) {
   }
   if (poses.empty()) throw InputError(source + ": no trajectory samples");
 
-  removal::NBuffer buffer = removal::NBuffer::zmap(stock, o.grid_mm * 1e-3);
+  if (o.model == "level-set") return run_level_set(o, context, tool, stock, stock_mesh, poses, source);
+  const double tolerance_um = o.orientation_tolerance_um > 0.0 ? o.orientation_tolerance_um : 0.05;
+  removal::NBuffer buffer = stock_mesh ? removal::NBuffer::zmap(*stock_mesh, o.grid_mm * 1e-3)
+                                      : removal::NBuffer::zmap(stock, o.grid_mm * 1e-3);
   removal::CutOptions cut;
   cut.threads = o.threads;
-  cut.orientation_tolerance_m = o.orientation_tolerance_um * 1e-6;
-  int last_percent = -10;
-  cut.interrupted = [&](double fraction) {
-    const int percent = static_cast<int>(fraction * 100.0);
-    if (percent >= last_percent + 10) {
-      last_percent = percent;
-      context.say("  " + std::to_string(percent) + " %");
-    }
-    return false;
-  };
+  cut.orientation_tolerance_m = tolerance_um * 1e-6;
+  cut.interrupted = progress_printer(context);
   context.say("removal: " + std::to_string(poses.size()) + " samples from " + source + "; Z-map " +
               std::to_string(buffer.nu()) + " x " + std::to_string(buffer.nv()) + " lines at " +
               format_double(o.grid_mm) + " mm");
@@ -205,7 +307,7 @@ int run_remove(const RemoveOptions& o, const CommandContext& context) {
       {"lowest_z_mm", (stock.min_W_m.z() + lowest) * 1e3},
       {"seconds", seconds},
       {"stl_stride", stride},
-      {"orientation_tolerance_um", o.orientation_tolerance_um}};
+      {"orientation_tolerance_um", tolerance_um}};
   write_file_atomically((dir / "summary.json").string(), summary.dump(2) + "\n");
   std::ostringstream line;
   line << "cut " << poses.size() << " samples in " << seconds << " s; wrote " << o.out_dir
@@ -218,8 +320,8 @@ int run_remove(const RemoveOptions& o, const CommandContext& context) {
 
 void add_remove_command(CLI::App& app, CommandContext& context) {
   auto o = std::make_shared<RemoveOptions>();
-  CLI::App* c = app.add_subcommand("remove", "material removal alone (N-buffer Z-map, exact swept volumes) on a "
-                                             "tool path or on the axis positions of a trace");
+  CLI::App* c = app.add_subcommand("remove", "material removal alone (N-buffer Z-map or OpenVDB level set, exact "
+                                             "swept volumes) on a tool path or on the axis positions of a trace");
   c->add_option("--part", o->part_path, "part file (part.yaml): tool, stock, tool path, machine")->check(CLI::ExistingFile);
   c->add_option("--toolpath", o->toolpath_path, "tool path (APT/CL or G-code), commanded poses")->check(CLI::ExistingFile);
   c->add_option("--machine", o->machine_path, "machine (YAML) for --trace")->check(CLI::ExistingFile);
@@ -233,10 +335,16 @@ void add_remove_command(CLI::App& app, CommandContext& context) {
   c->add_option("--grid-mm", o->grid_mm, "Z-map line spacing [mm]")->capture_default_str();
   c->add_option("--threads", o->threads, "threads (0: all)")->capture_default_str();
   c->add_option("--orientation-tolerance-um", o->orientation_tolerance_um,
-                "largest error of the swept volume where the tool axis turns [um]")->capture_default_str();
+                "largest error of the swept volume where the tool axis turns [um] (default: nbuffer 0.05, level-set 1)");
   c->add_option("--stl-max-triangles", o->stl_max_triangles, "surface.stl takes every k-th line to stay under this")
       ->capture_default_str();
-  c->add_flag("--csv", o->csv, "also write heights.csv (large)");
+  c->add_flag("--csv", o->csv, "also write heights.csv (large; nbuffer)");
+  c->add_option("--model", o->model, "nbuffer (Z-map, exact heights) or level-set (OpenVDB grids, .vdb)")
+      ->capture_default_str();
+  c->add_option("--stock-stl", o->stock_stl, "closed STL stock [mm] instead of a box")->check(CLI::ExistingFile);
+  c->add_option("--voxel-mm", o->voxel_mm, "level-set voxel over the whole stock [mm]")->capture_default_str();
+  c->add_option("--regions-mm", o->regions_mm, "level-set fine boxes x0,y0,z0,x1,y1,z1[,...] [mm]")->delimiter(',');
+  c->add_option("--region-voxel-mm", o->region_voxel_mm, "level-set voxel in the fine boxes [mm]")->capture_default_str();
   c->add_option("--out", o->out_dir, "output folder")->required();
   c->callback([o, &context] { context.result = run_remove(*o, context); });
 }

@@ -28,6 +28,8 @@ struct CommandOptions {
   bool no_renders = false;
   bool no_commanded_check = false;
   bool perfect_drives = false;
+  bool third_order = false;
+  double corner_tolerance_mm = 0.0;
   int threads = 0;
 };
 
@@ -63,6 +65,11 @@ int run(const CommandOptions& command, const CommandContext& context) {
   options.renders = !command.no_renders;
   options.commanded_check = !command.no_commanded_check;
   options.perfect_drives = command.perfect_drives;
+  options.third_order = command.third_order;
+  if (!(command.corner_tolerance_mm >= 0.0)) {
+    throw InputError("--corner-tolerance-mm must be >= 0, got " + format_double(command.corner_tolerance_mm));
+  }
+  options.corner_tolerance_m = command.corner_tolerance_mm * 1e-3;
   options.threads = command.threads;
 
   const auto start = std::chrono::steady_clock::now();
@@ -76,7 +83,7 @@ int run(const CommandOptions& command, const CommandContext& context) {
     if (terminal) {
       std::cout << '\r' << stamp << line << "\033[K" << std::flush;
     } else {
-      std::cout << stamp << line << '\n';
+      std::cout << stamp << line << std::endl;  // flushed: a log shows where a long run is
     }
   };
   const nlohmann::json report = simulate_part(options, progress);
@@ -143,6 +150,11 @@ void add_simulate_part_command(CLI::App& app, CommandContext& context) {
   command->add_flag("--perfect-drives", options->perfect_drives,
                     "the axes follow the planned motion exactly (no servo): what the planner alone does");
   command->add_flag("--no-renders", options->no_renders, "write no images");
+  command->add_flag("--third-order", options->third_order,
+                    "apply jerk / torque-rate limits in the plan (exact, much slower planning)");
+  command->add_option("--corner-tolerance-mm", options->corner_tolerance_mm,
+                      "blend G1 corners within this distance [mm] (0: exact stop)")
+      ->capture_default_str();
   command->add_flag("--no-commanded-check", options->no_commanded_check,
                     "skip cutting the commanded path to check the reference run");
   command->callback([options, &context] { context.result = run(*options, context); });

@@ -44,6 +44,58 @@ std::string text(const std::string& file, const YAML::Node& map, const std::stri
   return node.Scalar();
 }
 
+Eigen::Vector3d vector3(const std::string& file, const YAML::Node& map, const std::string& key,
+                        const std::string& path, double scale) {
+  const YAML::Node node = required(file, map, key, path);
+  if (!node.IsSequence() || node.size() != 3) fail(file, node, path + key + ": expected [x, y, z]");
+  Eigen::Vector3d value;
+  for (std::size_t i = 0; i < 3; ++i) {
+    try {
+      value[static_cast<Eigen::Index>(i)] = node[i].as<double>() * scale;
+    } catch (const YAML::Exception&) {
+      fail(file, node[i], path + key + ": '" + node[i].Scalar() + "' is not a number");
+    }
+  }
+  return value;
+}
+
+std::vector<DesignPlane> design_planes(const std::string& file, const YAML::Node& design) {
+  std::vector<DesignPlane> planes;
+  if (!design) return planes;
+  const YAML::Node surfaces = required(file, design, "surfaces", "design.");
+  if (!surfaces.IsSequence()) fail(file, surfaces, "design.surfaces: expected a list of patches");
+  for (std::size_t k = 0; k < surfaces.size(); ++k) {
+    const YAML::Node patch = surfaces[k];
+    const std::string path = "design.surfaces[" + std::to_string(k) + "].";
+    if (!patch.IsMap()) fail(file, patch, path + ": expected a map");
+    if (text(file, patch, "type") != "plane") continue;
+    DesignPlane plane;
+    plane.point_W_m = vector3(file, patch, "point_mm", path, 1e-3);
+    const Eigen::Vector3d normal = vector3(file, patch, "normal", path, 1.0);
+    if (!(normal.norm() > 1e-9)) fail(file, patch["normal"], path + "normal: must not be zero");
+    plane.normal_W = normal.normalized();
+    const char* range_keys[3] = {"x_range_mm", "y_range_mm", "z_range_mm"};
+    for (int axis = 0; axis < 3; ++axis) {
+      const YAML::Node range = patch[range_keys[axis]];
+      if (!range) continue;
+      if (!range.IsSequence() || range.size() != 2) {
+        fail(file, range, path + range_keys[axis] + ": expected [low, high] in mm");
+      }
+      try {
+        plane.min_W_m[axis] = range[0].as<double>() * 1e-3;
+        plane.max_W_m[axis] = range[1].as<double>() * 1e-3;
+      } catch (const YAML::Exception&) {
+        fail(file, range, path + range_keys[axis] + ": expected two numbers");
+      }
+      if (!(plane.min_W_m[axis] < plane.max_W_m[axis])) {
+        fail(file, range, path + range_keys[axis] + ": low must be below high");
+      }
+    }
+    planes.push_back(plane);
+  }
+  return planes;
+}
+
 }  // namespace
 
 PartDescription load_part(const std::string& path) {
@@ -84,28 +136,14 @@ PartDescription load_part(const std::string& path) {
   }
   if (root["stock"]) {
     const YAML::Node box = required(path, root["stock"], "box", "stock.");
-    auto corner = [&](const char* key) {
-      const YAML::Node node = required(path, box, key, "stock.box.");
-      if (!node.IsSequence() || node.size() != 3) {
-        fail(path, node, std::string("stock.box.") + key + ": expected [x, y, z] in mm");
-      }
-      Eigen::Vector3d corner_m;
-      for (std::size_t i = 0; i < 3; ++i) {
-        try {
-          corner_m[static_cast<Eigen::Index>(i)] = node[i].as<double>() * 1e-3;
-        } catch (const YAML::Exception&) {
-          fail(path, node[i], std::string("stock.box.") + key + ": '" + node[i].Scalar() +
-                                  "' is not a number");
-        }
-      }
-      return corner_m;
-    };
-    StockBox stock{corner("min_mm"), corner("max_mm")};
+    StockBox stock{vector3(path, box, "min_mm", "stock.box.", 1e-3),
+                   vector3(path, box, "max_mm", "stock.box.", 1e-3)};
     if (!(stock.min_W_m.array() < stock.max_W_m.array()).all()) {
       fail(path, box, "stock.box: min_mm must be below max_mm in x, y and z");
     }
     part.stock = stock;
   }
+  part.design_planes = design_planes(path, root["design"]);
   const YAML::Node feeds = required(path, root, "feeds", "");
   part.production_feed_m_per_s =
       positive_number(path, feeds, "production_mm_per_min", "feeds.") * 1e-3 / 60.0;

@@ -2,7 +2,9 @@
 // A part description (samples/parts/<part>/part.yaml): machine, tool path, tool, stock, feeds.
 // Documented in samples/parts/README.md. Paths inside are relative to the part file.
 #include <Eigen/Core>
+#include <limits>
 #include <optional>
+#include <vector>
 #include <string>
 
 namespace vmsim::app {
@@ -22,6 +24,17 @@ struct StockBox {
   Eigen::Vector3d max_W_m = Eigen::Vector3d::Zero();
 };
 
+/// A plane patch of the design surface (`design.surfaces`, type plane) [m, W]. The other patch
+/// types (cylinder, sphere, height functions) are read by the sample tests only; simulate-part
+/// uses the planes to put N-buffer lines along the normals of walls a Z-map cannot see.
+struct DesignPlane {
+  Eigen::Vector3d point_W_m = Eigen::Vector3d::Zero();
+  Eigen::Vector3d normal_W = Eigen::Vector3d::UnitZ();  ///< unit, out of the material
+  /// Bounds of the patch's points (x_range_mm, y_range_mm, z_range_mm); +-inf where not given.
+  Eigen::Vector3d min_W_m = Eigen::Vector3d::Constant(-std::numeric_limits<double>::infinity());
+  Eigen::Vector3d max_W_m = Eigen::Vector3d::Constant(std::numeric_limits<double>::infinity());
+};
+
 struct PartDescription {
   std::string file;
   std::string name;
@@ -30,6 +43,7 @@ struct PartDescription {
   std::string toolpath_path;  ///< resolved against the part file's folder
   ToolDescription tool;
   std::optional<StockBox> stock;  ///< `stock: {box: {min_mm, max_mm}}` where given
+  std::vector<DesignPlane> design_planes;  ///< the plane patches of `design.surfaces`
   double production_feed_m_per_s = 0.0;
   double reference_feed_m_per_s = 0.0;
 };

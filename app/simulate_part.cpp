@@ -13,6 +13,7 @@
 
 #include "chain_inputs.hpp"
 #include "part_file.hpp"
+#include "surface_views.hpp"
 #include "vmsim/common/errors.hpp"
 #include "vmsim/common/files.hpp"
 #include "vmsim/common/trace.hpp"
@@ -40,8 +41,7 @@ double round_to(double value, double step) { return std::round(value / step) * s
 
 // Everything one run (one feed) produces.
 struct Run {
-  Run(std::string run_name, double feed, removal::NBuffer grid)
-      : name(std::move(run_name)), feed_m_per_s(feed), buffer(std::move(grid)) {}
+  Run(std::string run_name, double feed) : name(std::move(run_name)), feed_m_per_s(feed) {}
   std::string name;
   double feed_m_per_s = 0.0;
   planner::FeedratePlan plan;
@@ -51,7 +51,7 @@ struct Run {
   std::vector<removal::Pose> trajectory;  ///< actual tool poses, thinned
   std::vector<double> trajectory_t_s;   ///< the time of each kept pose
   std::size_t samples = 0;              ///< servo samples before thinning
-  removal::NBuffer buffer;
+  std::vector<removal::NBuffer> buffers;  ///< one per surface view (Context::views)
   std::map<std::string, double> stage_seconds;
 };
 
@@ -139,6 +139,7 @@ struct Context {
   kinematics::PathKinematics path;
   removal::Tool tool;
   removal::Box stock;
+  std::vector<SurfaceView> views;
 };
 
 // s of the plan at time t (linear interpolation in the set points).
@@ -175,13 +176,14 @@ void read_servo_positions(const kinematics::MachineModel& machine, Run& run) {
 
 Run simulate_run(const Context& context, const std::string& name, double feed_m_per_s) {
   const kinematics::MachineModel& machine = context.inputs.machine;
-  Run run(name, feed_m_per_s, removal::NBuffer::zmap(context.stock, context.options.grid_m));
+  Run run(name, feed_m_per_s);
   {
     StageTimer timer(run, "plan", context.progress);
     planner::FeedrateOptions plan_options;
     plan_options.method = context.options.method;
     plan_options.limits = context.options.limits;
     plan_options.effects = context.options.effects;
+    plan_options.third_order = context.options.third_order;
     // The run's feed replaces the programmed one on cutting moves (a feed override); rapids
     // keep no feed limit and go as fast as the axes allow, identically in both runs.
     plan_options.point_feed_m_per_s.resize(context.inputs.path.size());
@@ -191,7 +193,12 @@ Run simulate_run(const Context& context, const std::string& name, double feed_m_
     }
     try {
       run.plan = planner::plan_feedrate(machine, context.path, plan_options);
+      if (!plan_options.third_order) {
+        run.plan.notes.push_back("jerk / torque-rate limits not applied (simulate-part's default; "
+                                 "--third-order applies them, at a much longer planning time)");
+      }
     } catch (const InfeasibleError& error) {
+      if (!plan_options.third_order) throw;
       // The third-order (jerk / torque-rate) planner does not yet hold on every path: plan with
       // velocity, acceleration (or torque) limits only, and say so in the report.
       plan_options.third_order = false;
@@ -249,15 +256,19 @@ Run simulate_run(const Context& context, const std::string& name, double feed_m_
     StageTimer timer(run, "removal", context.progress);
     removal::CutOptions cut_options;
     cut_options.threads = context.options.threads;
-    double reported = 0.0;
-    cut_options.interrupted = [&](double fraction) {
-      if (fraction >= reported + 0.25) {
-        reported = std::floor(fraction * 4) / 4;
-        context.progress(name + ": removal " + std::to_string(static_cast<int>(reported * 100)) + " %");
-      }
-      return false;
-    };
-    run.buffer.cut(context.tool, run.trajectory, cut_options);
+    for (const SurfaceView& view : context.views) {
+      double reported = 0.0;
+      cut_options.interrupted = [&](double fraction) {
+        if (fraction >= reported + 0.25) {
+          reported = std::floor(fraction * 4) / 4;
+          context.progress(name + ": removal (" + view.id + ") " +
+                           std::to_string(static_cast<int>(reported * 100)) + " %");
+        }
+        return false;
+      };
+      run.buffers.push_back(view.fresh_buffer(context.stock));
+      run.buffers.back().cut(context.tool, run.trajectory, cut_options);
+    }
   }
   return run;
 }
@@ -287,14 +298,20 @@ std::vector<double> tip_curvature(const std::vector<kinematics::PathPose>& path)
 Json relate_mark(const Context& context, const Run& production, const removal::Mark& mark,
                  const std::vector<double>& curvature) {
   const kinematics::MachineModel& machine = context.inputs.machine;
-  // The sample whose tool centre came closest to the deepest point cut it.
+  // The sample whose tool surface came closest to the deepest point cut it: the distance from
+  // the point to the tool's axis (from the centre of the corner radius up) minus the tool
+  // radius is 0 on the flank of a flat end, on a ball, and near the bottom of a bull nose.
+  const double radius = context.tool.diameter_m / 2;
   const double centre_offset = context.tool.corner_radius_m;
   std::size_t best = 0;
   double best_distance = std::numeric_limits<double>::infinity();
   for (std::size_t k = 0; k < production.trajectory.size(); ++k) {
     const removal::Pose& pose = production.trajectory[k];
+    const Eigen::Vector3d centre = pose.tip_W_m + centre_offset * pose.axis_W;
+    const double along = std::clamp((mark.deepest_point_W_m - centre).dot(pose.axis_W), 0.0,
+                                    context.tool.length_m - centre_offset);
     const double distance =
-        (pose.tip_W_m + centre_offset * pose.axis_W - mark.deepest_point_W_m).norm();
+        std::abs((centre + along * pose.axis_W - mark.deepest_point_W_m).norm() - radius);
     if (distance < best_distance) {
       best_distance = distance;
       best = k;
@@ -381,27 +398,14 @@ Json relate_mark(const Context& context, const Run& production, const removal::M
   return related;
 }
 
-viz::HeightField height_field(const removal::NBuffer& buffer, const std::vector<double>* deviation,
-                              int stride) {
-  viz::HeightField field;
-  const Eigen::Vector3d origin = buffer.zmap_origin_m();
-  field.origin_x_m = origin.x();
-  field.origin_y_m = origin.y();
-  field.spacing_x_m = field.spacing_y_m = buffer.spacing_m() * stride;
-  field.nx = (buffer.nu() - 1) / stride + 1;
-  field.ny = (buffer.nv() - 1) / stride + 1;
-  for (int j = 0; j < field.ny; ++j) {
-    for (int i = 0; i < field.nx; ++i) {
-      field.height_m.push_back(origin.z() + buffer.length(i * stride, j * stride));
-      if (deviation) {
-        field.deviation_m.push_back(
-            (*deviation)[static_cast<std::size_t>(i * stride) +
-                         static_cast<std::size_t>(buffer.nu()) * static_cast<std::size_t>(j * stride)]);
-      }
-    }
-  }
-  return field;
-}
+// One view's comparison: production minus reference, line by line, and its marks.
+struct ViewComparison {
+  const SurfaceView* view = nullptr;
+  std::size_t index = 0;  ///< in Context::views and Run::buffers
+  std::vector<double> deviation_m;
+  std::size_t steep_lines_excluded = 0;
+  removal::MarkMap marks;
+};
 
 Json stage_times(const Run& run) {
   Json times;
@@ -478,16 +482,28 @@ std::string html_report(const Json& report, const std::vector<std::string>& imag
     }
     html << "</td></tr>\n";
   }
+  html << "</table>\n<h2>Surface views</h2><table><tr><th>view</th><th>lines</th><th>marks</th>"
+          "<th>deviation min / max / rms [um]</th><th>steep lines not assessed</th></tr>\n";
+  for (const auto& view : report["surface"]["views"]) {
+    html << "<tr><td>" << html_escape(view["id"].get<std::string>()) << ": "
+         << html_escape(view["title"].get<std::string>()) << "</td><td>" << view["lines"].get<std::size_t>()
+         << "</td><td>" << view["marks"].get<std::size_t>() << "</td><td>"
+         << round_to(view["deviation_min_um"].get<double>(), 0.01) << " / "
+         << round_to(view["deviation_max_um"].get<double>(), 0.01) << " / "
+         << round_to(view["deviation_rms_um"].get<double>(), 0.001) << "</td><td>"
+         << view["steep_lines_not_assessed"].get<std::size_t>() << "</td></tr>\n";
+  }
   html << "</table>\n<h2>Marks</h2>\n";
   if (report["marks"].empty()) {
     html << "<p>No mark deeper than " << report["surface"]["mark_threshold_um"].get<double>()
          << " um.</p>\n";
   } else {
-    html << "<table><tr><th>#</th><th>kind</th><th>depth [um]</th><th>area [mm2]</th>"
+    html << "<table><tr><th>#</th><th>view</th><th>kind</th><th>depth [um]</th><th>area [mm2]</th>"
             "<th>at (x, y, z) [mm]</th><th>s [mm]</th><th>block</th><th>place</th><th>axes</th></tr>\n";
     int index = 1;
     for (const auto& mark : report["marks"]) {
-      html << "<tr><td>" << index++ << "</td><td>" << mark["kind"].get<std::string>() << "</td><td>"
+      html << "<tr><td>" << index++ << "</td><td>" << mark["view"].get<std::string>() << "</td><td>"
+           << mark["kind"].get<std::string>() << "</td><td>"
            << round_to(mark["depth_um"].get<double>(), 0.01) << "</td><td>"
            << round_to(mark["area_mm2"].get<double>(), 0.001) << "</td><td>";
       for (double c : mark["deepest_point_mm"]) html << round_to(c, 0.001) << " ";
@@ -512,10 +528,76 @@ std::string html_report(const Json& report, const std::vector<std::string>& imag
   return html.str();
 }
 
+// The per-node mark outline mask of a (strided) view.
+std::vector<std::uint8_t> mark_mask(const ViewComparison& comparison, const removal::NBuffer& buffer,
+                                    int i0, int i1, int j0, int j1, int stride, int only_label) {
+  std::vector<std::uint8_t> mask;
+  for (int j = j0; j <= j1; j += stride) {
+    for (int i = i0; i <= i1; i += stride) {
+      const int label = comparison.marks.label[static_cast<std::size_t>(i) +
+                                               static_cast<std::size_t>(buffer.nu()) * static_cast<std::size_t>(j)];
+      mask.push_back(only_label < 0 ? (label >= 0 ? 1 : 0) : (label == only_label ? 1 : 0));
+    }
+  }
+  return mask;
+}
+
+std::string view_file_suffix(const SurfaceView& view) { return view.zmap ? "" : "_" + view.id; }
+
+void render_view_surfaces(const Context& context, const Run& production,
+                          const std::vector<ViewComparison>& comparisons,
+                          const std::filesystem::path& folder, std::vector<std::string>& images) {
+  for (const ViewComparison& comparison : comparisons) {
+    const SurfaceView& view = *comparison.view;
+    const removal::NBuffer& buffer = production.buffers[comparison.index];
+    const int stride = std::max(1, static_cast<int>(std::ceil(std::sqrt(
+                                       static_cast<double>(buffer.line_count()) / 400000.0))));
+    const viz::HeightField field = view_height_field(view, buffer, &comparison.deviation_m, stride);
+    viz::SurfaceRenderOptions options;
+    options.title = context.part.name + ": production minus reference" +
+                    (view.zmap ? "" : " (" + view.id + ")");
+    options.region_mask = mark_mask(comparison, buffer, 0, (field.nx - 1) * stride, 0,
+                                    (field.ny - 1) * stride, stride, -1);
+    if (!view.zmap) options.camera = viz::CameraPreset::top;  // the wall seen along its normal
+    const std::string name = "surface_deviation" + view_file_suffix(view) + ".png";
+    viz::render_surface_png((folder / name).string(), field, options);
+    images.push_back(name);
+  }
+}
+
+// A close-up of the deepest mark over all views (the first of `comparisons` that holds it).
+void render_worst_mark(const Context& context, const Run& production, const ViewComparison& comparison,
+                       const std::filesystem::path& folder, std::vector<std::string>& images) {
+  const SurfaceView& view = *comparison.view;
+  const removal::NBuffer& buffer = production.buffers[comparison.index];
+  const removal::Mark& worst = comparison.marks.marks.front();
+  const int margin = static_cast<int>(std::max(2e-3, 2 * context.tool.diameter_m) / view.spacing_m);
+  const int i0 = std::max(0, worst.iu_min - margin), i1 = std::min(buffer.nu() - 1, worst.iu_max + margin);
+  const int j0 = std::max(0, worst.iv_min - margin), j1 = std::min(buffer.nv() - 1, worst.iv_max + margin);
+  const viz::HeightField whole = view_height_field(view, buffer, &comparison.deviation_m, 1);
+  viz::HeightField crop;
+  crop.origin_x_m = whole.origin_x_m + i0 * view.spacing_m;
+  crop.origin_y_m = whole.origin_y_m + j0 * view.spacing_m;
+  crop.spacing_x_m = crop.spacing_y_m = view.spacing_m;
+  crop.nx = i1 - i0 + 1;
+  crop.ny = j1 - j0 + 1;
+  for (int j = j0; j <= j1; ++j) {
+    for (int i = i0; i <= i1; ++i) {
+      crop.height_m.push_back(whole.height_m[whole.index(i, j)]);
+      crop.deviation_m.push_back(whole.deviation_m[whole.index(i, j)]);
+    }
+  }
+  viz::SurfaceRenderOptions options;
+  options.title = "Deepest mark: " + format_double(round_to(worst.depth_m * 1e6, 0.1)) + " um" +
+                  (view.zmap ? "" : " (" + view.id + ")");
+  options.region_mask = mark_mask(comparison, buffer, i0, i1, j0, j1, 1, 0);
+  viz::render_surface_png((folder / "worst_mark.png").string(), crop, options);
+  images.push_back("worst_mark.png");
+}
+
 void write_renders(const Context& context, const Run& production, const Run& reference,
-                   const std::vector<double>& deviation, const removal::MarkMap& marks,
-                   const std::filesystem::path& folder, Json& report,
-                   std::vector<std::string>& images) {
+                   const std::vector<ViewComparison>& comparisons, const std::filesystem::path& folder,
+                   Json& report, std::vector<std::string>& images) {
   std::string why_not;
   if (!context.options.renders) {
     report["renders"]["skipped"] = "--no-renders";
@@ -526,50 +608,15 @@ void write_renders(const Context& context, const Run& production, const Run& ref
     context.progress("renders skipped: " + why_not);
     return;
   }
-  const removal::NBuffer& buffer = production.buffer;
-  const int stride = std::max(1, static_cast<int>(std::ceil(std::sqrt(
-                                     static_cast<double>(buffer.line_count()) / 400000.0))));
-  viz::HeightField field = height_field(buffer, &deviation, stride);
-  viz::SurfaceRenderOptions surface_options;
-  surface_options.title = context.part.name + ": production minus reference";
-  for (int j = 0; j < field.ny; ++j) {
-    for (int i = 0; i < field.nx; ++i) {
-      const int label = marks.label[static_cast<std::size_t>(i * stride) +
-                                    static_cast<std::size_t>(buffer.nu()) * static_cast<std::size_t>(j * stride)];
-      surface_options.region_mask.push_back(label >= 0 ? 1 : 0);
+  render_view_surfaces(context, production, comparisons, folder, images);
+  const ViewComparison* worst = nullptr;
+  for (const ViewComparison& comparison : comparisons) {
+    if (comparison.marks.marks.empty()) continue;
+    if (!worst || comparison.marks.marks.front().depth_m > worst->marks.marks.front().depth_m) {
+      worst = &comparison;
     }
   }
-  viz::render_surface_png((folder / "surface_deviation.png").string(), field, surface_options);
-  images.push_back("surface_deviation.png");
-  if (!marks.marks.empty()) {
-    const removal::Mark& worst = marks.marks.front();
-    const double margin = std::max(2e-3, 2 * context.tool.diameter_m);
-    viz::HeightField close = height_field(buffer, &deviation, 1);
-    // Crop to the close-up box (keeps the render small at full resolution).
-    const int i0 = std::max(0, worst.iu_min - static_cast<int>(margin / buffer.spacing_m()));
-    const int i1 = std::min(buffer.nu() - 1, worst.iu_max + static_cast<int>(margin / buffer.spacing_m()));
-    const int j0 = std::max(0, worst.iv_min - static_cast<int>(margin / buffer.spacing_m()));
-    const int j1 = std::min(buffer.nv() - 1, worst.iv_max + static_cast<int>(margin / buffer.spacing_m()));
-    viz::HeightField crop;
-    crop.origin_x_m = close.origin_x_m + i0 * buffer.spacing_m();
-    crop.origin_y_m = close.origin_y_m + j0 * buffer.spacing_m();
-    crop.spacing_x_m = crop.spacing_y_m = buffer.spacing_m();
-    crop.nx = i1 - i0 + 1;
-    crop.ny = j1 - j0 + 1;
-    viz::SurfaceRenderOptions close_options;
-    close_options.title = "Deepest mark: " + std::to_string(round_to(worst.depth_m * 1e6, 0.1)).substr(0, 6) + " um";
-    for (int j = j0; j <= j1; ++j) {
-      for (int i = i0; i <= i1; ++i) {
-        const std::size_t index = close.index(i, j);
-        crop.height_m.push_back(close.height_m[index]);
-        crop.deviation_m.push_back(close.deviation_m[index]);
-        close_options.region_mask.push_back(
-            marks.label[static_cast<std::size_t>(i) + static_cast<std::size_t>(buffer.nu()) * static_cast<std::size_t>(j)] == 0 ? 1 : 0);
-      }
-    }
-    viz::render_surface_png((folder / "worst_mark.png").string(), crop, close_options);
-    images.push_back("worst_mark.png");
-  }
+  if (worst) render_worst_mark(context, production, *worst, folder, images);
   // Feedrate along s: programmed, limit, planned and actual (production run).
   viz::FeedratePlotInput feed;
   feed.title = context.part.name + ": feedrate (production run)";
@@ -619,13 +666,16 @@ void write_renders(const Context& context, const Run& production, const Run& ref
   viz::plot_following_error((folder / "following_error.png").string(), errors,
                             context.part.name + ": following error (production run)");
   images.push_back("following_error.png");
-  // Histogram over the lines the reference run cut.
+  // Histogram over the lines the reference run cut, in every view.
   std::vector<double> machined;
-  const double top = context.stock.max_W_m.z() - context.stock.min_W_m.z();
-  for (std::size_t i = 0; i < deviation.size(); ++i) {
-    const int iu = static_cast<int>(i % static_cast<std::size_t>(buffer.nu()));
-    const int iv = static_cast<int>(i / static_cast<std::size_t>(buffer.nu()));
-    if (reference.buffer.length(iu, iv) < top - 1e-9) machined.push_back(deviation[i]);
+  for (const ViewComparison& comparison : comparisons) {
+    const removal::NBuffer uncut = comparison.view->fresh_buffer(context.stock);
+    const removal::NBuffer& cut = reference.buffers[comparison.index];
+    for (std::size_t i = 0; i < comparison.deviation_m.size(); ++i) {
+      const int iu = static_cast<int>(i % static_cast<std::size_t>(cut.nu()));
+      const int iv = static_cast<int>(i / static_cast<std::size_t>(cut.nu()));
+      if (cut.length(iu, iv) < uncut.length(iu, iv) - 1e-9) machined.push_back(comparison.deviation_m[i]);
+    }
   }
   if (!machined.empty()) {
     viz::plot_deviation_histogram((folder / "deviation_histogram.png").string(), machined, 60,
@@ -645,7 +695,8 @@ Json simulate_part(const SimulatePartOptions& options, const ProgressSink& progr
 
   ChainInputOptions chain_options;
   chain_options.part_path = options.part_path;
-  Context context{options, progress, load_part(options.part_path), load_chain_inputs(chain_options), {}, {}, {}};
+  chain_options.corner_tolerance_m = options.corner_tolerance_m;
+  Context context{options, progress, load_part(options.part_path), load_chain_inputs(chain_options), {}, {}, {}, {}};
   if (!context.part.stock) {
     throw InputError(options.part_path + ": simulate-part needs a stock (stock: {box: {min_mm, max_mm}})");
   }
@@ -667,62 +718,95 @@ Json simulate_part(const SimulatePartOptions& options, const ProgressSink& progr
   context.path = kinematics::solve_path_kinematics(context.inputs.machine, context.inputs.path,
                                                    context.inputs.machine.home_positions(),
                                                    context.inputs.tool_length_m,
-                                                   context.inputs.block_names);
+                                                   context.inputs.block_names,
+                                                   context.inputs.path_kinematics);
   stage_seconds["load_and_inverse_kinematics"] = seconds_since(stage_clock);
+
+  context.views = surface_views(context.part, context.stock, options.grid_m);
 
   Run reference = simulate_run(context, "reference", reference_feed);
   Run production = simulate_run(context, "production", production_feed);
 
   stage_clock = Clock::now();
   progress("comparison ...");
-  const std::vector<double> deviation = removal::difference(production.buffer, reference.buffer);
   removal::MarkOptions mark_options;
   mark_options.threshold_m = options.mark_threshold_m;
-  const removal::MarkMap marks = removal::find_marks(production.buffer, deviation, mark_options);
   const std::vector<double> curvature = tip_curvature(context.inputs.path);
+  std::vector<ViewComparison> comparisons(context.views.size());
+  std::vector<std::pair<double, Json>> marks_by_depth;
+  Json views = Json::array();
+  for (std::size_t v = 0; v < context.views.size(); ++v) {
+    ViewComparison& comparison = comparisons[v];
+    comparison.view = &context.views[v];
+    comparison.index = v;
+    comparison.deviation_m = removal::difference(production.buffers[v], reference.buffers[v]);
+    comparison.steep_lines_excluded =
+        exclude_steep_lines(reference.buffers[v], options.grid_m, comparison.deviation_m);
+    comparison.marks = removal::find_marks(production.buffers[v], comparison.deviation_m, mark_options);
+    for (const removal::Mark& mark : comparison.marks.marks) {
+      Json entry = relate_mark(context, production, mark, curvature);
+      entry["view"] = comparison.view->id;
+      entry["kind"] = mark.kind == removal::MarkKind::gouge ? "gouge" : "excess";
+      entry["depth_um"] = mark.depth_m * 1e6;
+      entry["area_mm2"] = mark.area_m2 * 1e6;
+      entry["lines"] = mark.line_count;
+      entry["deepest_point_mm"] = {mark.deepest_point_W_m.x() * 1e3, mark.deepest_point_W_m.y() * 1e3,
+                                   mark.deepest_point_W_m.z() * 1e3};
+      entry["centroid_mm"] = {mark.centroid_W_m.x() * 1e3, mark.centroid_W_m.y() * 1e3,
+                              mark.centroid_W_m.z() * 1e3};
+      marks_by_depth.emplace_back(mark.depth_m, entry);
+    }
+    double deviation_min = 0, deviation_max = 0, sum_squares = 0;
+    for (double d : comparison.deviation_m) {
+      deviation_min = std::min(deviation_min, d);
+      deviation_max = std::max(deviation_max, d);
+      sum_squares += d * d;
+    }
+    views.push_back({{"id", comparison.view->id},
+                     {"title", comparison.view->title},
+                     {"lines", production.buffers[v].line_count()},
+                     {"nu", production.buffers[v].nu()},
+                     {"nv", production.buffers[v].nv()},
+                     {"steep_lines_not_assessed", comparison.steep_lines_excluded},
+                     {"marks", comparison.marks.marks.size()},
+                     {"deviation_min_um", deviation_min * 1e6},
+                     {"deviation_max_um", deviation_max * 1e6},
+                     {"deviation_rms_um", std::sqrt(sum_squares / static_cast<double>(comparison.deviation_m.size())) * 1e6}});
+  }
+  std::stable_sort(marks_by_depth.begin(), marks_by_depth.end(),
+                   [](const auto& a, const auto& b) { return a.first > b.first; });
   Json mark_list = Json::array();
-  for (const removal::Mark& mark : marks.marks) {
-    Json entry = relate_mark(context, production, mark, curvature);
-    entry["kind"] = mark.kind == removal::MarkKind::gouge ? "gouge" : "excess";
-    entry["depth_um"] = mark.depth_m * 1e6;
-    entry["area_mm2"] = mark.area_m2 * 1e6;
-    entry["lines"] = mark.line_count;
-    entry["deepest_point_mm"] = {mark.deepest_point_W_m.x() * 1e3, mark.deepest_point_W_m.y() * 1e3,
-                                 mark.deepest_point_W_m.z() * 1e3};
-    entry["centroid_mm"] = {mark.centroid_W_m.x() * 1e3, mark.centroid_W_m.y() * 1e3,
-                            mark.centroid_W_m.z() * 1e3};
-    mark_list.push_back(entry);
-  }
-  double deviation_min = 0, deviation_max = 0, sum_squares = 0;
-  for (double d : deviation) {
-    deviation_min = std::min(deviation_min, d);
-    deviation_max = std::max(deviation_max, d);
-    sum_squares += d * d;
-  }
+  for (auto& [depth, entry] : marks_by_depth) mark_list.push_back(std::move(entry));
+  // The Z-map's figures stay at the top level of "surface" (every part has a Z-map view).
   Json surface{{"grid_um", options.grid_m * 1e6},
-               {"lines", production.buffer.line_count()},
-               {"nx", production.buffer.nu()},
-               {"ny", production.buffer.nv()},
+               {"lines", views[0]["lines"]},
+               {"nx", views[0]["nu"]},
+               {"ny", views[0]["nv"]},
                {"mark_threshold_um", options.mark_threshold_m * 1e6},
                {"trajectory_tolerance_um", options.trajectory_tolerance_m * 1e6},
-               {"deviation_min_um", deviation_min * 1e6},
-               {"deviation_max_um", deviation_max * 1e6},
-               {"deviation_rms_um", std::sqrt(sum_squares / static_cast<double>(deviation.size())) * 1e6}};
+               {"deviation_min_um", views[0]["deviation_min_um"]},
+               {"deviation_max_um", views[0]["deviation_max_um"]},
+               {"deviation_rms_um", views[0]["deviation_rms_um"]},
+               {"steep_step_per_spacing", kSteepStepPerSpacing},
+               {"views", views}};
   stage_seconds["comparison"] = seconds_since(stage_clock);
 
   if (options.commanded_check) {
     // The reference against the commanded tool path's own surface: what the low feed changes.
     stage_clock = Clock::now();
     progress("commanded tool path surface (check of the reference) ...");
-    removal::NBuffer commanded = removal::NBuffer::zmap(context.stock, options.grid_m);
     std::vector<removal::Pose> poses;
     for (const auto& point : context.inputs.path) poses.push_back({point.pose.tip_W_m, point.pose.axis_W});
     removal::CutOptions cut_options;
     cut_options.threads = options.threads;
-    commanded.cut(context.tool, poses, cut_options);
-    const std::vector<double> reference_vs_commanded = removal::difference(reference.buffer, commanded);
     double worst = 0.0;
-    for (double d : reference_vs_commanded) worst = std::max(worst, std::abs(d));
+    for (std::size_t v = 0; v < context.views.size(); ++v) {
+      removal::NBuffer commanded = context.views[v].fresh_buffer(context.stock);
+      commanded.cut(context.tool, poses, cut_options);
+      std::vector<double> reference_vs_commanded = removal::difference(reference.buffers[v], commanded);
+      exclude_steep_lines(commanded, options.grid_m, reference_vs_commanded);
+      for (double d : reference_vs_commanded) worst = std::max(worst, std::abs(d));
+    }
     surface["reference_vs_commanded_max_um"] = worst * 1e6;
     stage_seconds["commanded_check"] = seconds_since(stage_clock);
   }
@@ -748,17 +832,26 @@ Json simulate_part(const SimulatePartOptions& options, const ProgressSink& progr
   try {
     stage_clock = Clock::now();
     progress("writing surfaces ...");
-    write_file_atomically((staging / "production_heights.bin").string(), removal::heights_binary(production.buffer));
-    write_file_atomically((staging / "reference_heights.bin").string(), removal::heights_binary(reference.buffer));
-    // .vtp at most about 1 M points (the exact heights are in the .bin files).
-    const int stride = std::max(1, static_cast<int>(std::ceil(std::sqrt(
-                                       static_cast<double>(production.buffer.line_count()) / 1.0e6))));
-    viz::write_surface_vtp((staging / "production.vtp").string(), height_field(production.buffer, &deviation, stride));
-    viz::write_surface_vtp((staging / "reference.vtp").string(), height_field(reference.buffer, nullptr, stride));
-    surface["vtp_stride"] = stride;
+    for (std::size_t v = 0; v < context.views.size(); ++v) {
+      const SurfaceView& view = context.views[v];
+      const std::string suffix = view_file_suffix(view);
+      write_file_atomically((staging / ("production_heights" + suffix + ".bin")).string(),
+                            removal::heights_binary(production.buffers[v]));
+      write_file_atomically((staging / ("reference_heights" + suffix + ".bin")).string(),
+                            removal::heights_binary(reference.buffers[v]));
+      // .vtp at most about 1 M points (the exact lengths are in the .bin files).
+      const int stride = std::max(1, static_cast<int>(std::ceil(std::sqrt(
+                                         static_cast<double>(production.buffers[v].line_count()) / 1.0e6))));
+      viz::write_surface_vtp((staging / ("production" + suffix + ".vtp")).string(),
+                             view_height_field(view, production.buffers[v], &comparisons[v].deviation_m, stride));
+      viz::write_surface_vtp((staging / ("reference" + suffix + ".vtp")).string(),
+                             view_height_field(view, reference.buffers[v], nullptr, stride));
+      surface["views"][v]["vtp_stride"] = stride;
+    }
+    surface["vtp_stride"] = surface["views"][0]["vtp_stride"];
     report["surface"] = surface;
     std::vector<std::string> images;
-    write_renders(context, production, reference, deviation, marks, staging, report, images);
+    write_renders(context, production, reference, comparisons, staging, report, images);
     stage_seconds["outputs"] = seconds_since(stage_clock);
     stage_seconds["production"] = stage_times(production);
     stage_seconds["reference"] = stage_times(reference);

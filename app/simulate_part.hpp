@@ -27,7 +27,13 @@ struct SimulatePartOptions {
   kinematics::EffectSet effects = kinematics::EffectSet::all();
   double production_feed_m_per_s = 0.0;  ///< 0 = the part file's
   double reference_feed_m_per_s = 0.0;   ///< 0 = the part file's
-  double grid_m = 20e-6;                 ///< Z-map line spacing
+  /// Jerk (kinematic) / torque-rate (dynamic) limits in the plan. Off by default: the
+  /// third-order planner (planner/feedrate.hpp) is exact but still takes minutes on the long
+  /// sample paths; the report says when they are not applied.
+  bool third_order = false;
+  /// Corner blending tolerance [m] (planner/corner_blend.hpp); 0 = exact stop at corners.
+  double corner_tolerance_m = 0.0;
+  double grid_m = 20e-6;                 ///< line spacing of every surface view
   double mark_threshold_m = 2e-6;        ///< |deviation| above which a line belongs to a mark
   /// The actual trajectory is thinned to the samples needed to keep every dropped sample within
   /// this distance of the straight segment that replaces it (tip, and tool axis times the tool

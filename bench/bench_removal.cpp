@@ -1,7 +1,17 @@
 // Material removal speed: tool-segment updates per second of the N-buffer Z-map.
-// Realistic finishing: zig-zag passes at 0.1 mm stepover, segments of 0.15 mm, depth 0.05 mm
-// below the previous pass level (so the culling decides the cost), on 1 and 2 threads.
 //   cmake --build <build> --target bench_removal && <build>/bench/bench_removal
+// Each case runs on 1 thread (/1: rates per CPU second of the one thread doing the work, so a
+// loaded machine does not hide the per-core figure) and on 2 threads (/2: rates per wall-clock
+// second). Counters: segments_per_s (trajectory segments), sub_per_segment (orientation
+// sub-steps), lines_lowered_per_segment.
+//  - Finishing zig-zags: passes along x, 0.15 mm segments, 0.1 mm stepover, 0.05 mm below the
+//    stock top (the culling decides the cost), ball D6 / D10 on a 10 um grid; 5-axis: the axis
+//    tilted 15 deg and turning 0.2 mrad per segment (orientation sub-steps); tilted flat-end and
+//    bull-nose (3+2: constant 10 deg tilt; and 5-axis: turning).
+//  - CAMotics' case (shared/FIELD-NOTES.md: 567 s there): a 10 x 10 mm zig-zag of 5 151 moves of
+//    0.1 mm, 0.2 mm stepover, ball D6, 0.05 mm grid (and the same on a 10 um grid), 0.5 mm deep.
+//  - A 300 000-sample finishing run: 30 x 30 mm, 0.1 mm stepover, 0.03 mm samples (301 x 1001), ball D6 on a
+//    20 um grid, over a wavy surface (every segment a ramp).
 #include <benchmark/benchmark.h>
 
 #include <cmath>
@@ -18,39 +28,55 @@ using vmsim::removal::Pose;
 using vmsim::removal::Tool;
 using vmsim::removal::ToolType;
 
-// Zig-zag over a w x w mm square: passes along x, `step_mm` segments, `stepover_mm` apart.
-std::vector<Pose> zigzag(double w, double step_mm, double stepover_mm, double z_mm, double tilt_rad = 0.0,
-                         double axis_turn_per_segment = 0.0) {
+struct ZigZag {
+  double width_mm = 10.0;      // square side
+  double step_mm = 0.15;       // segment length along a pass
+  double stepover_mm = 0.1;
+  double z_mm = 9.95;          // tip height (stock top 10 mm)
+  double tilt_rad = 0.0;       // tool axis tilt from z
+  double turn_per_segment = 0.0;  // axis precession per segment [rad of azimuth]
+  double wave_mm = 0.0;        // amplitude of z = z_mm + wave sin(x) sin(y) (x, y in mm)
+};
+
+// Zig-zag over the square: passes along x, `step_mm` segments, `stepover_mm` apart.
+std::vector<Pose> zigzag(const ZigZag& z) {
   std::vector<Pose> path;
-  const int passes = static_cast<int>(w / stepover_mm);
-  const int steps = static_cast<int>(w / step_mm);
+  const int passes = static_cast<int>(std::lround(z.width_mm / z.stepover_mm)) + 1;
+  const int steps = static_cast<int>(std::lround(z.width_mm / z.step_mm));
   double phase = 0.0;
   for (int k = 0; k < passes; ++k) {
     for (int s = 0; s <= steps; ++s) {
-      const double x = (k % 2 == 0 ? s : steps - s) * step_mm;
+      const double x = (k % 2 == 0 ? s : steps - s) * z.step_mm, y = k * z.stepover_mm;
       Eigen::Vector3d axis = Eigen::Vector3d::UnitZ();
-      if (tilt_rad > 0.0) {
-        phase += axis_turn_per_segment;
-        axis = Eigen::Vector3d(std::sin(tilt_rad) * std::cos(phase), std::sin(tilt_rad) * std::sin(phase), std::cos(tilt_rad));
+      if (z.tilt_rad > 0.0) {
+        phase += z.turn_per_segment;
+        axis = Eigen::Vector3d(std::sin(z.tilt_rad) * std::cos(phase), std::sin(z.tilt_rad) * std::sin(phase),
+                               std::cos(z.tilt_rad));
       }
-      path.push_back(Pose{Eigen::Vector3d(x, k * stepover_mm, z_mm) * 1e-3, axis});
+      const double height = z.z_mm + z.wave_mm * std::sin(x) * std::sin(y);
+      path.push_back(Pose{Eigen::Vector3d(x, y, height) * 1e-3, axis});
     }
   }
   return path;
 }
 
-void run(benchmark::State& state, double diameter_mm, double grid_mm, bool five_axis) {
+Tool make_tool(ToolType type, double diameter_mm, double corner_mm = 0.0) {
   Tool tool;
-  tool.type = ToolType::ball;
+  tool.type = type;
   tool.diameter_m = diameter_mm * 1e-3;
+  tool.corner_radius_m = corner_mm * 1e-3;
   tool.length_m = 3 * diameter_mm * 1e-3;
-  const double w = 10.0;
-  const Box stock{Eigen::Vector3d(-6, -6, 0) * 1e-3, Eigen::Vector3d(16, 16, 10) * 1e-3};
-  // 5-axis: tilted 15 deg, the axis turning 0.2 mrad per segment (orientation sub-steps).
-  const std::vector<Pose> path = zigzag(w, 0.15, 0.1, 9.95, five_axis ? 0.26 : 0.0, five_axis ? 2e-4 : 0.0);
+  return tool;
+}
+
+void run(benchmark::State& state, const Tool& tool, const ZigZag& z, double grid_mm) {
+  const double margin = 0.5 * tool.diameter_m * 1e3 + 1.0;
+  const Box stock{Eigen::Vector3d(-margin, -margin, 0) * 1e-3,
+                  Eigen::Vector3d(z.width_mm + margin, z.width_mm + margin, 10) * 1e-3};
+  const std::vector<Pose> path = zigzag(z);
   CutOptions options;
   options.threads = static_cast<int>(state.range(0));
-  std::size_t segments = 0, sub = 0;
+  std::size_t segments = 0, sub = 0, lowered = 0;
   for (auto _ : state) {
     state.PauseTiming();
     NBuffer buffer = NBuffer::zmap(stock, grid_mm * 1e-3);
@@ -58,20 +84,47 @@ void run(benchmark::State& state, double diameter_mm, double grid_mm, bool five_
     const auto stats = buffer.cut(tool, path, options);
     segments += stats.segments;
     sub += stats.sub_segments;
+    lowered += stats.lines_lowered;
     benchmark::DoNotOptimize(buffer.length(100, 100));
   }
+  state.counters["segments"] = static_cast<double>(path.size() - 1);
   state.counters["segments_per_s"] = benchmark::Counter(static_cast<double>(segments), benchmark::Counter::kIsRate);
   state.counters["sub_per_segment"] = static_cast<double>(sub) / static_cast<double>(segments);
+  state.counters["lines_lowered_per_segment"] = static_cast<double>(lowered) / static_cast<double>(segments);
 }
 
-void BM_ZMap_Ball6_10um(benchmark::State& s) { run(s, 6, 0.01, false); }
-void BM_ZMap_Ball10_10um(benchmark::State& s) { run(s, 10, 0.01, false); }
-void BM_ZMap_Ball6_10um_5axis(benchmark::State& s) { run(s, 6, 0.01, true); }
-void BM_ZMap_Ball6_50um(benchmark::State& s) { run(s, 6, 0.05, false); }
+const ZigZag kFinish{};
+const ZigZag kFiveAxis{10.0, 0.15, 0.1, 9.95, 0.26, 2e-4};
+const ZigZag kTilted{10.0, 0.15, 0.1, 9.95, 0.1745, 0.0};
+const ZigZag kTiltedTurning{10.0, 0.15, 0.1, 9.95, 0.1745, 2e-4};
+const ZigZag kCamotics{10.0, 0.1, 0.2, 9.5};
+const ZigZag kLongRun{30.0, 0.03, 0.1, 9.9, 0.0, 0.0, 0.05};
 
-BENCHMARK(BM_ZMap_Ball6_10um)->Arg(1)->Arg(2)->Unit(benchmark::kMillisecond)->UseRealTime();
-BENCHMARK(BM_ZMap_Ball10_10um)->Arg(1)->Arg(2)->Unit(benchmark::kMillisecond)->UseRealTime();
-BENCHMARK(BM_ZMap_Ball6_10um_5axis)->Arg(1)->Arg(2)->Unit(benchmark::kMillisecond)->UseRealTime();
-BENCHMARK(BM_ZMap_Ball6_50um)->Arg(1)->Arg(2)->Unit(benchmark::kMillisecond)->UseRealTime();
+void BM_Ball6_10um(benchmark::State& s) { run(s, make_tool(ToolType::ball, 6), kFinish, 0.01); }
+void BM_Ball10_10um(benchmark::State& s) { run(s, make_tool(ToolType::ball, 10), kFinish, 0.01); }
+void BM_Ball6_10um_5axis(benchmark::State& s) { run(s, make_tool(ToolType::ball, 6), kFiveAxis, 0.01); }
+void BM_Flat10_10um_tilted(benchmark::State& s) { run(s, make_tool(ToolType::flat, 10), kTilted, 0.01); }
+void BM_Bull10r2_10um_tilted(benchmark::State& s) { run(s, make_tool(ToolType::bull, 10, 2), kTilted, 0.01); }
+void BM_Flat10_10um_5axis(benchmark::State& s) { run(s, make_tool(ToolType::flat, 10), kTiltedTurning, 0.01); }
+void BM_Bull10r2_10um_5axis(benchmark::State& s) { run(s, make_tool(ToolType::bull, 10, 2), kTiltedTurning, 0.01); }
+void BM_Camotics_Ball6_50um(benchmark::State& s) { run(s, make_tool(ToolType::ball, 6), kCamotics, 0.05); }
+void BM_Camotics_Ball6_10um(benchmark::State& s) { run(s, make_tool(ToolType::ball, 6), kCamotics, 0.01); }
+void BM_Run300k_Ball6_20um(benchmark::State& s) { run(s, make_tool(ToolType::ball, 6), kLongRun, 0.02); }
+
+// /1: CPU time of the one working thread; /2: wall clock.
+#define VMSIM_REMOVAL_BENCH(name)                                                   \
+  BENCHMARK(name)->Arg(1)->Unit(benchmark::kMillisecond)->Iterations(1);            \
+  BENCHMARK(name)->Arg(2)->Unit(benchmark::kMillisecond)->Iterations(1)->UseRealTime()
+
+VMSIM_REMOVAL_BENCH(BM_Ball6_10um);
+VMSIM_REMOVAL_BENCH(BM_Ball10_10um);
+VMSIM_REMOVAL_BENCH(BM_Ball6_10um_5axis);
+VMSIM_REMOVAL_BENCH(BM_Flat10_10um_tilted);
+VMSIM_REMOVAL_BENCH(BM_Bull10r2_10um_tilted);
+VMSIM_REMOVAL_BENCH(BM_Flat10_10um_5axis);
+VMSIM_REMOVAL_BENCH(BM_Bull10r2_10um_5axis);
+VMSIM_REMOVAL_BENCH(BM_Camotics_Ball6_50um);
+VMSIM_REMOVAL_BENCH(BM_Camotics_Ball6_10um);
+VMSIM_REMOVAL_BENCH(BM_Run300k_Ball6_20um);
 
 }  // namespace

@@ -14,6 +14,7 @@ packages=(
   liburdfdom-dev         # robots loaded from URDF
   liborocos-kdl-dev      # independent reference for the kinematics tests
   libtbb-dev             # parallel loops
+  coinor-libclp-dev      # LP solver (CLP) for the third-order feedrate planning
   libopenvdb-dev libboost-iostreams-dev  # level-set material removal (OpenVDB's CMake needs boost_iostreams)
   libvtk9-dev xvfb xauth libgl1-mesa-dri   # off-screen rendering (viz)
   fonts-dejavu-core      # viz text: VTK 9.1's embedded Arial draws [ ] as ( )

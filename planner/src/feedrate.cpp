@@ -8,19 +8,18 @@
 #include <optional>
 #include <string>
 
+#include "feedrate_detail.hpp"
 #include "vmsim/common/errors.hpp"
 #include "vmsim/common/files.hpp"
 
 namespace vmsim::planner {
 namespace {
 
-constexpr double kInf = std::numeric_limits<double>::infinity();
-/// Third-order passes: within this relative distance below the cap, follow the cap's slope
-/// rather than accelerate into it (arriving with a larger slope cannot be undone in time).
-constexpr double kCapBand = 1e-4;
-/// Third-order passes never go below this share of the cap in x (0.1 % in feed): never (nearly)
-/// stop inside a stretch, where the time would be unbounded.
-constexpr double kFloor = 1e-6;
+using detail::kInf;
+using detail::Problem;
+using detail::Row2;
+using detail::Row3;
+using detail::value2;
 /// Set-point check allowances (relative). Kinematic: the finite differences are exact means of
 /// the continuous derivatives, so only the planner's own sampling of its rows (ends of grid
 /// segments) and rounding remain: 1e-4. Dynamic: the torque is evaluated from q and the
@@ -33,26 +32,6 @@ using Eigen::Index;
 using Eigen::VectorXd;
 
 Index idx(std::size_t i) { return static_cast<Index>(i); }
-
-/// |A u + B x + C + D sqrt(x) + E| <= L: acceleration (A = q_s, B = q_ss) or torque.
-struct Row2 {
-  double A = 0, B = 0, C = 0, D = 0, E = 0, L = 0;
-  int axis = 0;
-};
-/// |P sddd + sqrt(x) (R u + S x + W) + V x + Z u| <= L: jerk (P = q_s, R = 3 q_ss, S = q_sss)
-/// or torque rate (P = a, R = a_s + 2 b, S = b_s, W = c_s, V = d_s, Z = d).
-struct Row3 {
-  double P = 0, R = 0, S = 0, W = 0, V = 0, Z = 0, L = 0;
-  int axis = 0;
-};
-
-double value2(const Row2& r, double x, double u) {
-  return r.A * u + r.B * x + r.C + r.D * std::sqrt(std::max(x, 0.0)) + r.E;
-}
-double value3(const Row3& r, double x, double u, double sddd) {
-  const double sd = std::sqrt(std::max(x, 0.0));
-  return r.P * sddd + sd * (r.R * u + r.S * x + r.W) + r.V * x + r.Z * u;
-}
 
 /// Intersection of the w intervals lo_r <= c + beta w <= hi_r.
 struct Interval {
@@ -72,9 +51,9 @@ struct Interval {
   bool empty() const { return bad_constant || lo > hi + 1e-12 * (std::abs(lo) + std::abs(hi)) + 1e-300; }
 };
 
-/// Smallest sd > 0 at which |p0 + p1 sd + p2 sd^2 + p3 sd^3| reaches L (0 when |p0| > L already;
-/// +inf when never).
-double first_exit(double p0, double p1, double p2, double p3, double L) {
+}  // namespace
+
+double detail::first_exit(double p0, double p1, double p2, double p3, double L) {
   if (std::abs(p0) > L) return 0.0;
   const double p[4] = {p0, p1, p2, p3};
   int degree = 3;
@@ -121,31 +100,7 @@ double first_exit(double p0, double p1, double p2, double p3, double L) {
   return kInf;
 }
 
-// ---------------------------------------------------------------------------------------------
-// The planning problem on the grid
-
-struct Problem {
-  std::size_t axes = 0;
-  std::vector<double> s;         // grid points
-  std::vector<std::size_t> seg;  // spline segment of each grid segment
-  std::vector<double> sigma0;    // its start within the spline segment
-  std::vector<bool> stop;        // exact stop at the point
-  std::size_t n2 = 0, n3 = 0;    // rows per segment end
-  std::vector<Row2> r2;          // ((2 k + end) * n2 + r)
-  std::vector<Row2> r2mid;       // (k * n2 + r): at the middle of each segment (second order)
-  std::vector<Row3> r3;
-  std::vector<double> cap_end;   // x cap at (2 k + end): velocity and feed
-  std::vector<double> cap_pt;    // x cap at the points (min over the ends there; 0 at stops)
-  std::size_t segments() const { return s.size() - 1; }
-  double delta(std::size_t k) const { return s[k + 1] - s[k]; }
-  const Row2* rows2mid(std::size_t k) const { return r2mid.data() + k * n2; }
-  const Row2* rows2(std::size_t k, int end) const {
-    return r2.data() + (2 * k + static_cast<std::size_t>(end)) * n2;
-  }
-  const Row3* rows3(std::size_t k, int end) const {
-    return r3.data() + (2 * k + static_cast<std::size_t>(end)) * n3;
-  }
-};
+namespace {
 
 struct EndData {  // path derivatives at one segment end
   VectorXd q, q_s, q_ss, q_sss;
@@ -298,337 +253,10 @@ class SecondOrder {
 };
 
 // ---------------------------------------------------------------------------------------------
-// Third order: u continuous, piecewise linear in s; greedy forward pass with a bang-bang search
 
-class ThirdOrder {
- public:
-  /// rest_end: the motion stops at k1 (forced last step and a constant-jerk stop segment);
-  /// otherwise the pass ends at k1 wherever the greedy steps lead (under the cap).
-  /// With rest_end, the last `tail` segments are taken from the cap (the backward pass's own
-  /// constant-jerk stop), which the pass must join exactly at k1 - tail.
-  ThirdOrder(const Problem& p, std::size_t k0, std::size_t k1, const std::vector<double>& cap,
-             const std::vector<double>& target, std::vector<double>& x, std::vector<double>& u,
-             std::vector<double>& dt, bool rest_end, std::size_t tail = 0)
-      : p_(p), k0_(k0), k1_(k1), last_(rest_end ? k1 - tail : k1), rest_end_(rest_end), cap_(cap),
-        target_(target), x_(x), u_(u), dt_(dt) {}
+}  // namespace
 
-  /// Jerk (sddd) of the rest start; the number of grid segments it covers.
-  double start_jerk = 0.0;
-  std::size_t analytic_segments = 0;
-  /// Where the pass could not continue (when solve() returns false).
-  std::size_t failed_at = 0;
-
-  bool solve() {
-    failed_at = k0_ + 1;
-    if (!rest_start()) return false;
-    // The search may go back into the constant-jerk start (its states are exact).
-    std::vector<std::size_t> anchors{k0_ + 1};
-    if (analytic_segments > 1) anchors.push_back(k0_ + analytic_segments);
-    std::size_t i = k0_ + analytic_segments;
-    std::vector<double> saved_x, saved_u;
-    long long budget = 200LL * static_cast<long long>(k1_ - k0_) + 100000;
-    while (i < last_) {
-      if (rest_end_ && i + 1 == last_ ? final_step(i) : step(i, Mode::greatest)) {
-        ++i;
-        continue;
-      }
-      saved_x.assign(x_.begin() + static_cast<long>(k0_), x_.begin() + static_cast<long>(k1_) + 1);
-      saved_u.assign(u_.begin() + static_cast<long>(k0_), u_.begin() + static_cast<long>(k1_) + 1);
-      auto restore = [&] {
-        std::copy(saved_x.begin(), saved_x.end(), x_.begin() + static_cast<long>(k0_));
-        std::copy(saved_u.begin(), saved_u.end(), u_.begin() + static_cast<long>(k0_));
-      };
-      bool found = false;
-      for (std::size_t a = anchors.size(); a-- > 0 && !found;) {
-        const std::size_t anchor = anchors[a];
-        std::size_t end = 0, track_end = 0;
-        restore();
-        if (!trial(anchor, i, end, track_end, budget)) continue;
-        std::size_t good = anchor, bad = i + 1;
-        while (bad - good > 1) {
-          const std::size_t mid = good + (bad - good) / 2;
-          restore();
-          if (trial(mid, i, end, track_end, budget)) good = mid; else bad = mid;
-        }
-        restore();
-        trial(good, i, end, track_end, budget);
-        if (good < k0_ + analytic_segments) {
-          for (std::size_t m = good - k0_; m < analytic_segments; ++m) dt_[k0_ + m] = -1.0;
-          analytic_segments = good - k0_;
-        }
-        anchors.resize(a + 1);
-        if (track_end > anchors.back()) anchors.push_back(track_end);
-        i = end;
-        found = true;
-      }
-      if (!found || budget < 0) {
-        failed_at = i;
-        return false;
-      }
-    }
-    return true;
-  }
-
- private:
-  enum class Mode { greatest, track };
-
-  bool rows_ok_at(std::size_t k, int end, double x, double u, double sddd,
-                  double tolerance = 1e-9) const {
-    const Row2* rows2 = p_.rows2(k, end);
-    for (std::size_t r = 0; r < p_.n2; ++r) {
-      if (std::abs(value2(rows2[r], x, u)) > rows2[r].L * (1.0 + tolerance)) return false;
-    }
-    const Row3* rows3 = p_.rows3(k, end);
-    for (std::size_t r = 0; r < p_.n3; ++r) {
-      if (std::abs(value3(rows3[r], x, u, sddd)) > rows3[r].L * (1.0 + tolerance)) return false;
-    }
-    return true;
-  }
-
-  /// Rest start: s = j t^3 / 6 with the greatest feasible j on the first segment, kept on as
-  /// many segments as the rows allow (the constant-jerk start is the time-optimal one there; a
-  /// piecewise linear sdd cannot follow sdd ~ s^(1/3) near rest).
-  bool rest_start() {
-    const std::size_t k = k0_;
-    x_[k] = 0.0;
-    u_[k] = 0.0;
-    auto state = [&](double j, std::size_t point, double& x1, double& u1, double& t1) {
-      t1 = std::cbrt(6.0 * (p_.s[point] - p_.s[k]) / j);
-      const double sd1 = 0.5 * j * t1 * t1;
-      x1 = sd1 * sd1;
-      u1 = j * t1;
-    };
-    auto feasible = [&](double j, std::size_t m) {  // segment k + m under the cubic
-      double xa = 0, ua = 0, ta = 0, xb = 0, ub = 0, tb = 0;
-      if (m > 0) state(j, k + m, xa, ua, ta);
-      state(j, k + m + 1, xb, ub, tb);
-      return xb <= cap_[k + m + 1] && rows_ok_at(k + m, 0, xa, ua, j) &&
-             rows_ok_at(k + m, 1, xb, ub, j);
-    };
-    double hi = 1.0;
-    while (feasible(hi, 0) && hi < 1e12) hi *= 4.0;
-    double lo = 0.0;
-    for (int it = 0; it < 80; ++it) {
-      const double mid = 0.5 * (lo + hi);
-      if (feasible(mid, 0)) lo = mid; else hi = mid;
-    }
-    if (!(lo > 0.0)) return false;
-    start_jerk = lo;
-    std::size_t m = 1;
-    const std::size_t limit = (last_ > k + 2 ? last_ - k - 2 : 0);
-    while (m < limit && feasible(lo, m)) ++m;
-    double t_prev = 0.0;
-    for (std::size_t i = 1; i <= m; ++i) {
-      double t1 = 0;
-      state(lo, k + i, x_[k + i], u_[k + i], t1);
-      dt_[k + i - 1] = t1 - t_prev;
-      t_prev = t1;
-    }
-    analytic_segments = m;
-    return true;
-  }
-
-  /// The w-interval for u[k+1] from (x[k], u[k]) with sqrt(x[k+1]) taken as sd_right.
-  Interval interval(std::size_t k, double sd_right) const {
-    const double delta = p_.delta(k);
-    const double xk = x_[k], uk = u_[k];
-    const double sd = std::sqrt(xk);
-    const double x0 = xk + delta * uk;  // x[k+1] = x0 + delta w
-    Interval in;
-    const Row2* left2 = p_.rows2(k, 0);
-    const Row2* right2 = p_.rows2(k, 1);
-    for (std::size_t r = 0; r < p_.n2; ++r) {
-      in.add(value2(left2[r], xk, uk), 0.0, -left2[r].L * (1 + 1e-9), left2[r].L * (1 + 1e-9));
-      const Row2& row = right2[r];
-      in.add(row.B * x0 + row.C + row.D * sd_right + row.E, row.A + row.B * delta, -row.L, row.L);
-    }
-    const Row3* left3 = p_.rows3(k, 0);
-    const Row3* right3 = p_.rows3(k, 1);
-    for (std::size_t r = 0; r < p_.n3; ++r) {
-      const Row3& a = left3[r];
-      in.add(-a.P * sd * uk / delta + sd * (a.R * uk + a.S * xk + a.W) + a.V * xk + a.Z * uk,
-             a.P * sd / delta, -a.L, a.L);
-      const Row3& b = right3[r];
-      in.add(-b.P * sd_right * uk / delta + sd_right * (b.S * x0 + b.W) + b.V * x0,
-             b.P * sd_right / delta + sd_right * (b.R + b.S * delta) + b.V * delta + b.Z, -b.L,
-             b.L);
-    }
-    // Never (nearly) stop inside a stretch: a stop there would take an unbounded time.
-    const double floor = std::isfinite(cap_[k + 1]) ? std::max(1e-14, kFloor * cap_[k + 1]) : 1e-14;
-    in.add(x0, delta, floor, cap_[k + 1]);
-    return in;
-  }
-
-  bool exact_ok(std::size_t k, double w) const {
-    const double delta = p_.delta(k);
-    const double x1 = x_[k] + delta * (u_[k] + w);
-    if (x1 <= 0.0 || x1 > cap_[k + 1] * (1.0 + 1e-12)) return false;
-    const double up = (w - u_[k]) / delta;
-    // The rows are linear in w only for a given sqrt(x[k+1]); 1e-6 absorbs the fixed point's
-    // residual (the set-point check is exact).
-    return rows_ok_at(k, 0, x_[k], u_[k], std::sqrt(x_[k]) * up, 1e-6) &&
-           rows_ok_at(k, 1, x1, w, std::sqrt(x1) * up, 1e-6);
-  }
-
-  bool step(std::size_t k, Mode mode) {
-    const double delta = p_.delta(k);
-    if (mode == Mode::greatest && x_[k] >= cap_[k] * (1.0 - kCapBand) && k + 1 < last_ &&
-        std::isfinite(cap_[k + 1])) {
-      // On the cap: take its next point and slope when the rows allow (the cap is itself a
-      // feasible profile when it comes from the backward pass; the mismatch is within the band).
-      const double x1 = cap_[k + 1], w = target_[k + 1];
-      const double up = (w - u_[k]) / delta;
-      if (x1 > 0.0 && rows_ok_at(k, 0, x_[k], u_[k], std::sqrt(x_[k]) * up, 1e-6) &&
-          rows_ok_at(k, 1, x1, w, std::sqrt(x1) * up, 1e-6)) {
-        u_[k + 1] = w;
-        x_[k + 1] = x1;
-        last_track_reached_ = false;
-        return true;
-      }
-    }
-    double sd_right = std::sqrt(std::max(x_[k], 1e-300));
-    double w = 0.0;
-    Interval in;
-    for (int pass = 0; pass < 8; ++pass) {
-      in = interval(k, sd_right);
-      if (in.empty()) return false;
-      const bool on_cap = x_[k] >= cap_[k] * (1.0 - kCapBand) ||
-                          x_[k] + delta * (u_[k] + in.hi) >= cap_[k + 1] * (1.0 - kCapBand);
-      if (mode == Mode::track) {
-        // Steer towards the cap's slope where the greedy pass failed, or its slope here when
-        // steeper (joining a deceleration curve that keeps steepening).
-        track_value_ = std::min(track_value_, target_[k + 1]);
-        w = std::clamp(track_value_, in.lo, in.hi);
-      } else if (on_cap) {
-        // Merge onto the cap in two steps: this step's w, then the cap's own slope, land on it.
-        double merge = target_[k + 1];
-        if (k + 2 <= k1_) {
-          const double d2 = p_.delta(k + 1);
-          const double cap2 = std::isfinite(cap_[k + 2]) ? cap_[k + 2] : cap_[k + 1];
-          merge = (cap2 - x_[k] - delta * u_[k] - d2 * target_[k + 2]) / (delta + d2);
-        }
-        w = std::clamp(merge, in.lo, in.hi);
-      } else {
-        w = in.hi;
-      }
-      const double x1 = x_[k] + delta * (u_[k] + w);
-      const double next = std::sqrt(std::max(x1, 0.0));
-      if (std::abs(next - sd_right) <= 1e-12 * next && exact_ok(k, w)) break;
-      sd_right = next;
-    }
-    if (!exact_ok(k, w)) {
-      // Move the smallest step towards the middle of the interval that makes the rows hold.
-      const double mid = 0.5 * (in.lo + in.hi);
-      bool ok = false;
-      for (int it = 20; it >= 0 && !ok; --it) {
-        const double trial_w = w + (mid - w) * std::ldexp(1.0, -it);
-        if (exact_ok(k, trial_w)) {
-          w = trial_w;
-          ok = true;
-        }
-      }
-      if (!ok) return false;
-    }
-    u_[k + 1] = w;
-    x_[k + 1] = x_[k] + delta * (u_[k] + w);
-    last_track_reached_ = std::abs(w - track_value_) <= 1e-12 * (1.0 + std::abs(w));
-    return true;
-  }
-
-  /// The step onto the start of the copied tail: it must land on the cap with its slope.
-  bool final_step(std::size_t k) {
-    const double delta = p_.delta(k);
-    const double x1 = cap_[k + 1], w = target_[k + 1];
-    const double landed = x_[k] + delta * (u_[k] + w);
-    if (!(x1 > 0.0) || std::abs(landed - x1) > kCapBand * x1) return false;
-    const double up = (w - u_[k]) / delta;
-    if (!rows_ok_at(k, 0, x_[k], u_[k], std::sqrt(x_[k]) * up, 1e-6) ||
-        !rows_ok_at(k, 1, x1, w, std::sqrt(x1) * up, 1e-6)) {
-      return false;
-    }
-    u_[k + 1] = w;
-    x_[k + 1] = x1;
-    return true;
-  }
-
-  /// From the state at k: steer u towards the target as fast as allowed, then greatest steps
-  /// until past `beyond` (or the end). `end` = the point reached.
-  bool trial(std::size_t k, std::size_t beyond, std::size_t& end, std::size_t& track_end,
-             long long& budget) {
-    std::size_t i = k;
-    bool tracking = true;
-    track_end = k;
-    // Steer sdd towards the slope of the cap where the greedy pass failed.
-    const std::size_t at = std::min(beyond + 1, k1_);
-    track_value_ = std::min(target_[beyond], target_[at]);
-    while (i < last_ && (i <= beyond || tracking)) {
-      --budget;
-      if (budget < 0) return false;
-      bool ok = false;
-      if (rest_end_ && i + 1 == last_) {
-        ok = final_step(i);
-      } else {
-        ok = step(i, tracking ? Mode::track : Mode::greatest);
-        if (ok && tracking && last_track_reached_) {
-          tracking = false;
-          track_end = i + 1;
-        }
-      }
-      if (!ok) return false;
-      ++i;
-    }
-    end = i;
-    return true;
-  }
-
-  const Problem& p_;
-  std::size_t k0_, k1_, last_;
-  bool rest_end_;
-  const std::vector<double>& cap_;
-  const std::vector<double>& target_;
-  std::vector<double>& x_;
-  std::vector<double>& u_;
-  std::vector<double>& dt_;
-  bool last_track_reached_ = false;
-  double track_value_ = 0.0;
-};
-
-/// The stretch [k0, k1] seen from its end: local point i is global point k1 - i; x is the same,
-/// u and the odd coefficients change sign (u_local = -u, sddd and u' unchanged).
-Problem mirror(const Problem& p, std::size_t k0, std::size_t k1) {
-  Problem m;
-  m.axes = p.axes;
-  m.n2 = p.n2;
-  m.n3 = p.n3;
-  const std::size_t n = k1 - k0;
-  m.s.resize(n + 1);
-  for (std::size_t i = 0; i <= n; ++i) m.s[i] = p.s[k1] - p.s[k1 - i];
-  m.r2.resize(2 * n * p.n2);
-  m.r3.resize(2 * n * p.n3);
-  for (std::size_t local = 0; local < n; ++local) {
-    const std::size_t k = k1 - 1 - local;
-    for (int end = 0; end < 2; ++end) {
-      const Row2* from2 = p.rows2(k, 1 - end);
-      Row2* to2 = m.r2.data() + (2 * local + static_cast<std::size_t>(end)) * p.n2;
-      for (std::size_t r = 0; r < p.n2; ++r) {
-        to2[r] = from2[r];
-        to2[r].A = -from2[r].A;
-      }
-      const Row3* from3 = p.rows3(k, 1 - end);
-      Row3* to3 = m.r3.data() + (2 * local + static_cast<std::size_t>(end)) * p.n3;
-      for (std::size_t r = 0; r < p.n3; ++r) {
-        to3[r] = from3[r];
-        to3[r].R = -from3[r].R;
-        to3[r].Z = -from3[r].Z;
-      }
-    }
-  }
-  return m;
-}
-
-// ---------------------------------------------------------------------------------------------
-
-double gauss_time(double delta, double x0, double u0, double up) {
+double detail::gauss_time(double delta, double x0, double u0, double up) {
   // integral over [0, delta] of 1 / sqrt(x0 + 2 u0 s + up s^2), 8-point Gauss-Legendre.
   // Where the quadratic dips well below both ends inside the segment (sdd changing sign on a
   // short segment), the duration of the linear-x segment through the same end points is used
@@ -654,6 +282,8 @@ double gauss_time(double delta, double x0, double u0, double up) {
   }
   return 0.5 * delta * sum;
 }
+
+namespace {
 
 /// Quintic Hermite in t through (0, v0, a0) and (d, v1, a1) over duration h, evaluated at t.
 double quintic(double d, double v0, double a0, double v1, double a1, double h, double t) {
@@ -692,11 +322,6 @@ void FeedrateOptions::validate() const {
   if (!(feed_m_per_s >= 0.0) || !std::isfinite(feed_m_per_s)) bad("feed_m_per_s", feed_m_per_s, "must be >= 0");
   if (!(max_grid_step_m >= 0.0)) bad("max_grid_step_m", max_grid_step_m, "must be >= 0");
   if (!(period_s >= 0.0)) bad("period_s", period_s, "must be >= 0");
-  if (!(corner_tolerance_m >= 0.0)) bad("corner_tolerance_m", corner_tolerance_m, "must be >= 0");
-  if (corner_tolerance_m > 0.0) {
-    bad("corner_tolerance_m", corner_tolerance_m,
-        "corner blending is not implemented yet: use 0 (exact stop at corners)");
-  }
   for (std::size_t i = 0; i < point_feed_m_per_s.size(); ++i) {
     if (!(point_feed_m_per_s[i] >= 0.0)) {
       bad("point_feed_m_per_s[" + std::to_string(i) + "]", point_feed_m_per_s[i], "must be >= 0");
@@ -999,7 +624,7 @@ FeedratePlan plan_feedrate(const kinematics::MachineModel& machine,
       // sd^3 q_sss (or its torque-rate counterpart) alone reaches the limit.
       for (std::size_t r = 0; r < p.n3; ++r) {
         const Row3& row = rows3[r];
-        const double sd_max = first_exit(0.0, row.W, row.V, row.S, row.L);
+        const double sd_max = detail::first_exit(0.0, row.W, row.V, row.S, row.L);
         if (std::isfinite(sd_max)) cap = std::min(cap, sd_max * sd_max);
       }
       p.cap_end[2 * k + static_cast<std::size_t>(end)] = cap;
@@ -1025,11 +650,11 @@ FeedratePlan plan_feedrate(const kinematics::MachineModel& machine,
           if (options.third_order && L[j].jerk > 0.0 && qsss > 0.0) put(ConstraintKind::jerk, std::cbrt(L[j].jerk / qsss), a);
         } else {
           if (L[j].torque_N_m > 0.0) {
-            put(ConstraintKind::torque, first_exit(c.c(jj) + c.e(jj), c.d(jj), c.b(jj), 0.0, L[j].torque_N_m), a);
+            put(ConstraintKind::torque, detail::first_exit(c.c(jj) + c.e(jj), c.d(jj), c.b(jj), 0.0, L[j].torque_N_m), a);
           }
           if (options.third_order && L[j].torque_rate_N_m_per_s > 0.0) {
             put(ConstraintKind::torque_rate,
-                first_exit(0.0, c.c_s(jj), c.d_s(jj), c.b_s(jj), L[j].torque_rate_N_m_per_s), a);
+                detail::first_exit(0.0, c.c_s(jj), c.d_s(jj), c.b_s(jj), L[j].torque_rate_N_m_per_s), a);
           }
         }
       }
@@ -1073,7 +698,7 @@ FeedratePlan plan_feedrate(const kinematics::MachineModel& machine,
 
   // ---- plan, check the set points, slow down where needed, plan again.
   std::vector<double> slow(points, 1.0), cap(points), x2(points), u2(points), controllable(points);
-  std::vector<double> target(points), x3(points), u3(points);
+  detail::ThirdOrderProfile third;
   std::vector<std::pair<std::size_t, std::size_t>> stretches;
   {
     std::size_t first = 0;
@@ -1116,101 +741,38 @@ FeedratePlan plan_feedrate(const kinematics::MachineModel& machine,
                                                        format_double(worst) +
                                                        " times its limit at rest"));
       }
-      const bool third = p.n3 > 0;
-      if (!third) {
-        for (std::size_t k = k0; k < k1; ++k) {
-          ex.x[k] = x2[k];
-          ex.sdd_l[k] = ex.sdd_r[k] = u2[k];
-          const double den = std::sqrt(x2[k]) + std::sqrt(x2[k + 1]);
-          ex.dt[k] = 2.0 * p.delta(k) / std::max(den, 1e-300);
-        }
-        ex.x[k1] = 0.0;
-        continue;
-      }
-      // Backward pass (from the end, at rest, under the controllable set), then the forward
-      // pass from the start under the backward profile.
-      const std::size_t n = k1 - k0;
-      const Problem back = mirror(p, k0, k1);
-      std::vector<double> cap_b(n + 1), target_b(n + 1), xb(n + 1), ub(n + 1);
-      // Its cap: the second-order profile that need not start at rest (a cap that drops
-      // faster than the second-order limits allow cannot be followed).
-      std::vector<double> x_free(points), u_free(points), k_free(points), cap_free(cap);
-      cap_free[k0] = p.cap_end[2 * k0] * slow[k0];
-      const SecondOrder free_start(p, cap_free);
-      free_start.solve(k0, k1, x_free, u_free, k_free, false);
-      for (std::size_t i = 0; i <= n; ++i) cap_b[i] = x_free[k1 - i];
-      cap_b[0] = 0.0;
-      cap_b[n] = cap_b[n - 1];  // the global start is reached by the forward pass, not this one
-      auto slope_targets = [](const std::vector<double>& s, const std::vector<double>& x,
-                              std::vector<double>& t) {
-        const std::size_t m = x.size() - 1;
-        for (std::size_t i = 0; i <= m; ++i) {
-          const std::size_t a = i > 0 ? i - 1 : 0, b = i < m ? i + 1 : m;
-          t[i] = 0.5 * (x[b] - x[a]) / (s[b] - s[a]);
-        }
-      };
-      slope_targets(back.s, cap_b, target_b);
-      cap_b[n] = kInf;
-      bool ok = false;
-      std::vector<double> dt_b(n + 1, -1.0), dt3(points, -1.0);
-      std::size_t tail = 0;
-      // One attempt per round; where a pass cannot continue, the admissible feed is lowered
-      // around that place (through the second-order profile, so the dip has admissible
-      // flanks) and the round is planned again, like a set-point violation.
-      std::size_t failed_at = points;
-      {
-        ThirdOrder backward(back, 0, n, cap_b, target_b, xb, ub, dt_b, false);
-        ok = backward.solve();
-        // The forward pass joins the backward one at k1 - tail: leave it room.
-        tail = std::min(backward.analytic_segments, n / 2);
-        if (!ok) failed_at = k1 - std::min(backward.failed_at, n);
-      }
-      std::vector<double> cap3(points, 0.0);
-      if (ok) {
-        for (std::size_t i = 0; i <= n; ++i) {
-          cap3[k1 - i] = xb[i];
-          target[k1 - i] = -ub[i];
-        }
-        cap3[k0] = 0.0;
-        ThirdOrder forward(p, k0, k1, cap3, target, x3, u3, dt3, true, tail);
-        ok = forward.solve();
-        if (!ok) failed_at = std::min(forward.failed_at, k1);
-        if (ok) {  // the backward pass's constant-jerk stop
-          for (std::size_t i = 0; i < tail; ++i) {
-            x3[k1 - i] = cap3[k1 - i];
-            u3[k1 - i] = target[k1 - i];
-            dt3[k1 - 1 - i] = dt_b[i];
-          }
-        }
-      }
-      if (!ok) {
-        if (round + 1 >= options.max_verification_rounds) {
-          throw InfeasibleError(
-              "feedrate interpolation: no jerk/torque-rate admissible profile found between s = " +
-              format_double(p.s[k0] * 1e3) + " and " + format_double(p.s[k1] * 1e3) +
-              " mm (the third-order passes are not yet robust on such paths; planning without "
-              "third-order limits, vmsim plan --no-third-order, limits velocity, acceleration "
-              "and torque only)");
-        }
-        const std::size_t width = std::max<std::size_t>(10, (k1 - k0) / 50);
-        const std::size_t from = failed_at > k0 + width ? failed_at - width : k0;
-        const std::size_t to = std::min(k1, failed_at + width);
-        for (std::size_t i = from; i <= to; ++i) slow[i] *= 0.7;
-        third_order_failed = true;
-        break;
-      }
       for (std::size_t k = k0; k < k1; ++k) {
-        ex.x[k] = x3[k];
-        ex.sdd_l[k] = u3[k];
-        ex.sdd_r[k] = u3[k + 1];
-        const double delta = p.delta(k);
-        if (dt3[k] >= 0.0) {
-          ex.dt[k] = dt3[k];
-        } else {
-          ex.dt[k] = gauss_time(delta, x3[k], u3[k], (u3[k + 1] - u3[k]) / delta);
-        }
+        ex.x[k] = x2[k];
+        ex.sdd_l[k] = ex.sdd_r[k] = u2[k];
+        const double den = std::sqrt(x2[k]) + std::sqrt(x2[k + 1]);
+        ex.dt[k] = 2.0 * p.delta(k) / std::max(den, 1e-300);
       }
       ex.x[k1] = 0.0;
+      x2[k1] = 0.0;
+    }
+    if (p.n3 > 0) {
+      // Third order under the second-order profile (an upper bound), every stretch at once.
+      if (!detail::plan_third_order(p, stretches, x2, third)) {
+        if (round + 1 >= options.max_verification_rounds) {
+          throw InfeasibleError(
+              "feedrate interpolation: no jerk/torque-rate admissible profile found (the linear "
+              "programme failed)");
+        }
+        for (std::size_t i = 0; i < points; ++i) slow[i] *= 0.7;
+        third_order_failed = true;
+      } else {
+        for (std::size_t k = 0; k < segments; ++k) {
+          ex.x[k] = third.x[k];
+          ex.sdd_l[k] = third.u[k];
+          ex.sdd_r[k] = third.u[k + 1];
+          const double delta = p.delta(k);
+          ex.dt[k] = third.dt[k] >= 0.0
+                         ? third.dt[k]
+                         : detail::gauss_time(delta, third.x[k], third.u[k],
+                                              (third.u[k + 1] - third.u[k]) / delta);
+        }
+        ex.x[segments] = 0.0;
+      }
     }
     if (third_order_failed) {
       ++plan.slowdown_rounds;

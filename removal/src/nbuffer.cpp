@@ -10,6 +10,7 @@
 #include <string>
 
 #include "sweep.hpp"
+#include "vmsim/removal/stl.hpp"
 #include "vmsim/common/errors.hpp"
 #include "vmsim/common/files.hpp"
 
@@ -64,6 +65,31 @@ NBuffer NBuffer::zmap(const Box& stock, double spacing_m) {
   b.tiles_v_ = (b.nv_ + kTile - 1) / kTile;
   b.h_.assign(static_cast<std::size_t>(b.tiles_u_) * b.tiles_v_ * kTile * kTile, size.z());
   b.build_tiles();
+  return b;
+}
+
+NBuffer NBuffer::zmap(const TriangleMesh& stock, double spacing_m, MeshZmapReport* report) {
+  if (stock.triangles.empty()) throw InputError("stock mesh: no triangle");
+  const Box bounds = stock.bounds();
+  NBuffer b = zmap(bounds, spacing_m);
+  const std::vector<VerticalCrossing> crossings =
+      vertical_crossings(stock, b.origin0_.x(), b.origin0_.y(), spacing_m, b.nu_, b.nv_);
+  MeshZmapReport counts;
+  for (int iv = 0; iv < b.nv_; ++iv) {
+    for (int iu = 0; iu < b.nu_; ++iu) {
+      const VerticalCrossing& c = crossings[static_cast<std::size_t>(iu) + static_cast<std::size_t>(b.nu_) * iv];
+      double& h = b.h_[b.index(iu, iv)];
+      if (c.crossings == 0 || !(c.z_exit_m > c.z_entry_m)) {
+        h = 0.0;
+        ++counts.lines_missing;
+        continue;
+      }
+      h = std::max(0.0, c.z_exit_m - b.origin0_.z());
+      if (c.crossings > 2 || c.z_entry_m > b.origin0_.z()) ++counts.lines_filled;
+    }
+  }
+  b.build_tiles();
+  if (report) *report = counts;
   return b;
 }
 
@@ -181,21 +207,96 @@ double box_segment_distance(double x0, double y0, double x1, double y1, double a
 
 }  // namespace
 
-// Whether the sweep might lower a line of the tile (false: it cannot).
+// Whether the lines behind the start c0 of a continuing sweep (planar half-plane) are already
+// at or below it, for lines up to z_top. Vertical tool, level or rising move: each horizontal
+// slice of the tool is a disc, farther and not lower along the move. Ball-end, any axis: where
+// a line lies within r cos(tilt) of c0 and c1 in the plane, the tool's lowest point on it is
+// the ball's (lowest_z_beyond), and behind c0 that is the ball at c0, which the previous sweep
+// held; the reach at z_top plus the move bounds that distance for every line that matters.
+static bool behind_is_cut(const Sweep& s, double z_top) {
+  if (!s.continues) return false;
+  if (s.vertical) return true;
+  const double move = std::hypot(s.c1.x() - s.c0.x(), s.c1.y() - s.c0.y());
+  return s.rho == 0.0 && detail::reach_below(s, z_top) + move <= s.r * s.a.z();
+}
+
+// Whether the sweep might lower a line of the tile (false: it cannot). On a Z-map the tile is
+// the prism over its xy box up to its highest line; the sweep cannot reach into it when its
+// lowest point at the tile's planar distance (lowest_z_beyond), or its lowest point along the
+// tool axis (the plane a . p >= amin), lies above the prism, or when the tile lies wholly
+// behind the start of a continuing sweep.
 static bool may_cut(const Sweep& s, const Eigen::Vector3d& lo, const Eigen::Vector3d& hi, bool zmap) {
   for (int i = 0; i < 3; ++i) {
     if (s.hi[i] < lo[i] || s.lo[i] > hi[i]) return false;
   }
-  if (zmap && s.vertical) {
-    const double d = box_segment_distance(lo.x(), lo.y(), hi.x(), hi.y(), s.c0.x(), s.c0.y(), s.c1.x(), s.c1.y());
-    const double reach = s.rho + s.r;
-    if (d > reach) return false;
-    const double e = std::max(0.0, d - s.rho);
-    const double lowest = std::min(s.c0.z(), s.c1.z()) - std::sqrt(std::max(0.0, s.r * s.r - e * e));
-    if (lowest >= hi.z()) return false;
+  if (!zmap) return true;
+  const double d = box_segment_distance(lo.x(), lo.y(), hi.x(), hi.y(), s.c0.x(), s.c0.y(), s.c1.x(), s.c1.y());
+  if (detail::lowest_z_beyond(s, d) >= hi.z()) return false;
+  if (!s.vertical && s.a.z() > 0.0) {
+    const double reach = s.a.x() * (s.a.x() > 0.0 ? hi.x() : lo.x()) + s.a.y() * (s.a.y() > 0.0 ? hi.y() : lo.y());
+    if ((s.amin - reach) / s.a.z() >= hi.z()) return false;
+  }
+  if (behind_is_cut(s, hi.z())) {
+    const double dx = s.c1.x() - s.c0.x(), dy = s.c1.y() - s.c0.y();
+    const double ahead = (dx > 0.0 ? hi.x() : lo.x()) - s.c0.x();
+    const double side = (dy > 0.0 ? hi.y() : lo.y()) - s.c0.y();
+    if (ahead * dx + side * dy <= 0.0) return false;
   }
   return true;
 }
+
+namespace {
+
+// The x-interval of the row y where the planar distance to the segment (ax, ay)-(bx, by) is
+// at most R (the capsule is convex: the hull of its end discs' and its band's intervals).
+bool capsule_row(double ax, double ay, double bx, double by, double R, double y, double& x0, double& x1) {
+  bool any = false;
+  auto add = [&](double lo, double hi) {
+    if (lo > hi) return;
+    x0 = any ? std::min(x0, lo) : lo;
+    x1 = any ? std::max(x1, hi) : hi;
+    any = true;
+  };
+  for (const auto& [cx, cy] : {std::pair{ax, ay}, std::pair{bx, by}}) {
+    const double dy = y - cy;
+    if (std::abs(dy) <= R) {
+      const double w = std::sqrt((R - dy) * (R + dy));
+      add(cx - w, cx + w);
+    }
+  }
+  const double dx = bx - ax, dy = by - ay, len = std::hypot(dx, dy);
+  if (len > 0.0) {
+    // |(x - ax) dy - (y - ay) dx| <= R len and 0 <= (x - ax) dx + (y - ay) dy <= len^2.
+    double lo = -detail::kInf, hi = detail::kInf;
+    auto clip = [&](double v0, double v1, double a, double b) {  // a <= v0 + v1 x <= b
+      if (v1 == 0.0) {
+        if (v0 < a || v0 > b) lo = detail::kInf;
+        return;
+      }
+      double p = (a - v0) / v1, q = (b - v0) / v1;
+      if (p > q) std::swap(p, q);
+      lo = std::max(lo, p);
+      hi = std::min(hi, q);
+    };
+    clip(-ax * dy - (y - ay) * dx, dy, -R * len, R * len);
+    clip(-ax * dx + (y - ay) * dy, dx, 0.0, len * len);
+    if (std::isfinite(lo) && std::isfinite(hi)) add(lo, hi);
+  }
+  return any;
+}
+
+// Narrows [x0, x1] to where c0 + c1 x > 0 (nothing when c1 = 0 and c0 <= 0).
+void keep_positive(double c0, double c1, double& x0, double& x1) {
+  if (c1 > 0.0) {
+    x0 = std::max(x0, -c0 / c1);
+  } else if (c1 < 0.0) {
+    x1 = std::min(x1, -c0 / c1);
+  } else if (c0 <= 0.0) {
+    x1 = -detail::kInf;
+  }
+}
+
+}  // namespace
 
 CutStatistics NBuffer::cut(const Tool& tool, std::span<const Pose> trajectory, const CutOptions& options) {
   tool.validate();
@@ -217,6 +318,17 @@ CutStatistics NBuffer::cut(const Tool& tool, std::span<const Pose> trajectory, c
   std::vector<Sweep> sweeps;
   std::vector<std::pair<std::uint32_t, std::uint32_t>> pairs;  // (tile, sweep)
   std::vector<std::size_t> group_begin;
+  // Every line's material lies in this box (it only shrinks while cutting): the tool is cut
+  // short above it (split_segment), which keeps 5-axis sub-steps and sweeps small.
+  Box material{Eigen::Vector3d::Constant(detail::kInf), Eigen::Vector3d::Constant(-detail::kInf)};
+  for (const TileBounds& t : tiles_) {
+    material.min_W_m = material.min_W_m.cwiseMin(t.lo);
+    material.max_W_m = material.max_W_m.cwiseMax(t.hi);
+  }
+  Sweep previous;
+  bool have_previous = false;
+  const double sp = spacing_;
+  const double slack = 1e-9;  // [m] widening of the row ranges against rounding: the exact test decides
 
   for (std::size_t first = 0; first < segments; first += batch) {
     const std::size_t last = std::min(segments, first + batch);
@@ -224,7 +336,18 @@ CutStatistics NBuffer::cut(const Tool& tool, std::span<const Pose> trajectory, c
     for (std::size_t i = first; i < last; ++i) {
       const Pose& p0 = trajectory[i];
       const Pose& p1 = trajectory.size() == 1 ? trajectory[0] : trajectory[i + 1];
-      detail::split_segment(tool, p0, p1, options.orientation_tolerance_m, sweeps);
+      detail::split_segment(tool, p0, p1, options.orientation_tolerance_m, sweeps, &material);
+    }
+    for (Sweep& s : sweeps) {
+      // A vertical tool moving level or upwards from where the last sweep left it cuts nothing
+      // new behind its start (each horizontal slice of it is a disc).
+      // A ball-end's ball at c0 is the same whatever the axis (where it decides the cut: see
+      // behind_is_cut).
+      s.continues = have_previous && previous.c1 == s.c0 && previous.rho == s.rho && previous.r == s.r &&
+                    s.c1.z() >= s.c0.z() &&
+                    ((previous.vertical && s.vertical && previous.ell == s.ell) || s.rho == 0.0);
+      previous = s;
+      have_previous = true;
     }
     stats.sub_segments += sweeps.size();
     pairs.clear();
@@ -235,9 +358,16 @@ CutStatistics NBuffer::cut(const Tool& tool, std::span<const Pose> trajectory, c
           a = std::max(0, static_cast<int>(std::floor((lo - origin) / (spacing_ * kTile))));
           b = std::min(tiles - 1, static_cast<int>(std::floor((hi - origin) / (spacing_ * kTile))));
         };
+        // Only tiles within the planar reach at which the sweep gets below the material's top.
+        const double reach = detail::reach_below(s, material.max_W_m.z());
+        if (!(reach >= 0.0)) continue;
+        const double x_lo = std::max(s.lo.x(), std::min(s.c0.x(), s.c1.x()) - reach);
+        const double x_hi = std::min(s.hi.x(), std::max(s.c0.x(), s.c1.x()) + reach);
+        const double y_lo = std::max(s.lo.y(), std::min(s.c0.y(), s.c1.y()) - reach);
+        const double y_hi = std::min(s.hi.y(), std::max(s.c0.y(), s.c1.y()) + reach);
         int u0, u1, v0, v1;
-        tile_range(s.lo.x(), s.hi.x(), origin0_.x(), tiles_u_, u0, u1);
-        tile_range(s.lo.y(), s.hi.y(), origin0_.y(), tiles_v_, v0, v1);
+        tile_range(x_lo, x_hi, origin0_.x(), tiles_u_, u0, u1);
+        tile_range(y_lo, y_hi, origin0_.y(), tiles_v_, v0, v1);
         for (int tv = v0; tv <= v1; ++tv) {
           for (int tu = u0; tu <= u1; ++tu) {
             const std::size_t t = static_cast<std::size_t>(tu) + static_cast<std::size_t>(tiles_u_) * tv;
@@ -257,53 +387,103 @@ CutStatistics NBuffer::cut(const Tool& tool, std::span<const Pose> trajectory, c
     }
     group_begin.push_back(pairs.size());
 
+    // Z-map: the lines of one tile that the sweep can lower, row by row: within the planar
+    // reach where the sweep gets below the tile's highest line, ahead of the axis plane's
+    // limit and, for a continuing sweep, ahead of its start; each then gets the exact cut.
+    auto cut_zmap_tile = [&](const Sweep& s, std::size_t tile, int tu, int tv, int u_end, int v_end,
+                             std::size_t& lowered, double& lowered_max) {
+      const double z0 = origin0_.z(), top = tiles_[tile].hi.z();
+      const double reach = detail::reach_below(s, top);
+      if (!(reach >= 0.0)) return;
+      const double dx = s.c1.x() - s.c0.x(), dy = s.c1.y() - s.c0.y();
+      const bool level = s.vertical && s.c0.z() == s.c1.z();
+      const bool tilted = !s.vertical && s.a.z() > 0.0;
+      const bool behind = behind_is_cut(s, top);
+      const double ball_reach = s.r * s.a.z();  // ball-end: within this of c0 and c1, the ball decides
+      for (int iv = tv * kTile; iv < v_end; ++iv) {
+        const double y = origin0_.y() + iv * sp;
+        double xa = 0.0, xb = 0.0;
+        if (!capsule_row(s.c0.x(), s.c0.y(), s.c1.x(), s.c1.y(), reach + slack, y, xa, xb)) continue;
+        if (tilted) keep_positive(s.a.y() * y - s.amin + s.a.z() * top + slack, s.a.x(), xa, xb);
+        if (behind) keep_positive((y - s.c0.y()) * dy - s.c0.x() * dx + slack, dx, xa, xb);
+        if (!(xa <= xb)) continue;
+        const int ia = std::max(tu * kTile, static_cast<int>(std::ceil((xa - origin0_.x()) / sp)));
+        const int ib = std::min(u_end - 1, static_cast<int>(std::floor((xb - origin0_.x()) / sp)));
+        for (int iu = ia; iu <= ib; ++iu) {
+          double& h = h_[index(iu, iv)];
+          const double x = origin0_.x() + iu * sp;
+          const double d = detail::distance_2d(x, y, s.c0.x(), s.c0.y(), s.c1.x(), s.c1.y());
+          double t0 = 0.0, t1 = 0.0;
+          if (level) {  // vertical tool, level move: the depth at the planar distance, closed form
+            const double e = std::max(0.0, d - s.rho);
+            if (e > s.r) continue;
+            t0 = s.c0.z() - std::sqrt((s.r - e) * (s.r + e)) - z0;
+            t1 = s.c0.z() + s.ell + s.r - z0;
+          } else if (s.rho == 0.0 && s.c0.z() == s.c1.z() &&
+                     std::max(std::hypot(x - s.c0.x(), y - s.c0.y()), std::hypot(x - s.c1.x(), y - s.c1.y())) <= ball_reach) {
+            // Ball-end, level move, any axis: the ball's capsule gives the entry (behind_is_cut).
+            if (d > s.r) continue;
+            t0 = s.c0.z() - std::sqrt((s.r - d) * (s.r + d)) - z0;
+            if (t0 >= h) continue;
+            t1 = s.hi.z() - z0;
+            if (t1 <= 0.0 && !detail::line_interval(s, Eigen::Vector3d(x, y, z0), Eigen::Vector3d::UnitZ(), t0, t1)) continue;
+          } else if (tilted && s.hi.z() > z0 && detail::flat_bottom_entry(s, x, y, t0)) {
+            t0 -= z0;  // flat-end / bull-nose: the line crosses the lowest bottom disc
+            t1 = s.hi.z() - z0;
+          } else {
+            double bound = detail::lowest_z_beyond(s, d);
+            if (tilted) bound = std::max(bound, (s.amin - s.a.x() * x - s.a.y() * y) / s.a.z());
+            if (bound - z0 >= h) continue;
+            bool hit;
+            if (s.vertical) {
+              hit = detail::vertical_entry(s, x, y, t0, t1);
+              t0 -= z0;
+              t1 -= z0;
+            } else {
+              const Eigen::Vector3d o(x, y, z0);
+              hit = s.rho > 0.0 && s.r > 0.0 ? detail::bull_interval(s, o, Eigen::Vector3d::UnitZ(), h, t0, t1)
+                                             : detail::line_interval(s, o, Eigen::Vector3d::UnitZ(), t0, t1);
+            }
+            if (!hit) continue;
+          }
+          if (t1 > 0.0 && t0 < h) {
+            lowered_max = std::max(lowered_max, h);
+            h = std::max(0.0, t0);
+            ++lowered;
+          }
+        }
+      }
+    };
+
     auto process_group = [&](std::size_t g) {
       const std::size_t tile = pairs[group_begin[g]].first;
       const int tu = static_cast<int>(tile % static_cast<std::size_t>(tiles_u_));
       const int tv = static_cast<int>(tile / static_cast<std::size_t>(tiles_u_));
       const int u_end = std::min(nu_, (tu + 1) * kTile), v_end = std::min(nv_, (tv + 1) * kTile);
       std::size_t visited = 0, lowered = 0;
-      bool changed = false;
       for (std::size_t k = group_begin[g]; k < group_begin[g + 1]; ++k) {
         const Sweep& s = sweeps[pairs[k].second];
-        if (changed) {
-          refresh_tile(tile);
-          changed = false;
-        }
         if (!may_cut(s, tiles_[tile].lo, tiles_[tile].hi, zmap_)) continue;
         ++visited;
-        for (int iv = tv * kTile; iv < v_end; ++iv) {
-          for (int iu = tu * kTile; iu < u_end; ++iu) {
-            const std::size_t li = index(iu, iv);
-            double& h = h_[li];
-            double t0 = 0.0, t1 = 0.0;
-            bool hit;
-            if (zmap_) {
-              const double x = origin0_.x() + iu * spacing_, y = origin0_.y() + iv * spacing_;
-              if (s.vertical) {
-                // Cheap bound first: the lowest the sweep can reach at this line's distance.
-                const double d = detail::distance_2d(x, y, s.c0.x(), s.c0.y(), s.c1.x(), s.c1.y());
-                const double e = std::max(0.0, d - s.rho);
-                if (e > s.r) continue;
-                if (std::min(s.c0.z(), s.c1.z()) - std::sqrt((s.r - e) * (s.r + e)) - origin0_.z() >= h) continue;
-                hit = detail::vertical_entry(s, x, y, t0, t1);
-                t0 -= origin0_.z();
-                t1 -= origin0_.z();
-              } else {
-                hit = detail::line_interval(s, Eigen::Vector3d(x, y, origin0_.z()), Eigen::Vector3d::UnitZ(), t0, t1);
+        const std::size_t before = lowered;
+        double lowered_max = -1.0;  // the highest length lowered (the tile's bound moves only if it was the top)
+        if (zmap_) {
+          cut_zmap_tile(s, tile, tu, tv, u_end, v_end, lowered, lowered_max);
+        } else {
+          for (int iv = tv * kTile; iv < v_end; ++iv) {
+            for (int iu = tu * kTile; iu < u_end; ++iu) {
+              const std::size_t li = index(iu, iv);
+              double& h = h_[li];
+              double t0 = 0.0, t1 = 0.0;
+              if (detail::line_interval(s, o_[li], u_[li], t0, t1) && t1 > 0.0 && t0 < h) {
+                h = std::max(0.0, t0);
+                ++lowered;
               }
-            } else {
-              hit = detail::line_interval(s, o_[li], u_[li], t0, t1);
-            }
-            if (hit && t1 > 0.0 && t0 < h) {
-              h = std::max(0.0, t0);
-              ++lowered;
-              changed = true;
             }
           }
         }
+        if (lowered != before && (!zmap_ || lowered_max >= tiles_[tile].h_max)) refresh_tile(tile);
       }
-      if (changed) refresh_tile(tile);
       tiles_visited += visited;
       lines_lowered += lowered;
     };

@@ -49,6 +49,57 @@ double golden_min_with_ends(F&& f, double a, double b, double& arg) {
   return best;
 }
 
+// Brent's minimisation (golden section with parabolic steps) of a convex function on [a, b]
+// to an argument tolerance tol; returns the minimum value and its argument.
+template <class F>
+double brent_min(F&& f, double a, double b, double tol, double& arg) {
+  constexpr double cgold = 0.3819660112501051;
+  double x = a + cgold * (b - a), w = x, v = x;
+  double fx = f(x), fw = fx, fv = fx;
+  double d = 0.0, e = 0.0;
+  for (int iter = 0; iter < 200; ++iter) {
+    const double xm = 0.5 * (a + b), tol2 = 2.0 * tol;
+    if (std::abs(x - xm) <= tol2 - 0.5 * (b - a)) break;
+    bool golden = true;
+    if (std::abs(e) > tol) {
+      const double r = (x - w) * (fx - fv);
+      double q = (x - v) * (fx - fw);
+      double p = (x - v) * q - (x - w) * r;
+      q = 2.0 * (q - r);
+      if (q > 0.0) p = -p;
+      else q = -q;
+      const double etemp = e;
+      e = d;
+      if (!(std::abs(p) >= std::abs(0.5 * q * etemp) || p <= q * (a - x) || p >= q * (b - x))) {
+        d = p / q;
+        const double u = x + d;
+        if (u - a < tol2 || b - u < tol2) d = xm - x >= 0.0 ? tol : -tol;
+        golden = false;
+      }
+    }
+    if (golden) {
+      e = x >= xm ? a - x : b - x;
+      d = cgold * e;
+    }
+    const double u = std::abs(d) >= tol ? x + d : x + (d >= 0.0 ? tol : -tol);
+    const double fu = f(u);
+    if (fu <= fx) {
+      (u >= x ? a : b) = x;
+      v = w, w = x, x = u;
+      fv = fw, fw = fx, fx = fu;
+    } else {
+      (u < x ? a : b) = u;
+      if (fu <= fw || w == x) {
+        v = w, w = u, fv = fw, fw = fu;
+      } else if (fu <= fv || v == x || v == w) {
+        v = u, fv = fu;
+      }
+    }
+  }
+  arg = x;
+  return fx;
+}
+
 // Clips [t0, t1] by lo <= v0 + v1 t <= hi; false when empty.
 bool clip(double v0, double v1, double lo, double hi, double& t0, double& t1) {
   if (v1 == 0.0) return v0 >= lo && v0 <= hi;
@@ -75,7 +126,8 @@ double core_sdf(const Eigen::Vector3d& x, const Eigen::Vector3d& a, double rho, 
   const double radial = (x - lambda * a).norm();
   const double dr = radial - rho;
   const double dz = std::abs(lambda - 0.5 * ell) - 0.5 * ell;
-  const double outside = std::hypot(std::max(dr, 0.0), std::max(dz, 0.0));
+  const double er = std::max(dr, 0.0), ez = std::max(dz, 0.0);
+  const double outside = std::sqrt(er * er + ez * ez);  // (std::hypot is several times slower)
   return outside + std::min(std::max(dr, dz), 0.0);
 }
 
@@ -120,6 +172,9 @@ Sweep make_sweep(const Eigen::Vector3d& c0, const Eigen::Vector3d& c1, const Eig
   Sweep s;
   s.c0 = c0, s.c1 = c1, s.a = a, s.rho = rho, s.r = r, s.ell = ell;
   s.vertical = a.x() == 0.0 && a.y() == 0.0 && a.z() == 1.0;
+  s.cz_min = std::min(c0.z(), c1.z());
+  s.tilt_sin = std::hypot(a.x(), a.y());
+  s.amin = std::min(a.dot(c0), a.dot(c1)) - r;
   for (int i = 0; i < 3; ++i) {
     const double disc = rho * std::sqrt(std::max(0.0, 1.0 - a[i] * a[i]));
     const double lo0 = std::min(c0[i], c0[i] + ell * a[i]), hi0 = std::max(c0[i], c0[i] + ell * a[i]);
@@ -130,12 +185,75 @@ Sweep make_sweep(const Eigen::Vector3d& c0, const Eigen::Vector3d& c1, const Eig
   return s;
 }
 
+double lowest_z_beyond(const Sweep& s, double d) {
+  const double cz = s.a.z(), sn = s.tilt_sin, r = s.r;
+  if (cz < 0.0) return -kInf;
+  // p = c + lambda a + q + b (q in the disc, b in the ball): |q_xy| <= rho and q_z >= -rho sn,
+  // so the disc reduces to the ball-end case at distance e = d - rho, lowered by rho sn. For
+  // the ball-end, z - c_z >= lambda cz - sqrt(r^2 - e_b^2) with e_b >= e - lambda sn; the
+  // minimum over lambda >= 0 is at e_b = r cz (the tilted capsule's lower envelope).
+  const double e = std::max(0.0, d - s.rho);
+  const double base = s.cz_min - s.rho * sn;
+  if (sn == 0.0) return e > r ? kInf : base - std::sqrt((r - e) * (r + e));
+  if (e > r + s.ell * sn) return kInf;
+  if (e <= r * cz) return base - std::sqrt((r - e) * (r + e));
+  if (cz == 0.0) return base - r * sn;
+  return base + (e - r * cz) * cz / sn - r * sn;
+}
+
+double reach_below(const Sweep& s, double z) {
+  const double cz = s.a.z(), sn = s.tilt_sin, r = s.r;
+  if (cz < 0.0) return kInf;
+  const double g = z - (s.cz_min - s.rho * sn);  // lowest_z_beyond - base must stay below g
+  if (g <= -r) return -1.0;
+  double e = 0.0;
+  if (sn == 0.0) {
+    e = g >= 0.0 ? r : std::sqrt((r + g) * (r - g));
+  } else {
+    if (g <= -r * sn) {
+      e = std::sqrt((r + g) * (r - g));
+    } else {
+      e = cz == 0.0 ? kInf : r * cz + (g + r * sn) * sn / cz;
+    }
+    e = std::min(e, r + s.ell * sn);
+  }
+  return s.rho + e;
+}
+
+namespace {
+
+// The largest axial position of the core (lambda in [0, ell]) at which a tool of the motion
+// c0 -> c1, a0 -> a1 (slerp by theta) can meet the box: along each face normal n the tool's
+// points at lambda satisfy n . p >= min n . c + lambda min n . a - (rho + r), and over the arc
+// n . a >= min(n . a0, n . a1) - (1 - cos(theta / 2)) (the arc's sagitta).
+double reachable_length(const Box& box, const Eigen::Vector3d& c0, const Eigen::Vector3d& c1,
+                        const Eigen::Vector3d& a0, const Eigen::Vector3d& a1, double theta, double reach,
+                        double ell) {
+  const double sag = 1.0 - std::cos(0.5 * theta);
+  double best = ell;
+  for (int i = 0; i < 3; ++i) {
+    for (double sign : {1.0, -1.0}) {
+      const double face = sign > 0.0 ? box.max_W_m[i] : -box.min_W_m[i];
+      const double na = std::min(sign * a0[i], sign * a1[i]) - sag;
+      if (na <= 0.0) continue;
+      const double nc = std::min(sign * c0[i], sign * c1[i]);
+      best = std::min(best, std::max(0.0, (face + reach - nc) / na));
+    }
+  }
+  return best;
+}
+
+}  // namespace
+
 void split_segment(const Tool& tool, const Pose& pose0, const Pose& pose1, double tolerance_m,
-                   std::vector<Sweep>& out) {
-  const double r = tool.corner_radius(), rho = tool.disc_radius(), ell = tool.core_length();
+                   std::vector<Sweep>& out, const Box* material) {
+  const double r = tool.corner_radius(), rho = tool.disc_radius();
+  double ell = tool.core_length();
   const Eigen::Vector3d a0 = pose0.axis_W.normalized(), a1 = pose1.axis_W.normalized();
   const Eigen::Vector3d c0 = pose0.tip_W_m + r * a0, c1 = pose1.tip_W_m + r * a1;
   const double theta = std::atan2(a0.cross(a1).norm(), a0.dot(a1));
+  const bool vertical = a0 == Eigen::Vector3d::UnitZ() && a1 == Eigen::Vector3d::UnitZ();
+  if (material && !vertical) ell = reachable_length(*material, c0, c1, a0, a1, theta, rho + r, ell);
   if (theta == 0.0) {
     out.push_back(make_sweep(c0, c1, a0, rho, r, ell));
     return;
@@ -204,6 +322,22 @@ bool capsule_interval(const Eigen::Vector3d& A, const Eigen::Vector3d& B, double
   return any;
 }
 
+namespace {
+
+// signed_distance for rho > 0 by Brent's method: the minimum over the motion to 1e-13 m of
+// argument (the core's signed distance is 1-Lipschitz, so the value is as close).
+double signed_distance_fast(const Sweep& s, const Eigen::Vector3d& p) {
+  const Eigen::Vector3d delta = s.c1 - s.c0, x = p - s.c0;
+  const double length = delta.norm();
+  if (length == 0.0) return core_sdf(x, s.a, s.rho, s.ell) - s.r;
+  double arg = 0.0;
+  return brent_min([&](double t) { return core_sdf(x - t * delta, s.a, s.rho, s.ell); }, 0.0, 1.0,
+                   1e-13 / length, arg) -
+         s.r;
+}
+
+}  // namespace
+
 double signed_distance(const Sweep& s, const Eigen::Vector3d& p) {
   if (s.rho == 0.0) return parallelogram_distance(s, p) - s.r;
   const Eigen::Vector3d delta = s.c1 - s.c0, x = p - s.c0;
@@ -267,6 +401,79 @@ bool vertical_entry(const Sweep& s, double x, double y, double& z0, double& z1) 
   return true;
 }
 
+bool flat_bottom_entry(const Sweep& s, double x, double y, double& z) {
+  if (s.rho == 0.0 || !(s.a.z() > 0.0)) return false;
+  const Eigen::Vector3d& c = s.a.dot(s.c1) < s.a.dot(s.c0) ? s.c1 : s.c0;
+  z = (s.amin - s.a.x() * x - s.a.y() * y) / s.a.z();
+  const Eigen::Vector3d v = Eigen::Vector3d(x, y, z) - (c - s.r * s.a);
+  return v.squaredNorm() <= s.rho * s.rho;
+}
+
+bool flat_interval(const Sweep& s, const Eigen::Vector3d& o, const Eigen::Vector3d& u, double& t0, double& t1) {
+  // Points o + t u - sigma e1 - c0 of the static cylinder, in (t, sigma): the radial condition
+  // |A + t B + sigma C| <= rho is an ellipse E, 0 <= sigma <= 1 and 0 <= lambda <= ell (lambda
+  // the axial coordinate, linear in t and sigma) a parallelogram Q. E and Q are convex, so the
+  // extremes of t over E and Q are on an edge of Q (a chord of E) or at an extreme of E.
+  const Eigen::Vector3d e1 = s.c1 - s.c0, w = o - s.c0;
+  const double l0 = w.dot(s.a), lu = u.dot(s.a), le = e1.dot(s.a);
+  const Eigen::Vector3d A = w - l0 * s.a, B = u - lu * s.a, C = le * s.a - e1;
+  const double rho = s.rho, ell = s.ell;
+  bool any = false;
+  // In Q: 0 <= sigma <= 1, 0 <= lambda = l0 + t lu - sigma le <= ell.
+  auto in_q = [&](double t, double sigma) {
+    const double lambda = l0 + t * lu - sigma * le;
+    return sigma >= 0.0 && sigma <= 1.0 && lambda >= 0.0 && lambda <= ell;
+  };
+  // The line (t, sigma) = (pt + tau vt, ps + tau vs): its part in E and Q merged into [t0, t1].
+  auto chord = [&](double pt, double ps, double vt, double vs, bool on_lambda_edge) {
+    const Eigen::Vector3d M = A + pt * B + ps * C, N = vt * B + vs * C;
+    const double nn = N.squaredNorm();
+    double ta = -kInf, tb = kInf;
+    if (nn > 0.0) {
+      const double disc = rho * rho * nn - M.cross(N).squaredNorm();
+      if (disc < 0.0) return;
+      const double mid = -M.dot(N), root = std::sqrt(disc);
+      ta = (mid - root) / nn;
+      tb = (mid + root) / nn;
+    } else if (M.squaredNorm() > rho * rho) {
+      return;
+    }
+    if (!clip(ps, vs, 0.0, 1.0, ta, tb)) return;
+    // (On a lambda edge lambda is constant by construction: clipping it would only see rounding.)
+    if (!on_lambda_edge && !clip(l0 + pt * lu - ps * le, vt * lu - vs * le, 0.0, ell, ta, tb)) return;
+    if (!std::isfinite(ta) || !std::isfinite(tb)) return;
+    const double xa = pt + ta * vt, xb = pt + tb * vt;
+    merge(true, std::min(xa, xb), std::max(xa, xb), any, t0, t1);
+  };
+  chord(0.0, 0.0, 1.0, 0.0, false);  // sigma = 0
+  chord(0.0, 1.0, 1.0, 0.0, false);  // sigma = 1
+  for (double lk : {0.0, ell}) {  // lambda = lk
+    if (lu != 0.0) {
+      chord((lk - l0) / lu, 0.0, le / lu, 1.0, true);
+    } else if (le != 0.0) {
+      chord(0.0, (l0 - lk) / le, 1.0, 0.0, true);
+    } else if (l0 < 0.0 || l0 > ell) {
+      return false;  // the line stays beyond an end of the cylinder
+    }
+  }
+  // The extremes of E itself.
+  const double bb = B.squaredNorm(), cc = C.squaredNorm(), bc = B.dot(C);
+  const double det = bb * cc - bc * bc;
+  if (det > 1e-24 * bb * cc && cc > 0.0) {
+    const double ab = A.dot(B), ac = A.dot(C);
+    const double tc = (-ab * cc + ac * bc) / det, sc = (-ac * bb + ab * bc) / det;  // centre
+    const double off = std::abs(A.dot(B.cross(C))) / std::sqrt(det);  // distance of A to span(B, C)
+    if (off <= rho) {
+      const double k = std::sqrt((rho - off) * (rho + off) / (det * cc));
+      for (double sign : {-1.0, 1.0}) {
+        const double t = tc + sign * k * cc, sigma = sc - sign * k * bc;
+        if (in_q(t, sigma)) merge(true, t, t, any, t0, t1);
+      }
+    }
+  }
+  return any;
+}
+
 bool line_interval(const Sweep& s, const Eigen::Vector3d& o, const Eigen::Vector3d& u, double& t0,
                    double& t1) {
   if (s.vertical && u.x() == 0.0 && u.y() == 0.0 && u.z() == 1.0) {
@@ -306,26 +513,63 @@ bool line_interval(const Sweep& s, const Eigen::Vector3d& o, const Eigen::Vector
     }
     return any;
   }
-  // Flat-end / bull-nose, general directions: S(t) = signed distance of o + t u to the sweep is
-  // convex in t; its sub-zero set is the interval.
-  double b0 = -kInf, b1 = kInf;
-  for (int i = 0; i < 3; ++i) {
-    if (!clip(o[i], u[i], s.lo[i], s.hi[i], b0, b1)) return false;
-  }
-  if (!std::isfinite(b0) || !std::isfinite(b1)) return false;
-  auto S = [&](double t) { return signed_distance(s, o + t * u); };
-  double tm = 0.0;
-  const double smin = golden_min_with_ends(S, b0, b1, tm);
-  if (smin > 0.0) return false;
-  auto root = [&](double inside, double outside) {  // S(inside) <= 0 < S(outside)
-    for (int i = 0; i < 200 && std::abs(outside - inside) > 1e-13; ++i) {
-      const double mid = 0.5 * (inside + outside);
-      (S(mid) <= 0.0 ? inside : outside) = mid;
-    }
-    return 0.5 * (inside + outside);
+  if (s.r == 0.0) return flat_interval(s, o, u, t0, t1);
+  return bull_interval(s, o, u, kInf, t0, t1);
+}
+
+bool bull_interval(const Sweep& s, const Eigen::Vector3d& o, const Eigen::Vector3d& u, double h, double& t0,
+                   double& t1) {
+  // The sweep lies between flat-end sweeps (closed form): outside it the cylinder
+  // Disc(rho + r) (+) Seg(-r, ell + r), inside it Disc(rho + r) (+) Seg(0, ell) and
+  // Disc(rho) (+) Seg(-r, ell + r). The signed distance S(t) of o + t u to the sweep is convex
+  // in t, >= 0 at the outer entry and <= 0 at the inner one: regula falsi (Illinois) between
+  // them finds the entry, likewise the exit.
+  auto flat = [&](double rho, double ext, double ell, double& a0, double& a1) {
+    Sweep f = s;
+    f.rho = rho, f.r = 0.0, f.ell = ell;
+    f.c0 = s.c0 - ext * s.a, f.c1 = s.c1 - ext * s.a;
+    return flat_interval(f, o, u, a0, a1);
   };
-  t0 = S(b0) <= 0.0 ? b0 : root(tm, b0);
-  t1 = S(b1) <= 0.0 ? b1 : root(tm, b1);
+  double o0 = 0.0, o1 = 0.0;
+  if (!flat(s.rho + s.r, s.r, s.ell + 2.0 * s.r, o0, o1)) return false;
+  if (o0 >= h || o1 <= 0.0) return false;  // the entry cannot be below h, or the exit above 0
+  auto S = [&](double t) { return signed_distance_fast(s, o + t * u); };
+  double i0 = 0.0, i1 = 0.0, j0 = 0.0, j1 = 0.0;
+  bool inner = false;
+  if (flat(s.rho + s.r, 0.0, s.ell, i0, i1)) inner = true;
+  if (flat(s.rho, s.r, s.ell + 2.0 * s.r, j0, j1)) {
+    if (inner) i0 = std::min(i0, j0), i1 = std::max(i1, j1);
+    else i0 = j0, i1 = j1, inner = true;
+  }
+  if (!inner) {  // only the rounded rims can hold the line: look for S < 0 between the outer ends
+    double tm = 0.0;
+    if (brent_min(S, o0, o1, 1e-13, tm) > 0.0) return false;
+    i0 = i1 = tm;
+  }
+  auto root = [&](double out, double in) {  // S(out) >= 0 >= S(in)
+    double fo = S(out), fi = S(in);
+    if (fo <= 0.0) return out;
+    int side = 0;
+    for (int k = 0; k < 100 && std::abs(out - in) > 1e-13; ++k) {
+      double m = (fi * out - fo * in) / (fi - fo);
+      if (!(std::min(out, in) < m && m < std::max(out, in)) || k % 8 == 7) m = 0.5 * (out + in);
+      const double fm = S(m);
+      if (fm <= 0.0) {
+        in = m, fi = fm;
+        if (side == -1) fo *= 0.5;
+        side = -1;
+      } else {
+        out = m, fo = fm;
+        if (side == 1) fi *= 0.5;
+        side = 1;
+      }
+    }
+    return 0.5 * (out + in);
+  };
+  t0 = root(o0, i0);
+  // With a finite h only the entry is needed exactly: the inner exit, when positive, shows the
+  // exit is.
+  t1 = std::isfinite(h) && i1 > 0.0 ? i1 : root(o1, i1);
   return true;
 }
 

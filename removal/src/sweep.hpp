@@ -19,6 +19,12 @@ struct Sweep {
   double rho = 0.0, r = 0.0, ell = 0.0;
   Eigen::Vector3d lo, hi;  // bounding box of the swept volume
   bool vertical = false;   // a is exactly +z
+  double cz_min = 0.0;     // lowest z of the core point c over the segment
+  double tilt_sin = 0.0;   // |a_xy|
+  double amin = 0.0;       // min over the segment of a . c, minus r: every point p has a . p >= amin
+  /// The sweep before it in the same run (vertical, same tool) ended at c0: every line is
+  /// already at or below the tool at c0, so lines behind c0 need no test (nbuffer.cpp).
+  bool continues = false;
 };
 
 Sweep make_sweep(const Eigen::Vector3d& c0, const Eigen::Vector3d& c1, const Eigen::Vector3d& a,
@@ -26,12 +32,42 @@ Sweep make_sweep(const Eigen::Vector3d& c0, const Eigen::Vector3d& c1, const Eig
 
 /// Splits the motion pose0 -> pose1 into constant-axis sweeps whose error is below tolerance_m
 /// (see nbuffer.hpp). Appends to `out`.
+/// With `material` (a box holding every line's material), the tool is cut short where no pose
+/// of the segment can bring it into the box (the core length ell becomes the largest axial
+/// position that can reach the box): the sweep inside the box is unchanged, the sub-step count
+/// (which grows with the length) and the work drop. Not done for a constant vertical axis.
 void split_segment(const Tool& tool, const Pose& pose0, const Pose& pose1, double tolerance_m,
-                   std::vector<Sweep>& out);
+                   std::vector<Sweep>& out, const Box* material = nullptr);
+
+/// Lower bound on z of the points of the sweep whose distance in the plane from the segment
+/// (c0, c1) projected on xy is at least d [m] (+inf where the sweep does not reach; -inf for a
+/// tool pointing downwards). Exact for vertical sweeps.
+double lowest_z_beyond(const Sweep& s, double d);
+
+/// The largest planar distance d at which lowest_z_beyond(s, d) < z (negative when none).
+double reach_below(const Sweep& s, double z);
+
+/// Bull-nose sweep (r > 0, rho > 0) and a line: the entry t0 to ~1e-13 m (regula falsi on the
+/// signed distance between closed-form flat-end brackets). With a finite h it returns false
+/// early when the entry cannot be below h or the exit above 0, and then t1 is only a value in
+/// (0, exit] (enough for the cut rule); with h = +inf, t1 is the exact exit.
+bool bull_interval(const Sweep& s, const Eigen::Vector3d& o, const Eigen::Vector3d& u, double h, double& t0,
+                   double& t1);
+
+/// Vertical line (x, y) and a sweep with a flat bottom (rho > 0, a_z > 0): the bottom is the
+/// disc of radius rho about c - r a, normal a, and no point of the sweep lies below its plane
+/// at the end of the motion where a . c is least. When the line crosses that disc there, the
+/// crossing is the entry: true with its z; false when the general computation is needed.
+bool flat_bottom_entry(const Sweep& s, double x, double y, double& z);
+
+/// Line through a flat-end sweep (r = 0, rho > 0), any line direction: closed form (the
+/// section of the swept cylinder by the plane of the line and the motion is an ellipse cut by
+/// a parallelogram; the extremes of t are on its edges or at the ellipse's own extremes).
+bool flat_interval(const Sweep& s, const Eigen::Vector3d& o, const Eigen::Vector3d& u, double& t0, double& t1);
 
 /// Interval [t0, t1] where the line o + t u (|u| = 1) meets the swept volume; false if it
-/// misses. Exact (closed form) for rho = 0 and for vertical sweeps on vertical lines; otherwise
-/// nested convex minimisations converged to ~1e-12 m.
+/// misses. Closed form for ball-ends (rho = 0), flat-ends (r = 0, flat_interval) and vertical
+/// sweeps on vertical lines; bull-nose otherwise: bull_interval (~1e-13 m).
 bool line_interval(const Sweep& s, const Eigen::Vector3d& o, const Eigen::Vector3d& u, double& t0,
                    double& t1);
 

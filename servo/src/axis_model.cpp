@@ -67,6 +67,14 @@ AxisServoModel make_axis_servo_model(const kinematics::MachineModel& machine, in
   if (!(axis.drive.equivalent_inertia_kg_m2 > 0.0)) {
     fail(machine, axis, "drive.equivalent_inertia_kg_m2", "must be > 0");
   }
+  const double rotor = axis.drive.rotor_inertia_kg_m2;
+  if (axis.effects.backlash.enabled && !axis.effects.compliance.enabled &&
+      !(rotor > 0.0 && rotor < axis.drive.equivalent_inertia_kg_m2)) {
+    fail(machine, axis, "drive.rotor_inertia_kg_m2",
+         number_text(rotor) + " kg m^2: effects.backlash needs the motor side that moves alone "
+         "inside the gap, in (0, equivalent_inertia_kg_m2 = " +
+             number_text(axis.drive.equivalent_inertia_kg_m2) + ")");
+  }
 
   if (gravity && !axis.effects.gravity_compensated && !machine.axes.empty()) {
     if (reference.size() != machine.axes.size()) {

@@ -160,6 +160,7 @@ struct Parameters {
   bool coulomb = false, asymmetric = false;
   double spring = 0.0, damping = 0.0, gap = 0.0;  // [N m/rad], [N m s/rad], motor rad
   bool two_mass = false, backlash = false;
+  bool rigid_backlash = false;  // backlash without compliance: two bodies, rigid in contact
   bool cogging = false;
   double cogging_amplitude = 0.0, cogging_periods = 0.0, cogging_phase = 0.0;
   bool pitch = false;
@@ -214,6 +215,18 @@ Parameters derive(const AxisServoModel& model) {
   if (fx.backlash.enabled) {
     p.backlash = true;
     p.gap = fx.backlash.gap / p.r;
+    if (!p.two_mass) {
+      // Rigid drive with play: inside the gap the motor side (rotor, coupling, screw) moves
+      // alone and the load (nut, table) coasts.
+      p.rigid_backlash = true;
+      p.j_motor = axis.drive.rotor_inertia_kg_m2;
+      p.j_load = p.j_total - p.j_motor;
+      if (!(p.j_motor > 0.0 && p.j_load > 0.0)) {
+        throw InputError("axis " + axis.name +
+                         ": effects.backlash needs drive.rotor_inertia_kg_m2 in (0, J_eq): the "
+                         "motor side that moves alone inside the gap");
+      }
+    }
   }
   if (fx.cogging.enabled) {
     p.cogging = fx.cogging.amplitude_N_m > 0.0;
@@ -240,22 +253,27 @@ Parameters derive(const AxisServoModel& model) {
   return p;
 }
 
-// Round to the nearest count (halves away from zero), inline: std::nearbyint is a library call
-// on baseline x86-64. Counts stay far below 2^63.
+// Round to the nearest count. Adding and subtracting 1.5 * 2^52 rounds to an integer in the
+// FPU's round-to-nearest mode: two additions on the velocity loop's critical path instead of a
+// conversion to an integer and back (std::nearbyint is a library call on baseline x86-64).
+// Exact for |value / count| < 2^51, far beyond any travel.
+inline double round_to_integer(double value) {
+  constexpr double kRound = 6755399441055744.0;
+  return (value + kRound) - kRound;
+}
 inline double quantise(double value, double count, double inverse_count) {
   if (count <= 0.0) return value;
-  const double scaled = value * inverse_count;
-  return static_cast<double>(static_cast<long long>(scaled + (scaled >= 0.0 ? 0.5 : -0.5))) * count;
+  return round_to_integer(value * inverse_count) * count;
 }
 
 // The simulation of one axis with N plant states: [theta, omega, i] (rigid) or
-// [theta_m, omega_m, i, theta_L, omega_L] (two-mass).
+// [theta_m, omega_m, i, theta_L, omega_L] (two bodies: compliance, or backlash in a rigid drive).
 template <int N>
 class AxisRun {
  public:
-  static constexpr bool kTwoMass = N == 5;
-  static constexpr int kVel = kTwoMass ? 4 : 1;  // the body friction acts on
-  static constexpr int kPos = kTwoMass ? 3 : 0;
+  static constexpr bool kTwoBody = N == 5;
+  static constexpr int kVel = kTwoBody ? 4 : 1;  // the body friction acts on
+  static constexpr int kPos = kTwoBody ? 3 : 0;
 
   AxisRun(const AxisServoModel& model, const AxisInput& input, const SimulationOptions& options)
       : model_(model), c_(model.axis.controller), p_(derive(model)), input_(input),
@@ -282,8 +300,8 @@ class AxisRun {
     return g;
   }
   double load_angle() const {
-    if constexpr (kTwoMass) return x_(3);
-    return p_.backlash ? play_angle_ : x_(0);
+    if constexpr (kTwoBody) return x_(3);
+    return x_(0);
   }
   double load_position() const {
     const double nut = p_.r * load_angle();
@@ -321,6 +339,20 @@ class AxisRun {
     offset = 0.0;
     return false;
   }
+  bool backlash_keeps_contact(const Input& u);
+  void backlash_after_free_step(const State& before);
+  void advance(const Discrete<N>& d, const Input& u) {
+    if constexpr (N == 3) {
+      // Rigid: the first column of phi is e0 exactly (no force depends on theta), the motor and
+      // the load torque enter alike and there is no spring input.
+      const double x1 = x_(1), x2 = x_(2), tau = u(1) + u(2);
+      x_(0) += d.phi(0, 1) * x1 + d.phi(0, 2) * x2 + d.gamma(0, 0) * u(0) + d.gamma(0, 1) * tau;
+      x_(1) = d.phi(1, 1) * x1 + d.phi(1, 2) * x2 + d.gamma(1, 0) * u(0) + d.gamma(1, 1) * tau;
+      x_(2) = d.phi(2, 1) * x1 + d.phi(2, 2) * x2 + d.gamma(2, 0) * u(0) + d.gamma(2, 1) * tau;
+    } else {
+      x_ = d.phi * x_ + d.gamma * u;
+    }
+  }
   void plant_step(const Input& held);
 
   const AxisServoModel& model_;
@@ -334,81 +366,153 @@ class AxisRun {
   int substeps_ = 1;
   Discrete<N> contact_, free_;
   State x_ = State::Zero();
-  double play_angle_ = 0.0;
   bool stuck_ = false;
+  int side_ = 0;  // rigid backlash: +1 / -1 motor pushing the load forwards / backwards, 0 apart
 };
 
 template <int N>
 void AxisRun<N>::build_matrices() {
-  Eigen::Matrix<double, N, N> a = Eigen::Matrix<double, N, N>::Zero();
-  Eigen::Matrix<double, N, kInputs> b = Eigen::Matrix<double, N, kInputs>::Zero();
-  const double jm = kTwoMass ? p_.j_motor : p_.j_total;
-  a(0, 1) = 1.0;
-  a(1, 2) = p_.kt / jm;
-  b(1, 1) = 1.0 / jm;
-  switch (c_.current_model) {
-    case CurrentLoopModel::ideal:
-      break;  // i is set at each velocity-loop output
-    case CurrentLoopModel::first_order: {
-      const double wc = kTwoPi * c_.current_bandwidth_hz;
-      a(2, 2) = -wc;
-      b(2, 0) = wc;
-      break;
+  using A = Eigen::Matrix<double, N, N>;
+  using B = Eigen::Matrix<double, N, kInputs>;
+  // The motor body (inertia jm) with the current dynamics, the electrical input u0 and the
+  // motor torque u1.
+  auto motor = [&](double jm, A& a, B& b) {
+    a(0, 1) = 1.0;
+    a(1, 2) = p_.kt / jm;
+    b(1, 1) = 1.0 / jm;
+    switch (c_.current_model) {
+      case CurrentLoopModel::ideal:
+        break;  // i is set at each velocity-loop output
+      case CurrentLoopModel::first_order: {
+        const double wc = kTwoPi * c_.current_bandwidth_hz;
+        a(2, 2) = -wc;
+        b(2, 0) = wc;
+        break;
+      }
+      case CurrentLoopModel::PI: {
+        const double ke = c_.back_emf_V_s_per_rad > 0.0 ? c_.back_emf_V_s_per_rad : p_.kt;
+        a(2, 1) = -ke / c_.inductance_H;
+        a(2, 2) = -c_.resistance_ohm / c_.inductance_H;
+        b(2, 0) = 1.0 / c_.inductance_H;
+        break;
+      }
     }
-    case CurrentLoopModel::PI: {
-      const double ke = c_.back_emf_V_s_per_rad > 0.0 ? c_.back_emf_V_s_per_rad : p_.kt;
-      a(2, 1) = -ke / c_.inductance_H;
-      a(2, 2) = -c_.resistance_ohm / c_.inductance_H;
-      b(2, 0) = 1.0 / c_.inductance_H;
-      break;
-    }
-  }
+  };
   const double h = base_ / substeps_;
-  if constexpr (kTwoMass) {
-    const double jl = p_.j_load;
+  A a = A::Zero();
+  B b = B::Zero();
+  if constexpr (kTwoBody) {
+    // Apart: the motor alone; the load (inertia jl) with its viscous friction and the load
+    // torque u2.
+    const double jm = p_.j_motor, jl = p_.j_load;
+    motor(jm, a, b);
     a(3, 4) = 1.0;
     a(4, 4) = -p_.viscous / jl;
     b(4, 2) = 1.0 / jl;
     free_ = discretise<N>(a, b, h);
-    // The spring (and its damping) between motor and load; the offset input u3 moves the
-    // spring's zero by the half gap when the backlash is on.
-    a(1, 0) = -p_.spring / jm;
-    a(1, 3) = p_.spring / jm;
-    a(1, 1) = -p_.damping / jm;
-    a(1, 4) = p_.damping / jm;
-    a(4, 0) = p_.spring / jl;
-    a(4, 3) = -p_.spring / jl;
-    a(4, 1) = p_.damping / jl;
-    a(4, 4) = -(p_.damping + p_.viscous) / jl;
-    b(1, 3) = -1.0 / jm;
-    b(4, 3) = 1.0 / jl;
+    if (p_.two_mass) {
+      // The spring (and its damping) between motor and load; the offset input u3 moves the
+      // spring's zero by the half gap when the backlash is on.
+      a(1, 0) = -p_.spring / jm;
+      a(1, 3) = p_.spring / jm;
+      a(1, 1) = -p_.damping / jm;
+      a(1, 4) = p_.damping / jm;
+      a(4, 0) = p_.spring / jl;
+      a(4, 3) = -p_.spring / jl;
+      a(4, 1) = p_.damping / jl;
+      a(4, 4) = -(p_.damping + p_.viscous) / jl;
+      b(1, 3) = -1.0 / jm;
+      b(4, 3) = 1.0 / jl;
+      contact_ = discretise<N>(a, b, h);
+      return;
+    }
+    // Rigid backlash in contact: one body of inertia J_eq in the motor states; the load states
+    // follow it at the flank (set after each step).
+    a = A::Zero();
+    b = B::Zero();
+    motor(p_.j_total, a, b);
+    a(1, 1) = -p_.viscous / p_.j_total;
+    b(1, 2) = 1.0 / p_.j_total;
     contact_ = discretise<N>(a, b, h);
   } else {
-    a(1, 1) = -p_.viscous / jm;
-    b(1, 2) = 1.0 / jm;
+    motor(p_.j_total, a, b);
+    a(1, 1) = -p_.viscous / p_.j_total;
+    b(1, 2) = 1.0 / p_.j_total;
     contact_ = discretise<N>(a, b, h);
     free_ = contact_;
   }
 }
 
+// Rigid backlash: does the motor keep pushing the load on its flank over the next step? It
+// does while the force that makes both accelerate together presses motor and load together:
+//   tau_c = (J_L tau_m - J_m tau_L) / J_eq   (motor torque tau_m, load torque tau_L)
+// has the sign of the side. At rest the friction holds the load; the motor leaves it when its
+// torque pulls away.
+template <int N>
+bool AxisRun<N>::backlash_keeps_contact(const Input& u) {
+  if (side_ == 0) return false;
+  const double tau_motor = p_.kt * x_(2) + u(1);
+  bool keep;
+  if (stuck_) {
+    keep = side_ * tau_motor >= 0.0;
+  } else {
+    const double v = x_(1);
+    const double viscous = p_.asymmetric ? (v > 0.0 ? p_.viscous_positive : p_.viscous_negative)
+                                         : p_.viscous;
+    double tau_load = u(2) - viscous * v;
+    if (p_.coulomb) tau_load -= std::copysign(dry_level(v, std::abs(v)), v);
+    keep = side_ * (p_.j_load * tau_motor - p_.j_motor * tau_load) >= 0.0;
+  }
+  if (!keep) side_ = 0;
+  return keep;
+}
+
+// Rigid backlash, after a step apart: when the motor has crossed the gap it hits the load. The
+// impact is inelastic (momentum kept, no rebound); the contact time is interpolated within the
+// step and both move on together with the common speed from there.
+template <int N>
+void AxisRun<N>::backlash_after_free_step(const State& before) {
+  const double half = 0.5 * p_.gap;
+  const double delta = x_(0) - x_(3);
+  if (delta < half && delta > -half) return;
+  side_ = delta >= half ? 1 : -1;
+  const double delta_before = before(0) - before(3);
+  const double target = side_ * half;
+  const double f = delta != delta_before
+                       ? std::clamp((target - delta_before) / (delta - delta_before), 0.0, 1.0)
+                       : 1.0;
+  const double motor_at_contact = before(0) + f * (x_(0) - before(0));
+  const double w = (p_.j_motor * x_(1) + p_.j_load * x_(4)) / p_.j_total;
+  x_(0) = motor_at_contact + w * (1.0 - f) * (base_ / substeps_);
+  x_(1) = w;
+  x_(3) = x_(0) - target;
+  x_(4) = w;
+  if (w != 0.0) stuck_ = false;
+}
+
 // One plant sub-step with the inputs held: the dry friction (with the stick state) and the
-// backlash mode are decided at its start.
+// mode of the two bodies are decided at its start.
 template <int N>
 void AxisRun<N>::plant_step(const Input& held) {
   Input u = held;
   bool contact = true;
-  if constexpr (kTwoMass) contact = in_contact(u(3));
+  if constexpr (kTwoBody) {
+    contact = p_.two_mass ? in_contact(u(3)) : backlash_keeps_contact(u);
+  }
   const double v = x_(kVel);
   bool hold = false;
   if (p_.asymmetric) u(2) -= ((v > 0.0 ? p_.viscous_positive : p_.viscous_negative) - p_.viscous) * v;
   if (p_.coulomb) {
     if (stuck_) {
       // Torque on the friction body without the dry friction, at rest.
-      double net;
-      if constexpr (kTwoMass) {
-        net = u(2) + (contact ? p_.spring * (x_(0) - x_(3)) + p_.damping * x_(1) + u(3) : 0.0);
+      double net = u(2);
+      if constexpr (kTwoBody) {
+        if (contact) {
+          net += p_.two_mass ? p_.spring * (x_(0) - x_(3)) + p_.damping * x_(1) + u(3)
+                             : p_.kt * x_(2) + u(1);
+        }
       } else {
-        net = p_.kt * x_(2) + u(1) + u(2);
+        net += p_.kt * x_(2) + u(1);
       }
       const double limit = p_.stribeck ? p_.static_friction : dry_level(net, 0.0);
       if (std::abs(net) <= limit) {
@@ -423,21 +527,31 @@ void AxisRun<N>::plant_step(const Input& held) {
     }
   }
   const State before = x_;
-  x_ = (contact ? contact_.phi : free_.phi) * before + (contact ? contact_.gamma : free_.gamma) * u;
+  advance(contact ? contact_ : free_, u);
+  // Rigid backlash in contact: the load sits at the flank and moves with the motor.
+  const bool rigid_contact = kTwoBody && p_.rigid_backlash && contact;
+  if constexpr (kTwoBody) {
+    if (rigid_contact) {
+      x_(3) = x_(0) - side_ * 0.5 * p_.gap;
+      x_(4) = x_(1);
+    }
+  }
   if (hold) {
     x_(kPos) = before(kPos);
     x_(kVel) = 0.0;
+    if (rigid_contact) {
+      x_(0) = before(0);
+      x_(1) = 0.0;
+    }
   } else if (p_.coulomb && v != 0.0 && x_(kVel) * v <= 0.0) {
     // The velocity reached zero within the step: the body stops and sticks until the torque on
     // it exceeds the static friction (no chatter around zero).
     x_(kVel) = 0.0;
+    if (rigid_contact) x_(1) = 0.0;
     stuck_ = true;
   }
-  if constexpr (!kTwoMass) {
-    if (p_.backlash) {
-      const double half = 0.5 * p_.gap;
-      play_angle_ = std::clamp(play_angle_, x_(0) - half, x_(0) + half);
-    }
+  if constexpr (kTwoBody) {
+    if (p_.rigid_backlash && !contact) backlash_after_free_step(before);
   }
 }
 
@@ -468,11 +582,13 @@ AxisSignals AxisRun<N>::run() {
   if (c_.current_max_A > 0.0) i0 = std::clamp(i0, -c_.current_max_A, c_.current_max_A);
   x_(0) = q0 / p_.r;
   x_(2) = i0;
-  if constexpr (kTwoMass) {
-    double delta = 0.0;
-    if (static_torque != 0.0) {
-      delta = static_torque / p_.spring + (p_.backlash ? std::copysign(0.5 * p_.gap, static_torque) : 0.0);
-    }
+  if constexpr (kTwoBody) {
+    // Motor minus load angle: the spring deflection and, with backlash, the motor on the flank
+    // it pushes (centred in the gap when nothing pushes).
+    const int side = (static_torque > 0.0) - (static_torque < 0.0);
+    double delta = p_.backlash ? side * 0.5 * p_.gap : 0.0;
+    if (p_.two_mass) delta += static_torque / p_.spring;
+    if (p_.rigid_backlash) side_ = side;
     if (c_.position_feedback == PositionFeedback::load) {
       x_(3) = q0 / p_.r;
       x_(0) = x_(3) + delta;
@@ -480,23 +596,31 @@ AxisSignals AxisRun<N>::run() {
       x_(3) = x_(0) - delta;
     }
   }
-  play_angle_ = x_(0);
   stuck_ = p_.coulomb;
 
   const double kv = c_.position_gain_kv_per_s;
-  const double kp = c_.velocity_gain_N_m_s_per_rad;
   const double velocity_period = static_cast<double>(n_vel_) * base_;
-  // Multiplications by inverses: the velocity loop is a chain of dependent operations run at
-  // every tick, and a division costs several multiplications' latency.
-  const double inverse_velocity_period = 1.0 / velocity_period;
+  const double inverse_r = 1.0 / p_.r;
   const double inverse_kt = 1.0 / p_.kt;
   const double current_period = static_cast<double>(n_cur_) * base_;
   const double position_period = static_cast<double>(n_pos_) * base_;
-  const double ki = c_.velocity_type == VelocityControllerType::PI
-                        ? kp * velocity_period / c_.velocity_integral_time_s
-                        : 0.0;
+  // The velocity loop is a chain of dependent operations run at every tick, on the critical
+  // path of the simulation: its constants are folded so that it is a few multiply-adds
+  // (Kp / Kt, the integrator kept in amperes, the filter gain times 1 / T).
+  const double kp_per_kt = c_.velocity_gain_N_m_s_per_rad * inverse_kt;
+  const double ki_per_kt = c_.velocity_type == VelocityControllerType::PI
+                               ? kp_per_kt * velocity_period / c_.velocity_integral_time_s
+                               : 0.0;
   const double velocity_filter =
       c_.velocity_filter_time_s > 0.0 ? std::exp(-velocity_period / c_.velocity_filter_time_s) : 0.0;
+  // The velocity loop differences the encoder in counts (the angle itself when ideal), the
+  // count's size folded into the gain: one multiplication less on the critical path.
+  const bool counted = p_.motor_count > 0.0;
+  const double difference_gain =
+      (1.0 - velocity_filter) / velocity_period * (counted ? p_.motor_count : 1.0);
+  auto encoder_reading = [&](double angle) {
+    return counted ? round_to_integer(angle * p_.inverse_motor_count) : angle;
+  };
   const double imax = c_.current_max_A > 0.0 ? c_.current_max_A : 0.0;
   const double wmax = c_.velocity_max_rad_per_s > 0.0 ? c_.velocity_max_rad_per_s : 0.0;
   const bool current_pi = c_.current_model == CurrentLoopModel::PI;
@@ -514,21 +638,34 @@ AxisSignals AxisRun<N>::run() {
     lag_b0 = ramp;
     lag_b1 = 1.0 - lag_alpha - ramp;
   }
-  const double tff_gain = c_.torque_feedforward ? c_.torque_feedforward_weight * p_.j_total / p_.r : 0.0;
+  const double tff_gain =
+      c_.torque_feedforward ? c_.torque_feedforward_weight * p_.j_total / p_.r : 0.0;
   const double vff_gain = c_.velocity_feedforward ? c_.velocity_feedforward_weight : 0.0;
+  const bool feedforward = vff_gain != 0.0 || tff_gain != 0.0;
+  const bool interpolate_feedforward = feedforward && options_.interpolate_feedforward;
+  const double inverse_position_ticks = 1.0 / static_cast<double>(n_pos_);
 
-  double velocity_integral = c_.velocity_type == VelocityControllerType::PI ? static_torque : 0.0;
+  double velocity_integral_A =
+      c_.velocity_type == VelocityControllerType::PI ? static_torque * inverse_kt : 0.0;
   double current_integral = current_pi ? c_.resistance_ohm * i0 : 0.0;
-  double encoder_previous = quantise(x_(0), p_.motor_count, p_.inverse_motor_count);
+  double encoder_previous = encoder_reading(x_(0));
   double omega_filtered = 0.0;
   double lag_state = q0, lag_input_previous = q0;
-  DelayLine position_out_speed, position_out_torque, velocity_out, current_out;
-  position_out_speed.reset(c_.position_output_delay_samples, 0.0);
-  position_out_torque.reset(c_.position_output_delay_samples, 0.0);
+  // Position controller outputs, each after the output delay: the P term [rad/s], the velocity
+  // feedforward [rad/s] and the torque feedforward / Kt [A] at the position tick, and their
+  // change per base tick until the next position tick (0 when held).
+  DelayLine out_p, out_vff, out_vff_step, out_tff, out_tff_step;
+  for (DelayLine* line : {&out_p, &out_vff, &out_vff_step, &out_tff, &out_tff_step}) {
+    line->reset(c_.position_output_delay_samples, 0.0);
+  }
+  DelayLine velocity_out, current_out;
   velocity_out.reset(c_.velocity_output_delay_samples, i0);
   current_out.reset(c_.current_output_delay_samples, c_.resistance_ohm * i0);
-  double omega_set = 0.0, torque_ff = 0.0, current_command = i0, voltage = c_.resistance_ohm * i0;
-  double deviation = 0.0, speed_set_joint = 0.0, speed_ff_joint = 0.0, torque_ff_now = 0.0;
+  double p_term = 0.0, vff = 0.0, vff_step = 0.0, tff = 0.0, tff_step = 0.0;
+  double omega_input = 0.0, current_command = i0, voltage = c_.resistance_ohm * i0;
+  // The same, undelayed, for the inner signals [joint units, N m].
+  double deviation = 0.0, p_term_joint = 0.0, vff_joint = 0.0, vff_step_joint = 0.0;
+  double tff_now = 0.0, tff_step_now = 0.0;
   double current_set_now = i0;
 
   AxisSignals out;
@@ -543,6 +680,7 @@ AxisSignals AxisRun<N>::run() {
   double gravity_q = 0.0, gravity_value = 0.0, gravity_slope = 0.0;
 
   for (long k = 0; k <= ticks; ++k) {
+    const long position_phase = position_count;  // base ticks since the last position tick
     const bool position_tick = position_count == 0;
     const bool velocity_tick = velocity_count == 0;
     const bool current_tick = current_count == 0;
@@ -555,45 +693,59 @@ AxisSignals AxisRun<N>::run() {
     // Position loop (NC): fine interpolation, delay, balancing, P controller, feedforward.
     if (!position_input && velocity_tick) {
       // Velocity input: the set point goes straight to the velocity controller.
-      speed_set_joint = setpoints_.at(t).x;
-      omega_set = speed_set_joint / p_.r;
+      p_term_joint = setpoints_.at(t).x;
+      omega_input = p_term_joint * inverse_r;
     }
     if (position_input && position_tick) {
-      double speed_joint;
-      {
-        const double t_delayed = t - c_.delay_s;
-        const SetpointSignal::Sample s = setpoints_.at(t_delayed);
-        double balanced = s.x;
-        if (c_.balancing_type == BalancingType::dead_time) {
-          balanced = setpoints_.at(t_delayed - c_.balancing_time_s).x;
-        } else if (c_.balancing_type == BalancingType::first_order_lag) {
-          lag_state = lag_alpha * lag_state + lag_b0 * s.x + lag_b1 * lag_input_previous;
-          lag_input_previous = s.x;
-          balanced = lag_state;
-        }
-        deviation = balanced - measured_position();
-        speed_ff_joint = vff_gain * s.v;
-        speed_joint = kv * deviation + speed_ff_joint;
-        torque_ff_now = tff_gain * s.a;
+      const double t_delayed = t - c_.delay_s;
+      const SetpointSignal::Sample s = setpoints_.at(t_delayed);
+      double balanced = s.x;
+      if (c_.balancing_type == BalancingType::dead_time) {
+        balanced = setpoints_.at(t_delayed - c_.balancing_time_s).x;
+      } else if (c_.balancing_type == BalancingType::first_order_lag) {
+        lag_state = lag_alpha * lag_state + lag_b0 * s.x + lag_b1 * lag_input_previous;
+        lag_input_previous = s.x;
+        balanced = lag_state;
       }
-      speed_set_joint = speed_joint;
-      omega_set = position_out_speed.push(speed_joint / p_.r);
-      torque_ff = position_out_torque.push(torque_ff_now);
+      deviation = balanced - measured_position();
+      p_term_joint = kv * deviation;
+      vff_joint = vff_gain * s.v;
+      tff_now = tff_gain * s.a;
+      if (interpolate_feedforward) {
+        // The drive's fine interpolation of the feedforward: linear from this position tick's
+        // value to the next one's (the set point one position period later), so the velocity
+        // set point has no steps at the position period.
+        const SetpointSignal::Sample next = setpoints_.at(t_delayed + position_period);
+        vff_step_joint = (vff_gain * next.v - vff_joint) * inverse_position_ticks;
+        tff_step_now = (tff_gain * next.a - tff_now) * inverse_position_ticks;
+      }
+      p_term = out_p.push(p_term_joint * inverse_r);
+      vff = out_vff.push(vff_joint * inverse_r);
+      vff_step = out_vff_step.push(vff_step_joint * inverse_r);
+      tff = out_tff.push(tff_now * inverse_kt);
+      tff_step = out_tff_step.push(tff_step_now * inverse_kt);
     }
     // Velocity loop: differenced, filtered motor encoder; PI or P; current saturation.
     if (velocity_tick) {
-      const double encoder = quantise(x_(0), p_.motor_count, p_.inverse_motor_count);
-      const double omega_raw = (encoder - encoder_previous) * inverse_velocity_period;
-      encoder_previous = encoder;
-      omega_filtered = velocity_filter * omega_filtered + (1.0 - velocity_filter) * omega_raw;
+      const double phase = static_cast<double>(position_phase);
+      const double omega_set =
+          position_input ? p_term + vff + vff_step * phase : omega_input;
+      const double bias = velocity_integral_A + tff + tff_step * phase;  // [A]
       const double target = wmax > 0.0 ? std::clamp(omega_set, -wmax, wmax) : omega_set;
+      const double encoder = encoder_reading(x_(0));
+      omega_filtered =
+          velocity_filter * omega_filtered + difference_gain * (encoder - encoder_previous);
+      encoder_previous = encoder;
       const double error = target - omega_filtered;
-      const double unsaturated = (kp * error + velocity_integral + torque_ff) * inverse_kt;
+      const double unsaturated = kp_per_kt * error + bias;
+      // Saturation as a (well predicted) branch rather than min / max: the command then does not
+      // wait for the comparison.
       double command = unsaturated;
-      if (imax > 0.0) command = std::clamp(command, -imax, imax);
+      const bool saturated = imax > 0.0 && std::abs(unsaturated) > imax;
+      if (saturated) command = std::copysign(imax, unsaturated);
       // Anti-windup: integrate only while the output is not pushed further into saturation.
-      if (command == unsaturated || (unsaturated > command) != (error > 0.0)) {
-        velocity_integral += ki * error;
+      if (!saturated || (unsaturated > command) != (error > 0.0)) {
+        velocity_integral_A += ki_per_kt * error;
       }
       current_set_now = command;
       current_command = velocity_out.push(command);
@@ -623,11 +775,13 @@ AxisSignals AxisRun<N>::run() {
       out.vel.push_back(p_.r * x_(1));
       out.current.push_back(x_(2));
       if (options_.inner_signals) {
+        const double phase = static_cast<double>(position_phase);
+        const double vff_at = position_input ? vff_joint + vff_step_joint * phase : 0.0;
         out.following_error.push_back(cmd - pos);
         out.control_deviation.push_back(deviation);
-        out.velocity_setpoint.push_back(speed_set_joint);
-        out.velocity_feedforward.push_back(speed_ff_joint);
-        out.torque_feedforward.push_back(torque_ff_now);
+        out.velocity_setpoint.push_back(p_term_joint + vff_at);
+        out.velocity_feedforward.push_back(vff_at);
+        out.torque_feedforward.push_back(tff_now + tff_step_now * phase);
         out.current_setpoint.push_back(current_set_now);
       }
     }
@@ -677,7 +831,7 @@ AxisSignals simulate_axis(const AxisServoModel& model, const AxisInput& input,
     throw InputError("axis " + model.axis.name +
                      ": the external force needs one value per set point");
   }
-  if (model.axis.effects.compliance.enabled) {
+  if (model.axis.effects.compliance.enabled || model.axis.effects.backlash.enabled) {
     AxisRun<5> run(model, input, options);
     return run.run();
   }

@@ -108,6 +108,7 @@ Trace simulate_truth(const TruthDrive& p, const std::vector<double>& sp, std::ui
   // State: motor angle/speed; load angle/speed (two-mass) or play position (backlash).
   double th = sp.front() / r, om = 0.0, thl = th, oml = 0.0;
   bool stuck = true;
+  int side = 0;  // rigid backlash: +1 / -1 motor pushing the load forwards / backwards, 0 apart
   const double i0 = p.offset_A;
   double omega_set = 0.0, i_applied = i0, i_next = i0;
   double enc_prev = quant(th, count);
@@ -156,7 +157,38 @@ Trace simulate_truth(const TruthDrive& p, const std::vector<double>& sp, std::ui
                               : 0.0;
       const double motor = p.kt * i_applied + cog;
       const double resist = p.kt * p.offset_A;
-      if (!two_mass) {
+      if (!two_mass && p.backlash_gap > 0.0 && side == 0) {
+        // Rigid drive with backlash, apart: the motor side (rotor) alone, the load coasting
+        // with its friction; at a flank an inelastic impact (momentum kept).
+        const double half = 0.5 * p.backlash_gap / r;
+        const double jr = p.rotor_inertia;
+        om += h * motor / jr;
+        th += h * om;
+        const double on_load = -resist;
+        if (stuck) {
+          const double limit = dry(on_load, 0.0);
+          if (std::abs(on_load) > limit) {
+            stuck = false;
+            oml = h * (on_load - std::copysign(limit, on_load)) / jl;
+          }
+        } else {
+          const double next =
+              oml + h * (on_load - viscous_at(oml) - std::copysign(dry(oml, oml), oml)) / jl;
+          if (next * oml <= 0.0) {
+            oml = 0.0;
+            stuck = true;
+          } else {
+            oml = next;
+          }
+        }
+        thl += h * oml;
+        if (std::abs(th - thl) >= half) {
+          side = th > thl ? 1 : -1;
+          om = oml = (jr * om + jl * oml) / (jr + jl);
+          thl = th - side * half;
+          if (om != 0.0) stuck = false;
+        }
+      } else if (!two_mass) {
         const double drive = motor - resist;
         if (stuck) {
           const double limit = dry(drive, 0.0);
@@ -175,8 +207,15 @@ Trace simulate_truth(const TruthDrive& p, const std::vector<double>& sp, std::ui
         }
         th += h * om;
         if (p.backlash_gap > 0.0) {
-          const double half = 0.5 * p.backlash_gap / r;
-          thl = std::clamp(thl, th - half, th + half);
+          // In contact: one body; the motor leaves the load when it would have to pull it
+          // (the force J_L tau_m - J_r tau_L against the side; at rest: the motor pulling away).
+          thl = th - side * 0.5 * p.backlash_gap / r;
+          oml = om;
+          const double jr = p.rotor_inertia;
+          const double on_load =
+              stuck ? 0.0 : -resist - viscous_at(om) - std::copysign(dry(om, om), om);
+          const double press = stuck ? motor : jl * motor - jr * on_load;
+          if (side * press < 0.0) side = 0;
         }
       } else {
         const double ts = spring * (th - thl) + damper * (om - oml);

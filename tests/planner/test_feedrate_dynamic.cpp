@@ -171,5 +171,41 @@ TEST(Path1Dynamic, TorqueOnTheSetPointsStaysWithinTheActuatorLimits) {
   EXPECT_GE(plan.duration_s, plan.lower_bound_s * 0.999);
 }
 
+// Known gap (disabled, run with --gtest_also_run_disabled_tests): third order on path 1 plans
+// but the set-point check keeps finding jerk / torque-rate excesses between the grid points
+// (the quintic q(s)'s own third derivative differs from the fitted q_sss the rows use), and
+// each slow-down round re-solves the programmes: minutes.
+TEST(Path1Dynamic, DISABLED_TorqueRateOnTheSetPointsWithGravityAndFriction) {
+  // Third order in dynamic mode (torque and torque rate, every effect): the joint velocities
+  // cross zero on this path (dry friction steps). Torque recomputed from the set points through
+  // the dynamic model, 0.1 % as above, and none at the reversals: there the dry friction is
+  // given the mean of its sign under the second difference's kernel, as in the planner's check.
+  const auto& s = path1();
+  FeedrateOptions options;
+  options.method = FeedrateMethod::dynamic;
+  options.limits = DynamicLimitSource::actuator;
+  const FeedratePlan plan = plan_feedrate(s.machine, s.path, options);
+  kinematics::DynamicsModel model(s.machine);
+  const auto check = check_setpoints(s.machine, &model, plan.limits, options, plan.setpoints);
+  EXPECT_LE(check.ratio.col(static_cast<Eigen::Index>(ConstraintKind::torque)).maxCoeff(), 1.001);
+  EXPECT_LE(check.ratio.col(static_cast<Eigen::Index>(ConstraintKind::torque_rate)).maxCoeff(), 1.001);
+  EXPECT_GE(plan.duration_s, plan.lower_bound_s * 0.999);
+  options.third_order = false;
+  const FeedratePlan second = plan_feedrate(s.machine, s.path, options);
+  EXPECT_GE(plan.duration_s, second.duration_s * 0.999);
+}
+
+// Known gap (disabled): as above, in kinematic mode.
+TEST(Path1Kinematic, DISABLED_ThirdOrderPlans) {
+  const auto& s = path1();
+  FeedrateOptions options;
+  const FeedratePlan plan = plan_feedrate(s.machine, s.path, options);
+  const auto r = test::finite_difference_ratios(plan.setpoints, plan.limits);
+  EXPECT_LE(r.velocity, 1.0 + 1e-4);
+  EXPECT_LE(r.acceleration, 1.0 + 1e-4);
+  EXPECT_LE(r.jerk, 1.0 + 1e-4);
+  EXPECT_GE(plan.duration_s, plan.lower_bound_s);
+}
+
 }  // namespace
 }  // namespace vmsim::planner

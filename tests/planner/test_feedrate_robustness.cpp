@@ -94,9 +94,10 @@ TEST(DensePath, SecondOrderNeverOvershoots) {
   EXPECT_GE(plan.duration_s, plan.lower_bound_s);
 }
 
-// Known gap, disabled until fixed (run with --gtest_also_run_disabled_tests): the third-order
-// passes find no admissible profile on this path (the bang-bang search fails where the jerk rows,
-// not the second-order cap, force a slow-down). The planner refuses rather than overshoots.
+// Third order on the same path: the jerk rows, not the second-order profile, force the slow-downs
+// at the curvature jumps and the reversals of Y. Known gap (disabled, run with
+// --gtest_also_run_disabled_tests): not yet verified within the time of a test run (a cold
+// simplex start per slow-down round on 12 000 points takes seconds).
 TEST(DensePath, DISABLED_ThirdOrderNeverOvershoots) {
   const auto machine = limited_machine();
   const auto path = sample_path(5, 0.12, 12001, dense);
@@ -107,6 +108,7 @@ TEST(DensePath, DISABLED_ThirdOrderNeverOvershoots) {
   EXPECT_LE(r.velocity, 1.0 + 1e-4);
   EXPECT_LE(r.acceleration, 1.0 + 1e-4);
   EXPECT_LE(r.jerk, 1.0 + 1e-4);
+  EXPECT_GE(plan.duration_s, plan.lower_bound_s);
 }
 
 TEST(Path2Blade, SingularZoneSecondOrder) {
@@ -128,6 +130,30 @@ TEST(Path2Blade, SingularZoneSecondOrder) {
   EXPECT_LE(r.velocity, 1.0 + 1e-4);
   EXPECT_LE(r.acceleration, 1.0 + 1e-4);
   EXPECT_TRUE(std::isfinite(plan.duration_s));
+}
+
+// Known gap (disabled): as DensePath.DISABLED_ThirdOrderNeverOvershoots, not yet verified in time.
+TEST(Path2Blade, DISABLED_SingularZoneThirdOrder) {
+  // The table-table machine's singular zone (the C axis swings fast where the tool axis passes
+  // the A axis): the path velocity nearly vanishes there; jerk limits on every axis.
+  const std::string root = VMSIM_SOURCE_DIR;
+  const auto machine = kinematics::load_machine(root + "/samples/machines/mikron_ucp710.yaml");
+  const Toolpath tp = read_apt(root + "/samples/parts/path2_blade/toolpath.apt");
+  std::vector<kinematics::PathPose> poses;
+  for (const auto& p : tp.points) {
+    if (!poses.empty() && (poses.back().pose.tip_W_m - p.tip_W_m).norm() < 1e-12) continue;
+    poses.push_back({{p.tip_W_m, p.axis_W}, p.block});
+  }
+  const auto path =
+      kinematics::solve_path_kinematics(machine, poses, machine.home_positions(), 0.060, {});
+  FeedrateOptions options;
+  options.feed_m_per_s = 10.0 / 60.0;
+  const FeedratePlan plan = plan_feedrate(machine, path, options);
+  const auto r = finite_difference_ratios(plan.setpoints, plan.limits);
+  EXPECT_LE(r.velocity, 1.0 + 1e-4);
+  EXPECT_LE(r.acceleration, 1.0 + 1e-4);
+  EXPECT_LE(r.jerk, 1.0 + 1e-4);
+  EXPECT_GE(plan.duration_s, plan.lower_bound_s);
 }
 
 }  // namespace

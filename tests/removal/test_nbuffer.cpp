@@ -8,6 +8,7 @@
 #include <vector>
 
 #include "../../removal/src/sweep.hpp"
+#include "removal_test_tools.hpp"
 #include "vmsim/removal/nbuffer.hpp"
 
 namespace vmsim::removal {
@@ -22,14 +23,7 @@ Box box_mm(double x0, double y0, double z0, double x1, double y1, double z1) {
 Pose pose_mm(double x, double y, double z, Eigen::Vector3d axis = Eigen::Vector3d::UnitZ()) {
   return Pose{Eigen::Vector3d(x, y, z) * mm, axis.normalized()};
 }
-Tool make_tool(ToolType type, double d_mm, double r_mm = 0.0, double length_mm = 30.0) {
-  Tool t;
-  t.type = type;
-  t.diameter_m = d_mm * mm;
-  t.corner_radius_m = r_mm * mm;
-  t.length_m = length_mm * mm;
-  return t;
-}
+using test::make_tool;
 double height(const NBuffer& b, int i, int j) { return b.zmap_origin_m().z() + b.length(i, j); }
 double xline(const NBuffer& b, int i) { return b.zmap_origin_m().x() + i * b.spacing_m(); }
 double yline(const NBuffer& b, int j) { return b.zmap_origin_m().y() + j * b.spacing_m(); }

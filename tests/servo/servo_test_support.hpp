@@ -19,6 +19,15 @@ inline AxisServoModel bench_model() {
   return make_axis_servo_model(machine, 0, {0.0}, false);
 }
 
+/// The bench without friction and with an ideal encoder: the loops alone, for closed forms.
+inline AxisServoModel frictionless_bench_model() {
+  AxisServoModel model = bench_model();
+  model.axis.drive.friction_dry_A = 0.0;
+  model.axis.drive.friction_viscous_A_per_joint_unit_per_s = 0.0;
+  model.axis.controller.encoder_counts_per_rev = 0.0;
+  return model;
+}
+
 /// A symmetric jerk-limited (7-phase) move of `length` [m] at velocity v, acceleration a and
 /// jerk j, starting after `rest` seconds, sampled at `period`, followed by 0.3 s of rest.
 inline AxisInput jerk_limited_move(double length, double v, double a, double j, double period,

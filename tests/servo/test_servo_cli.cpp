@@ -5,6 +5,7 @@
 #include <filesystem>
 #include <fstream>
 #include <string>
+#include <vector>
 
 #include "../app/cli_runner.hpp"
 #include "vmsim/common/trace.hpp"
@@ -46,11 +47,12 @@ TEST(ServoCli, BadSetPointsExitThreeWithFileAndLine) {
   const auto folder = test::fresh_folder("servo_cli_bad");
   std::string uneven = ramp_csv();
   uneven.replace(uneven.find("\n0.050000,"), 10, "\n0.050500,");  // row of t = 0.05: line 53
-  const std::pair<std::string, std::string> cases[] = {
-      {"t,X.cmd,Q.cmd\n0,0,0\n0.001,0,0\n", "unknown.csv:1"},
-      {uneven, "uneven.csv:53"},
-      {"t,X.cmd\n0,0\n0.001,abc\n0.002,0\n", "broken.csv:3"},
-      {"t,X.cmd\n0,0\n0.001\n", "short.csv:3"},
+  // Each message names the file, the line and the offending value.
+  const std::pair<std::string, std::vector<std::string>> cases[] = {
+      {"t,X.cmd,Q.cmd\n0,0,0\n0.001,0,0\n", {"unknown.csv:1", "Q"}},
+      {uneven, {"uneven.csv:53", "0.0015"}},
+      {"t,X.cmd\n0,0\n0.001,abc\n0.002,0\n", {"broken.csv:3", "'abc'"}},
+      {"t,X.cmd\n0,0\n0.001\n", {"short.csv:3", "1 fields"}},
   };
   const char* names[] = {"unknown.csv", "uneven.csv", "broken.csv", "short.csv"};
   for (std::size_t i = 0; i < std::size(cases); ++i) {
@@ -60,7 +62,9 @@ TEST(ServoCli, BadSetPointsExitThreeWithFileAndLine) {
     const auto run = test::run_vmsim("servo --machine " + kBench + " --setpoints " + input.string() +
                                      " --out " + out.string());
     EXPECT_EQ(run.exit_code, 3) << names[i] << ": " << run.output;
-    EXPECT_NE(run.output.find(cases[i].second), std::string::npos) << run.output;
+    for (const std::string& needle : cases[i].second) {
+      EXPECT_NE(run.output.find(needle), std::string::npos) << needle << " in " << run.output;
+    }
     EXPECT_FALSE(std::filesystem::exists(out)) << names[i];
   }
   // A record period that is not a multiple of the loop period: exit 3 too, no output.

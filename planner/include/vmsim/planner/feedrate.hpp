@@ -24,23 +24,31 @@
 //    constant sdd per grid segment, constraints at both ends of each segment), by the classic
 //    backward (controllable sets, exact 2-variable feasibility by Newton on a concave piecewise
 //    linear function) and forward (greatest feasible sdd) passes. No LP solver.
-//  - with third-order limits (jerk / torque rate): sdd is continuous and piecewise linear in s
-//    (x piecewise quadratic); from rest, each stretch starts (and ends) with a constant-sddd
-//    motion s = j t^3 / 6 over as many grid segments as the rows allow, so jerk is bounded at
-//    rest too. The x cap is the second-order time-optimal profile, further capped by the
-//    paper's jerk / torque-rate sd_lim (sdd = sddd = 0). A backward greedy pass (from the end,
-//    under the second-order profile that need not start at rest) then a forward greedy pass
-//    (from the start, under the backward one, joining its constant-jerk stop exactly) take the
-//    greatest feasible sdd at each grid point; where a pass cannot continue it goes back to the
-//    latest point from which steering sdd to the cap's slope (as fast as the limits allow)
-//    succeeds, found by bisection on the switching point (a bang-bang search in the phase
-//    plane). Where no switching point works, the admissible feed is lowered around the failure
-//    (x 0.7) and the round is planned again.
-//    Known gaps (tests DISABLED_*): the search assumes that an earlier switch always works,
-//    which fails where the jerk rows rather than the cap force a slow-down (dense and real
-//    paths such as samples path1, the benchmark's 5-axis path), and on a short move that never
-//    reaches v or a; the planner then throws InfeasibleError (it never returns a violating
-//    plan). Second order is robust.
+//  - with third-order limits (jerk / torque rate): a sequence of linear programmes (CLP, dual
+//    simplex) per stretch in x_i and u_i at the grid points, u piecewise linear in s (x
+//    piecewise quadratic, x_i+1 = x_i + h (u_i + u_i+1)), under x <= the second-order profile
+//    (an upper bound). Rows at both ends of each grid segment (and second-order rows at its
+//    middle): velocity as column bounds; acceleration / torque linear in (x, u), the viscous
+//    d sqrt(x) bounded conservatively (tangent above, chord below); the third-order rows divided
+//    by sd, |P u' + R u + S x + W| <= L / sqrt(x), whose convex right side is replaced by its
+//    tangent at the previous iterate (a lower bound, exact there): each programme is an inner
+//    approximation, the previous iterate stays feasible, the objective (sum of x weighted by
+//    the time's sensitivity at the second-order profile) increases monotonically
+//    (convex-concave procedure, first linearisation at the second-order profile; stops when the
+//    objective gains < 1e-7). In torque-rate rows the viscous terms d_s sd + d u / sd are taken
+//    at the previous iterate (not conservative; the set-point check below covers them). Rows are
+//    generated lazily (the jerk row of the dominant axis first, then every violated one, warm
+//    re-solves). Near the stops the motion is the exact constant-jerk start s = j t^3 / 6 (and
+//    its mirror): x = z (6 d)^(4/3) / 4, u = z (6 d)^(1/3) with z = j^(2/3) one column, over as
+//    many grid segments as the rows allow the full jerk of the first segment and x stays below
+//    1/4 of the second-order profile; its rows are polynomials in sqrt(z), bounded exactly.
+//    (A piecewise linear u cannot start from rest: x ~ s^2 would take an infinite time.)
+//    The programme is feasible whenever the second-order problem is (x = u = 0), so this never
+//    fails where the second order does not.
+//    Known gaps: speed (a cold simplex start on a 10 000-point stretch takes seconds; overlapping
+//    windows would make it linear) and optimality within the profile class (u piecewise linear
+//    in s; the objective is a proxy for the time: 0.17 % above the seven-phase optimum on one
+//    straight-line case, see the tests).
 // Every result is then checked on the written set points (below); where a limit is exceeded
 // the admissible feedrate is lowered around that place and the plan is redone, so that a
 // returned plan never exceeds a limit on its set points by more than the check's allowance
@@ -54,8 +62,8 @@
 // holds a stop (path ends, corners) are left to the rows at the stop.
 //
 // Corners (PathKinematics::corners, tangent discontinuities of G1 polylines): exact stop (the
-// path is cut there and every stretch runs from rest to rest). Corner blending within a
-// tolerance is not implemented yet: FeedrateOptions::corner_tolerance_m > 0 is an InputError.
+// path is cut there and every stretch runs from rest to rest). Corner blending is done on the
+// tool path before planning (corner_blend.hpp).
 //
 // Set points: s(t) on each grid segment is the quintic Hermite interpolant in t of (s, sd, sdd)
 // at its ends (exact for the constant-sdd and constant-sddd segments), and q(s) the quintic
@@ -144,8 +152,6 @@ struct FeedrateOptions {
   double max_grid_step_m = 0.0;
   /// Set-point period [s]; 0 = MachineModel::interpolation_period_s.
   double period_s = 0.0;
-  /// Corner blending tolerance [m]; only 0 (exact stop at corners) is implemented.
-  double corner_tolerance_m = 0.0;
   /// Rounds of "check the set points, slow down where a limit is exceeded, plan again".
   int max_verification_rounds = 200;
   /// Stop after the maximum feedrate profile (FeedratePlan::profile's grid, sd_lim_* and

@@ -17,23 +17,33 @@
 // turns at a constant rate in the plane of a0 and a1 (slerp). The cut is the exact swept volume
 // of the tool over the segment, never stepped positions:
 //  - constant axis (3-axis, or tilted but fixed): the sweep is Disc(rho) (+) Parallelogram(c0,
-//    c1, ell a) (+) Ball(r). Ball-end: exact in closed form for any line direction. Flat-end and
-//    bull-nose with the axis along a Z-map's lines: closed form for horizontal moves and
-//    plunges, a convex 1-D minimisation (golden section to 1e-12 of the segment) for ramps.
-//    Other directions: nested convex minimisations of the tool's signed distance (to 1e-12 m).
+//    c1, ell a) (+) Ball(r). Ball-end: closed form for any line direction (4 capsules and a
+//    slab). Flat-end: closed form for any line direction (the section of the swept cylinder by
+//    the plane of the line and the motion is an ellipse cut by a parallelogram). Flat and
+//    bull-nose with the axis along a Z-map's lines: closed form for level moves and plunges, a
+//    convex 1-D minimisation for ramps. Bull-nose otherwise: regula falsi on the convex signed
+//    distance between closed-form flat-end brackets (to ~1e-13 m).
 //  - changing axis: n sub-steps, each with the constant axis of its middle; a point of the tool
 //    at distance <= sqrt(ell^2 + rho^2) from c moves by at most that times theta / (2 n), theta
 //    the angle between a0 and a1, and n is chosen so that this stays under
 //    CutOptions::orientation_tolerance_m (the ball of a ball-end mill turns about its centre and
-//    has no such error). The bound is on the distance between the true and the modelled swept
-//    volumes; along a line it is divided by the cosine of the angle between the line and the
-//    surface normal.
+//    has no such error). ell is the part of the tool that can reach the material: above the
+//    box that holds every line's material no pose of the segment can cut, so the tool is taken
+//    as ending there (exactly the same cut inside the box; far fewer sub-steps for a long tool).
+//    The bound is on the distance between the true and the modelled swept volumes; along a
+//    line it is divided by the cosine of the angle between the line and the surface normal.
 //
-// Work per segment follows the newly cut strip: lines are grouped in tiles of 16 x 16; a tile is
-// skipped when the segment cannot lower any of its lines (tile box and height bounds against
-// the segment's lowest possible cut), and a line is skipped when it lies outside the footprint.
-// Parallel with TBB over tiles, with segments in batches; a cut is a min, so the result does not
-// depend on the order or on the number of threads (bit for bit).
+// Work per segment follows the newly cut strip: lines are grouped in tiles of 16 x 16; on a
+// Z-map only the tiles and, row by row, the lines within the planar reach at which the sweep
+// can get below the tile's highest line are visited (the tool's lower envelope by planar
+// distance, exact for vertical tools and a tilted capsule's for tilted ones, and the plane of
+// the tool's bottom); a sweep that continues the previous one from the same point skips the
+// lines behind its start, which the previous one already cut at least as low (vertical tools
+// moving level or up; ball-ends within r cos(tilt) of the move). Each remaining line gets the
+// exact cut (ball and flat bottoms in closed form). General buffers test every line of the
+// tiles whose box the sweep meets. Parallel with TBB over tiles, with segments in batches; a
+// cut is a min and every culling decision depends only on the tile's own lines and the sweep
+// order, so the result does not depend on the number of threads (bit for bit).
 #include <Eigen/Core>
 #include <cstddef>
 #include <functional>
@@ -43,6 +53,17 @@
 #include "vmsim/removal/tool.hpp"
 
 namespace vmsim::removal {
+
+struct TriangleMesh;  // stl.hpp
+
+/// How a closed mesh was turned into Z-map lines (NBuffer::zmap(const TriangleMesh&, ...)).
+struct MeshZmapReport {
+  std::size_t lines_missing = 0;  ///< lines outside the mesh's outline: length 0
+  /// Lines the Z-map fills below their top because one interval per line cannot hold the mesh:
+  /// more than one material interval (cavities, overhangs), or a lowest entry above the
+  /// grid's bottom (material added beneath). Their top is exact; what is below it is solid.
+  std::size_t lines_filled = 0;
+};
 
 struct CutOptions {
   /// Largest distance between the modelled and the true swept volume on segments where the
@@ -74,6 +95,14 @@ class NBuffer {
   /// beyond max.x), likewise in y, from z = min.z up to max.z. Throws vmsim::InputError when
   /// the box is empty or the spacing is not positive or gives more than 2^31 lines.
   static NBuffer zmap(const Box& stock, double spacing_m);
+
+  /// Z-map over a closed mesh (stl.hpp): the grid of zmap(mesh.bounds(), spacing_m); each
+  /// line's length reaches from the bottom of the bounds to the highest exit of the vertical
+  /// line from the mesh (ray-triangle crossings, edges and vertices counted once), i.e. the
+  /// material interval [lowest entry, highest exit] widened down to the grid bottom; a line
+  /// that misses the mesh gets length 0. One interval per line: gaps between several
+  /// intervals are filled (counted in `report`). Throws as zmap(Box, ...).
+  static NBuffer zmap(const TriangleMesh& stock, double spacing_m, MeshZmapReport* report = nullptr);
 
   /// General lines on an nu x nv grid of a reference surface, row-major (index = iu + nu * iv):
   /// origins [m], directions (normalised here; out of the material), initial lengths [m].

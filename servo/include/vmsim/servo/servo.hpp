@@ -21,6 +21,11 @@
 //   mechanics (two-mass, effects.compliance): motor J_m and load J_eq - J_m joined by a spring
 //          k r^2 (with the backlash dead zone when effects.backlash is on); friction, gravity and
 //          the external force act on the load, cogging and the motor torque on the motor.
+//   mechanics (rigid with effects.backlash): motor side J_m (drive.rotor_inertia_kg_m2) and
+//          load J_eq - J_m: one body while the motor pushes the load on a flank, decoupled
+//          inside the gap, inelastic impact at the flank.
+//   feedforward: interpolated linearly between position ticks at the velocity loop's rate
+//          (SimulationOptions::interpolate_feedforward).
 //
 // Integration: between two ticks of the fastest loop the inputs are held; the linear part
 // (inertias, viscous friction, spring, current dynamics) is integrated exactly by its matrix
@@ -46,6 +51,12 @@ struct SimulationOptions {
   int plant_substeps = 0;
   /// Gravity torque from the rigid-body model of the machine (see AxisServoModel::gravity_*).
   bool gravity = true;
+  /// Velocity and torque feedforward between two position-loop ticks: true = interpolated
+  /// linearly at every velocity-loop tick, from this tick's value to the next one's, as the
+  /// drive's fine interpolation does (the velocity set point has no steps at the position
+  /// period); false = held over the position period as the NC sends them (each step makes a
+  /// current pulse at every position tick).
+  bool interpolate_feedforward = true;
 };
 
 /// What drives an axis: position set points at a uniform period (the normal case), or, to test

@@ -1,0 +1,77 @@
+#pragma once
+// Internal to the planner: the planning problem on the grid shared by feedrate.cpp (grid, rows,
+// second order, set points) and feedrate_third_order.cpp (jerk / torque-rate limits).
+#include <algorithm>
+#include <cmath>
+#include <cstddef>
+#include <limits>
+#include <utility>
+#include <vector>
+
+namespace vmsim::planner::detail {
+
+inline constexpr double kInf = std::numeric_limits<double>::infinity();
+
+/// |A u + B x + C + D sqrt(x) + E| <= L: acceleration (A = q_s, B = q_ss) or torque.
+struct Row2 {
+  double A = 0, B = 0, C = 0, D = 0, E = 0, L = 0;
+  int axis = 0;
+};
+/// |P sddd + sqrt(x) (R u + S x + W) + V x + Z u| <= L: jerk (P = q_s, R = 3 q_ss, S = q_sss)
+/// or torque rate (P = a, R = a_s + 2 b, S = b_s, W = c_s, V = d_s, Z = d).
+struct Row3 {
+  double P = 0, R = 0, S = 0, W = 0, V = 0, Z = 0, L = 0;
+  int axis = 0;
+};
+
+inline double value2(const Row2& r, double x, double u) {
+  return r.A * u + r.B * x + r.C + r.D * std::sqrt(std::max(x, 0.0)) + r.E;
+}
+inline double value3(const Row3& r, double x, double u, double sddd) {
+  const double sd = std::sqrt(std::max(x, 0.0));
+  return r.P * sddd + sd * (r.R * u + r.S * x + r.W) + r.V * x + r.Z * u;
+}
+
+struct Problem {
+  std::size_t axes = 0;
+  std::vector<double> s;         // grid points
+  std::vector<std::size_t> seg;  // spline segment of each grid segment
+  std::vector<double> sigma0;    // its start within the spline segment
+  std::vector<bool> stop;        // exact stop at the point
+  std::size_t n2 = 0, n3 = 0;    // rows per segment end
+  std::vector<Row2> r2;          // ((2 k + end) * n2 + r)
+  std::vector<Row2> r2mid;       // (k * n2 + r): at the middle of each segment (second order)
+  std::vector<Row3> r3;
+  std::vector<double> cap_end;   // x cap at (2 k + end): velocity and feed
+  std::vector<double> cap_pt;    // x cap at the points (min over the ends there; 0 at stops)
+  std::size_t segments() const { return s.size() - 1; }
+  double delta(std::size_t k) const { return s[k + 1] - s[k]; }
+  const Row2* rows2mid(std::size_t k) const { return r2mid.data() + k * n2; }
+  const Row2* rows2(std::size_t k, int end) const {
+    return r2.data() + (2 * k + static_cast<std::size_t>(end)) * n2;
+  }
+  const Row3* rows3(std::size_t k, int end) const {
+    return r3.data() + (2 * k + static_cast<std::size_t>(end)) * n3;
+  }
+};
+
+/// Smallest sd > 0 at which |p0 + p1 sd + p2 sd^2 + p3 sd^3| reaches L (0 when |p0| > L already;
+/// +inf when never).
+double first_exit(double p0, double p1, double p2, double p3, double L);
+
+/// Duration [s] of a grid segment of length delta on which x = x0 + 2 u0 s + up s^2.
+double gauss_time(double delta, double x0, double u0, double up);
+
+/// The third-order profile of every stretch (rest to rest between stops) on the grid.
+struct ThirdOrderProfile {
+  std::vector<double> x, u;  ///< at the grid points
+  std::vector<double> dt;    ///< per segment: exact duration of a constant-jerk segment, else -1
+  int iterations = 0;        ///< linear programmes solved (all rounds)
+};
+
+/// Plans every stretch under x <= x_upper (the second-order time-optimal profile, 0 at stops);
+/// see feedrate.hpp for the method. Returns false when no linear programme could be solved.
+bool plan_third_order(const Problem& p, const std::vector<std::pair<std::size_t, std::size_t>>& stretches,
+                      const std::vector<double>& x_upper, ThirdOrderProfile& out);
+
+}  // namespace vmsim::planner::detail

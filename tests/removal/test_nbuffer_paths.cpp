@@ -1,0 +1,121 @@
+// The Z-map's fast paths (culling by bounds, row ranges, the continuing-sweep skip, the ball and
+// flat-bottom closed forms) against the same lines cut as a general buffer (every line of every
+// visited tile through line_interval), and the closed-form line intervals against the signed
+// distance (a second algorithm: nested convex minimisation).
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <random>
+#include <vector>
+
+#include "../../removal/src/sweep.hpp"
+#include "removal_test_tools.hpp"
+#include "vmsim/removal/nbuffer.hpp"
+
+namespace vmsim::removal {
+namespace {
+
+constexpr double mm = 1e-3;
+
+using test::make_tool;
+
+// Zig-zag finishing passes (0.3 mm stepover, 0.2 mm segments) 0.2 mm into the top of the stock;
+// the axis tilted by `tilt` and precessing by `turn` per segment; z waves when `wave`.
+std::vector<Pose> passes(double tilt, double turn, bool wave) {
+  std::vector<Pose> path;
+  double phase = 0.3;
+  for (int k = 0; k < 8; ++k) {
+    for (int s = 0; s <= 15; ++s) {
+      const double x = -1.5 + 0.2 * (k % 2 == 0 ? s : 15 - s), y = -1.2 + 0.3 * k;
+      phase += turn;
+      const Eigen::Vector3d axis(std::sin(tilt) * std::cos(phase), std::sin(tilt) * std::sin(phase), std::cos(tilt));
+      const double z = 4.8 + (wave ? 0.1 * std::sin(3 * x) : 0.0);
+      path.push_back(Pose{Eigen::Vector3d(x, y, z) * mm, axis});
+    }
+  }
+  return path;
+}
+
+void expect_same_as_general_lines(const Tool& tool, const std::vector<Pose>& path, double tolerance_m,
+                                  double spacing_mm = 0.04) {
+  const Box stock{Eigen::Vector3d(-3, -3, 0) * mm, Eigen::Vector3d(3, 3, 5) * mm};
+  NBuffer zmap = NBuffer::zmap(stock, spacing_mm * mm);
+  std::vector<Eigen::Vector3d> origins, directions;
+  std::vector<double> lengths;
+  for (int j = 0; j < zmap.nv(); ++j) {
+    for (int i = 0; i < zmap.nu(); ++i) {
+      origins.push_back(zmap.origin(i, j));
+      directions.push_back(Eigen::Vector3d::UnitZ());
+      lengths.push_back(zmap.length(i, j));
+    }
+  }
+  NBuffer general = NBuffer::lines(zmap.nu(), zmap.nv(), origins, directions, lengths);
+  CutOptions options;
+  options.orientation_tolerance_m = 0.5e-6;
+  const CutStatistics stats = zmap.cut(tool, path, options);
+  general.cut(tool, path, options);
+  double worst = 0.0;
+  std::size_t lowered = 0;
+  for (int j = 0; j < zmap.nv(); ++j) {
+    for (int i = 0; i < zmap.nu(); ++i) {
+      worst = std::max(worst, std::abs(zmap.length(i, j) - general.length(i, j)));
+      lowered += zmap.length(i, j) < 5 * mm;
+    }
+  }
+  EXPECT_LT(worst, tolerance_m);
+  EXPECT_GT(lowered, 400u);
+  EXPECT_GT(stats.lines_lowered, 400u);
+}
+
+TEST(NBufferPaths, BallZmapEqualsGeneralLines) {
+  const Tool ball = make_tool(ToolType::ball, 3, 0, 9);
+  expect_same_as_general_lines(ball, passes(0.0, 0.0, false), 1e-12);
+  expect_same_as_general_lines(ball, passes(0.0, 0.0, true), 1e-12);
+  expect_same_as_general_lines(ball, passes(0.3, 0.0, false), 1e-12);
+  expect_same_as_general_lines(ball, passes(0.3, 0.02, true), 1e-12);
+}
+
+TEST(NBufferPaths, FlatZmapEqualsGeneralLines) {
+  const Tool flat = make_tool(ToolType::flat, 3, 0, 9);
+  expect_same_as_general_lines(flat, passes(0.0, 0.0, true), 1e-12);
+  expect_same_as_general_lines(flat, passes(0.2, 0.0, false), 1e-12);
+  expect_same_as_general_lines(flat, passes(0.2, 0.01, true), 1e-12);
+}
+
+TEST(NBufferPaths, BullZmapEqualsGeneralLines) {
+  const Tool bull = make_tool(ToolType::bull, 3, 0.5, 9);
+  // A coarser grid: the general buffer computes every line of every tile the long way.
+  expect_same_as_general_lines(bull, passes(0.0, 0.0, true), 1e-12, 0.15);
+  expect_same_as_general_lines(bull, passes(0.2, 0.0, false), 1e-11, 0.15);
+  expect_same_as_general_lines(bull, passes(0.2, 0.01, true), 1e-11, 0.15);
+}
+
+TEST(NBufferPaths, ClosedFormIntervalsLieOnTheSignedDistanceZero) {
+  std::mt19937 rng(3);
+  std::uniform_real_distribution<double> c(-1.0, 1.0), tilt(-0.6, 0.6);
+  int hits = 0;
+  for (int k = 0; k < 400; ++k) {
+    const bool bull = k % 2 == 1;
+    const Eigen::Vector3d a = Eigen::Vector3d(tilt(rng), tilt(rng), 1.0).normalized();
+    const Eigen::Vector3d c0 = Eigen::Vector3d(c(rng), c(rng), c(rng)) * mm;
+    const Eigen::Vector3d c1 = c0 + Eigen::Vector3d(c(rng), c(rng), 0.3 * c(rng)) * mm;
+    const detail::Sweep s = detail::make_sweep(c0, c1, a, bull ? 1.5 * mm : 2 * mm, bull ? 0.5 * mm : 0.0, 4 * mm);
+    const Eigen::Vector3d o = Eigen::Vector3d(2 * c(rng), 2 * c(rng), -6.0) * mm;
+    const Eigen::Vector3d u = Eigen::Vector3d(0.5 * c(rng), 0.5 * c(rng), 1.0).normalized();
+    double t0 = 0.0, t1 = 0.0;
+    if (!detail::line_interval(s, o, u, t0, t1)) {
+      // A miss: the signed distance stays positive along the line (sampled).
+      for (double t = 0.0; t < 14 * mm; t += 0.01 * mm) ASSERT_GT(detail::signed_distance(s, o + t * u), -1e-12);
+      continue;
+    }
+    ++hits;
+    EXPECT_NEAR(detail::signed_distance(s, o + t0 * u), 0.0, 1e-11) << k;
+    EXPECT_NEAR(detail::signed_distance(s, o + t1 * u), 0.0, 1e-11) << k;
+    EXPECT_LT(detail::signed_distance(s, o + 0.5 * (t0 + t1) * u), 1e-12) << k;
+    EXPECT_GT(detail::signed_distance(s, o + (t0 - 1e-7) * u), 0.0) << k;
+  }
+  EXPECT_GT(hits, 100);
+}
+
+}  // namespace
+}  // namespace vmsim::removal
