@@ -101,5 +101,58 @@ TEST(SimulatePart, TheReferenceRunMatchesTheCommandedSurface) {
   EXPECT_TRUE(report["stage_seconds"]["production"].contains("servo"));
 }
 
+// A flank pass of a flat end mill along a wall (the design plane y = 20 mm, material beyond):
+// the Z-map cannot see the wall, the wall's own view (lines along its normal) must.
+std::string wall_part(const std::filesystem::path& folder) {
+  std::ofstream(folder / "toolpath.apt") << "PARTNO/flank pass along a wall\nUNITS/MM\nCUTTER/10,0\n"
+                                            "FEDRAT/MMPM,10000\nFROM/-30,15,50\nRAPID\n"
+                                            "GOTO/-30,15,20\nGOTO/30,15,20\nRAPID\nGOTO/30,15,50\nFINI\n";
+  std::ofstream(folder / "part.yaml")
+      << "name: wall_flank\n"
+         "description: a flank pass along the wall y = 20 mm\n"
+         "machine: " << kRoot << "/samples/machines/mikron_ucp710.yaml\n"
+         "toolpath: toolpath.apt\n"
+         "tool: {type: flat, diameter_mm: 10, corner_radius_mm: 0, length_mm: 60}\n"
+         "stock: {box: {min_mm: [-10, 12, 0], max_mm: [10, 25, 30]}}\n"
+         "design:\n"
+         "  surfaces:\n"
+         "    - {type: plane, point_mm: [0, 20, 0], normal: [0, -1, 0], x_range_mm: [-10, 10], z_range_mm: [20, 30]}\n"
+         "    - {type: plane, point_mm: [0, 0, 20], normal: [0, 0, 1], role: floor}\n"
+         "feeds: {production_mm_per_min: 10000, reference_mm_per_min: 100}\n";
+  return (folder / "part.yaml").string();
+}
+
+TEST(SimulatePart, APlantedWallDeviationIsAMarkOnTheWallView) {
+  const auto folder = test::fresh_folder("simulate_wall");
+  app::SimulatePartOptions options;
+  options.part_path = wall_part(folder);
+  options.out_dir = (folder / "out").string();
+  options.grid_m = 25e-6;
+  options.renders = false;
+  options.perfect_drives = true;
+  // Y 20 um towards the wall while X is between -2 and 0 mm (only the cutting move passes there).
+  options.production_disturbance = [](double, Eigen::VectorXd& q) {
+    if (q[0] >= -2e-3 && q[0] <= 0.0) q[1] += 20e-6;
+  };
+  const nlohmann::json report = app::simulate_part(options, kSilent);
+  const auto& views = report["surface"]["views"];
+  ASSERT_EQ(views.size(), 2u) << views.dump(2);  // the Z-map and the wall (the floor is not steep)
+  EXPECT_EQ(views[1]["id"], "wall1");
+  // The wall stands in the Z-map as a 10 mm step between two lines: not assessed there.
+  EXPECT_GT(views[0]["steep_lines_not_assessed"].get<std::size_t>(), 0u);
+  EXPECT_EQ(views[0]["marks"].get<std::size_t>(), 0u) << views.dump(2);
+  ASSERT_FALSE(report["marks"].empty());
+  const auto& mark = report["marks"][0];
+  EXPECT_EQ(mark["view"], "wall1");
+  EXPECT_EQ(mark["kind"], "gouge");
+  EXPECT_NEAR(mark["depth_um"].get<double>(), 20.0, 0.5);
+  EXPECT_GT(mark["deepest_point_mm"][0].get<double>(), -2.0 - 0.05);
+  EXPECT_LT(mark["deepest_point_mm"][0].get<double>(), 0.0 + 0.05);
+  EXPECT_NEAR(mark["deepest_point_mm"][1].get<double>(), 20.0 + 0.02, 1e-3);
+  EXPECT_EQ(mark["responsible_axes"][0], "Y");
+  // Undisturbed, the wall is where the tool flank put it: the other lines did not move.
+  EXPECT_LT(views[1]["deviation_max_um"].get<double>(), 0.2);
+}
+
 }  // namespace
 }  // namespace vmsim
