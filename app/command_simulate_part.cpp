@@ -29,6 +29,7 @@ struct CommandOptions {
   bool no_commanded_check = false;
   bool perfect_drives = false;
   bool third_order = false;
+  bool compare_methods = false;
   double corner_tolerance_mm = 0.0;
   int threads = 0;
 };
@@ -66,6 +67,7 @@ int run(const CommandOptions& command, const CommandContext& context) {
   options.commanded_check = !command.no_commanded_check;
   options.perfect_drives = command.perfect_drives;
   options.third_order = command.third_order;
+  options.compare_methods = command.compare_methods;
   if (!(command.corner_tolerance_mm >= 0.0)) {
     throw InputError("--corner-tolerance-mm must be >= 0, got " + format_double(command.corner_tolerance_mm));
   }
@@ -150,6 +152,9 @@ void add_simulate_part_command(CLI::App& app, CommandContext& context) {
   command->add_flag("--perfect-drives", options->perfect_drives,
                     "the axes follow the planned motion exactly (no servo): what the planner alone does");
   command->add_flag("--no-renders", options->no_renders, "write no images");
+  command->add_flag("--compare-methods", options->compare_methods,
+                    "also run the production feed with the other planning method (kinematic / "
+                    "dynamic) and report cycle time and marks side by side");
   command->add_flag("--third-order", options->third_order,
                     "apply jerk / torque-rate limits in the plan (exact, much slower planning)");
   command->add_option("--corner-tolerance-mm", options->corner_tolerance_mm,

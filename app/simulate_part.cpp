@@ -174,13 +174,18 @@ void read_servo_positions(const kinematics::MachineModel& machine, Run& run) {
   }
 }
 
-Run simulate_run(const Context& context, const std::string& name, double feed_m_per_s) {
+std::string method_name(planner::FeedrateMethod method) {
+  return method == planner::FeedrateMethod::kinematic ? "kinematic" : "dynamic";
+}
+
+Run simulate_run(const Context& context, const std::string& name, double feed_m_per_s,
+                 planner::FeedrateMethod method) {
   const kinematics::MachineModel& machine = context.inputs.machine;
   Run run(name, feed_m_per_s);
   {
     StageTimer timer(run, "plan", context.progress);
     planner::FeedrateOptions plan_options;
-    plan_options.method = context.options.method;
+    plan_options.method = method;
     plan_options.limits = context.options.limits;
     plan_options.effects = context.options.effects;
     plan_options.third_order = context.options.third_order;
@@ -482,6 +487,25 @@ std::string html_report(const Json& report, const std::vector<std::string>& imag
     }
     html << "</td></tr>\n";
   }
+  if (report.contains("method_comparison")) {
+    html << "</table>\n<h2>Planning methods side by side (production feed)</h2><table><tr><th>method</th>"
+            "<th>T [s]</th><th>T_lb [s]</th><th>marks</th><th>deepest [um]</th><th>at s [mm]</th>"
+            "<th>place</th></tr>\n";
+    for (const auto& method : report["method_comparison"]) {
+      html << "<tr><td>" << method["method"].get<std::string>() << "</td><td>"
+           << round_to(method["duration_s"].get<double>(), 0.001) << "</td><td>"
+           << round_to(method["lower_bound_s"].get<double>(), 0.001) << "</td><td>"
+           << method["marks"].get<std::size_t>() << "</td><td>";
+      if (method.contains("deepest_mark")) {
+        html << round_to(method["deepest_mark"]["depth_um"].get<double>(), 0.01) << "</td><td>"
+             << round_to(method["deepest_mark"]["s_mm"].get<double>(), 0.01) << "</td><td>";
+        for (const auto& place : method["deepest_mark"]["place"]) html << html_escape(place.get<std::string>()) << " ";
+      } else {
+        html << "-</td><td>-</td><td>";
+      }
+      html << "</td></tr>\n";
+    }
+  }
   html << "</table>\n<h2>Surface views</h2><table><tr><th>view</th><th>lines</th><th>marks</th>"
           "<th>deviation min / max / rms [um]</th><th>steep lines not assessed</th></tr>\n";
   for (const auto& view : report["surface"]["views"]) {
@@ -540,6 +564,57 @@ std::vector<std::uint8_t> mark_mask(const ViewComparison& comparison, const remo
     }
   }
   return mask;
+}
+
+// A production run against the reference on every view: deviations (steep lines excluded) and
+// marks.
+std::vector<ViewComparison> compare_views(const Context& context, const Run& production,
+                                          const Run& reference) {
+  removal::MarkOptions mark_options;
+  mark_options.threshold_m = context.options.mark_threshold_m;
+  std::vector<ViewComparison> comparisons(context.views.size());
+  for (std::size_t v = 0; v < context.views.size(); ++v) {
+    ViewComparison& comparison = comparisons[v];
+    comparison.view = &context.views[v];
+    comparison.index = v;
+    comparison.deviation_m = removal::difference(production.buffers[v], reference.buffers[v]);
+    comparison.steep_lines_excluded =
+        exclude_steep_lines(reference.buffers[v], context.options.grid_m, comparison.deviation_m);
+    comparison.marks = removal::find_marks(production.buffers[v], comparison.deviation_m, mark_options);
+  }
+  return comparisons;
+}
+
+// One method's line of the method comparison: cycle time and marks.
+Json method_summary(const Context& context, planner::FeedrateMethod method, const Run& production,
+                    const std::vector<ViewComparison>& comparisons, const std::vector<double>& curvature) {
+  Json summary{{"method", method_name(method)},
+               {"duration_s", production.plan.duration_s},
+               {"lower_bound_s", production.plan.lower_bound_s},
+               {"plan_notes", production.plan.notes}};
+  std::size_t count = 0;
+  const removal::Mark* deepest = nullptr;
+  std::string deepest_view;
+  for (const ViewComparison& comparison : comparisons) {
+    count += comparison.marks.marks.size();
+    if (comparison.marks.marks.empty()) continue;
+    if (!deepest || comparison.marks.marks.front().depth_m > deepest->depth_m) {
+      deepest = &comparison.marks.marks.front();
+      deepest_view = comparison.view->id;
+    }
+  }
+  summary["marks"] = count;
+  if (deepest) {
+    const Json related = relate_mark(context, production, *deepest, curvature);
+    summary["deepest_mark"] = {{"view", deepest_view},
+                               {"kind", deepest->kind == removal::MarkKind::gouge ? "gouge" : "excess"},
+                               {"depth_um", deepest->depth_m * 1e6},
+                               {"area_mm2", deepest->area_m2 * 1e6},
+                               {"s_mm", related["s_mm"]},
+                               {"place", related["place"]},
+                               {"responsible_axes", related["responsible_axes"]}};
+  }
+  return summary;
 }
 
 std::string view_file_suffix(const SurfaceView& view) { return view.zmap ? "" : "_" + view.id; }
@@ -724,25 +799,17 @@ Json simulate_part(const SimulatePartOptions& options, const ProgressSink& progr
 
   context.views = surface_views(context.part, context.stock, options.grid_m);
 
-  Run reference = simulate_run(context, "reference", reference_feed);
-  Run production = simulate_run(context, "production", production_feed);
+  Run reference = simulate_run(context, "reference", reference_feed, options.method);
+  Run production = simulate_run(context, "production", production_feed, options.method);
 
   stage_clock = Clock::now();
   progress("comparison ...");
-  removal::MarkOptions mark_options;
-  mark_options.threshold_m = options.mark_threshold_m;
   const std::vector<double> curvature = tip_curvature(context.inputs.path);
-  std::vector<ViewComparison> comparisons(context.views.size());
+  std::vector<ViewComparison> comparisons = compare_views(context, production, reference);
   std::vector<std::pair<double, Json>> marks_by_depth;
   Json views = Json::array();
   for (std::size_t v = 0; v < context.views.size(); ++v) {
-    ViewComparison& comparison = comparisons[v];
-    comparison.view = &context.views[v];
-    comparison.index = v;
-    comparison.deviation_m = removal::difference(production.buffers[v], reference.buffers[v]);
-    comparison.steep_lines_excluded =
-        exclude_steep_lines(reference.buffers[v], options.grid_m, comparison.deviation_m);
-    comparison.marks = removal::find_marks(production.buffers[v], comparison.deviation_m, mark_options);
+    const ViewComparison& comparison = comparisons[v];
     for (const removal::Mark& mark : comparison.marks.marks) {
       Json entry = relate_mark(context, production, mark, curvature);
       entry["view"] = comparison.view->id;
@@ -791,6 +858,19 @@ Json simulate_part(const SimulatePartOptions& options, const ProgressSink& progr
                {"views", views}};
   stage_seconds["comparison"] = seconds_since(stage_clock);
 
+  if (options.compare_methods) {
+    const planner::FeedrateMethod other = options.method == planner::FeedrateMethod::kinematic
+                                              ? planner::FeedrateMethod::dynamic
+                                              : planner::FeedrateMethod::kinematic;
+    Run alternative = simulate_run(context, "production (" + method_name(other) + ")", production_feed, other);
+    stage_clock = Clock::now();
+    const std::vector<ViewComparison> alternative_comparisons = compare_views(context, alternative, reference);
+    report["method_comparison"] = {method_summary(context, options.method, production, comparisons, curvature),
+                                   method_summary(context, other, alternative, alternative_comparisons, curvature)};
+    stage_seconds["production_" + method_name(other)] = stage_times(alternative);
+    stage_seconds["method_comparison"] = seconds_since(stage_clock);
+  }
+
   if (options.commanded_check) {
     // The reference against the commanded tool path's own surface: what the low feed changes.
     stage_clock = Clock::now();
@@ -815,7 +895,7 @@ Json simulate_part(const SimulatePartOptions& options, const ProgressSink& progr
                     {"file", context.part.file}};
   report["machine"] = context.inputs.machine.name + " (" + context.inputs.machine.source_file + ")";
   report["toolpath"] = context.part.toolpath_path;
-  report["method"] = options.method == planner::FeedrateMethod::kinematic ? "kinematic" : "dynamic";
+  report["method"] = method_name(options.method);
   report["runs"]["production"] = run_summary(context, production);
   report["runs"]["reference"] = run_summary(context, reference);
   report["surface"] = surface;

@@ -50,6 +50,10 @@ struct SimulatePartOptions {
   /// time t, after the servo; for tests that plant a known deviation.
   std::function<void(double t_s, Eigen::VectorXd& q)> production_disturbance;
   bool commanded_check = true;  ///< also cut the commanded tool path and compare the reference
+  /// Also run the production feed with the other planning method (kinematic <-> dynamic) against
+  /// the same reference: the report's "method_comparison" gives each method's cycle time and
+  /// marks side by side (first paper's dynamic limits against the NC's kinematic ones).
+  bool compare_methods = false;
   bool renders = true;
   int threads = 0;
 };

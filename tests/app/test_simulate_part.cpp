@@ -9,6 +9,7 @@
 #include <sstream>
 
 #include "cli_runner.hpp"
+#include "effects_option.hpp"
 #include "simulate_part.hpp"
 #include "vmsim/common/files.hpp"
 
@@ -99,6 +100,31 @@ TEST(SimulatePart, TheReferenceRunMatchesTheCommandedSurface) {
   // Every stage was timed.
   EXPECT_GT(report["stage_seconds"]["total"].get<double>(), 0.0);
   EXPECT_TRUE(report["stage_seconds"]["production"].contains("servo"));
+}
+
+// The first paper's finding, through the whole chain: with the tuned (equivalent) torque limits of
+// Eq. 10 and gravity and friction off, the dynamic plan is the kinematic one, so cycle time and
+// marks agree; with gravity and friction on, the report still gives both side by side.
+TEST(SimulatePart, MethodsSideBySideAgreeWithEquivalentLimitsAndNoGravityOrFriction) {
+  const auto folder = test::fresh_folder("simulate_methods");
+  app::SimulatePartOptions options = options_for(folder);
+  options.compare_methods = true;
+  options.commanded_check = false;
+  options.effects = app::parse_effects("H,Hcpl,B,C");
+  const nlohmann::json report = app::simulate_part(options, kSilent);
+  ASSERT_TRUE(report.contains("method_comparison"));
+  const auto& methods = report["method_comparison"];
+  ASSERT_EQ(methods.size(), 2u);
+  EXPECT_EQ(methods[0]["method"], "kinematic");
+  EXPECT_EQ(methods[1]["method"], "dynamic");
+  const double t_kinematic = methods[0]["duration_s"].get<double>();
+  const double t_dynamic = methods[1]["duration_s"].get<double>();
+  EXPECT_NEAR(t_dynamic / t_kinematic, 1.0, 0.01) << methods.dump(2);
+  ASSERT_TRUE(methods[0].contains("deepest_mark")) << methods.dump(2);
+  ASSERT_TRUE(methods[1].contains("deepest_mark")) << methods.dump(2);
+  EXPECT_NEAR(methods[1]["deepest_mark"]["depth_um"].get<double>(),
+              methods[0]["deepest_mark"]["depth_um"].get<double>(), 1.0);
+  EXPECT_NEAR(methods[1]["deepest_mark"]["s_mm"].get<double>(), methods[0]["deepest_mark"]["s_mm"].get<double>(), 1.0);
 }
 
 // A flank pass of a flat end mill along a wall (the design plane y = 20 mm, material beyond):
