@@ -5,6 +5,7 @@
 //  - the reference-feed surface matches the commanded tool path's surface.
 #include <gtest/gtest.h>
 
+#include <cstdlib>
 #include <fstream>
 #include <sstream>
 
@@ -12,6 +13,8 @@
 #include "effects_option.hpp"
 #include "simulate_part.hpp"
 #include "vmsim/common/files.hpp"
+#include "vmsim/viz/display.hpp"
+#include "vmsim/viz/image_compare.hpp"
 
 namespace vmsim {
 namespace {
@@ -178,6 +181,42 @@ TEST(SimulatePart, APlantedWallDeviationIsAMarkOnTheWallView) {
   EXPECT_EQ(mark["responsible_axes"][0], "Y");
   // Undisturbed, the wall is where the tool flank put it: the other lines did not move.
   EXPECT_LT(views[1]["deviation_max_um"].get<double>(), 0.2);
+}
+
+// Image tests of simulate-part's renders on the wall case with its planted deviation: compared
+// with tests/app/baselines/ through vtkImageDifference, as the viz module's own image tests
+// (tests/viz/test_images.cpp: same tolerance, same VMSIM_UPDATE_BASELINES=1 to regenerate after
+// an intended change of the look). They need a display: ctest runs them under Xvfb
+// (app.simulate_part_images_under_xvfb); elsewhere they skip.
+TEST(SimulatePartImages, RendersMatchTheirBaselines) {
+  std::string why_not;
+  if (!viz::display_available(why_not)) GTEST_SKIP() << why_not;
+  const auto folder = test::fresh_folder("simulate_images");
+  app::SimulatePartOptions options;
+  options.part_path = wall_part(folder);
+  options.out_dir = (folder / "out").string();
+  options.grid_m = 50e-6;
+  options.perfect_drives = true;
+  options.commanded_check = false;
+  options.production_disturbance = [](double, Eigen::VectorXd& q) {
+    if (q[0] >= -2e-3 && q[0] <= 0.0) q[1] += 20e-6;
+  };
+  const nlohmann::json report = app::simulate_part(options, kSilent);
+  ASSERT_FALSE(report["renders"].contains("skipped")) << report["renders"].dump();
+  const std::filesystem::path baselines = kRoot + "/tests/app/baselines";
+  const char* update = std::getenv("VMSIM_UPDATE_BASELINES");
+  for (const char* name : {"surface_deviation.png", "surface_deviation_wall1.png", "worst_mark.png",
+                           "deviation_histogram.png"}) {
+    const auto png = folder / "out" / name;
+    ASSERT_TRUE(std::filesystem::exists(png)) << png;
+    if (update != nullptr && std::string(update) == "1") {
+      std::filesystem::create_directories(baselines);
+      std::filesystem::copy_file(png, baselines / name, std::filesystem::copy_options::overwrite_existing);
+    }
+    const viz::ImageDifference difference = viz::compare_png_files(png.string(), (baselines / name).string());
+    ASSERT_TRUE(difference.same_size) << name;
+    EXPECT_LE(difference.thresholded_error, 10.0) << name << ": error " << difference.error;
+  }
 }
 
 }  // namespace
