@@ -151,18 +151,24 @@ std::string wall_part(const std::filesystem::path& folder) {
   return (folder / "part.yaml").string();
 }
 
-TEST(SimulatePart, APlantedWallDeviationIsAMarkOnTheWallView) {
-  const auto folder = test::fresh_folder("simulate_wall");
+// The wall case with perfect drives and, in the production run, Y 20 um towards the wall while X
+// is between -2 and 0 mm (only the cutting move passes there).
+app::SimulatePartOptions wall_options(const std::filesystem::path& folder, double grid_m) {
   app::SimulatePartOptions options;
   options.part_path = wall_part(folder);
   options.out_dir = (folder / "out").string();
-  options.grid_m = 25e-6;
-  options.renders = false;
+  options.grid_m = grid_m;
   options.perfect_drives = true;
-  // Y 20 um towards the wall while X is between -2 and 0 mm (only the cutting move passes there).
   options.production_disturbance = [](double, Eigen::VectorXd& q) {
     if (q[0] >= -2e-3 && q[0] <= 0.0) q[1] += 20e-6;
   };
+  return options;
+}
+
+TEST(SimulatePart, APlantedWallDeviationIsAMarkOnTheWallView) {
+  const auto folder = test::fresh_folder("simulate_wall");
+  app::SimulatePartOptions options = wall_options(folder, 25e-6);
+  options.renders = false;
   const nlohmann::json report = app::simulate_part(options, kSilent);
   const auto& views = report["surface"]["views"];
   ASSERT_EQ(views.size(), 2u) << views.dump(2);  // the Z-map and the wall (the floor is not steep)
@@ -192,15 +198,8 @@ TEST(SimulatePartImages, RendersMatchTheirBaselines) {
   std::string why_not;
   if (!viz::display_available(why_not)) GTEST_SKIP() << why_not;
   const auto folder = test::fresh_folder("simulate_images");
-  app::SimulatePartOptions options;
-  options.part_path = wall_part(folder);
-  options.out_dir = (folder / "out").string();
-  options.grid_m = 50e-6;
-  options.perfect_drives = true;
+  app::SimulatePartOptions options = wall_options(folder, 50e-6);
   options.commanded_check = false;
-  options.production_disturbance = [](double, Eigen::VectorXd& q) {
-    if (q[0] >= -2e-3 && q[0] <= 0.0) q[1] += 20e-6;
-  };
   const nlohmann::json report = app::simulate_part(options, kSilent);
   ASSERT_FALSE(report["renders"].contains("skipped")) << report["renders"].dump();
   const std::filesystem::path baselines = kRoot + "/tests/app/baselines";
