@@ -57,6 +57,19 @@ struct HalfRow {
   }
 };
 
+/// Appends `h` to a row list in compressed sparse row form (CLP's addRows / matrix layout).
+void append_row(const HalfRow& h, std::vector<int>& indices, std::vector<double>& elements,
+                std::vector<CoinBigIndex>& starts, std::vector<double>& row_lo,
+                std::vector<double>& row_hi) {
+  for (int c = 0; c < h.n; ++c) {
+    indices.push_back(h.col[c]);
+    elements.push_back(h.coef[c]);
+  }
+  starts.push_back(static_cast<CoinBigIndex>(indices.size()));
+  row_lo.push_back(h.lo);
+  row_hi.push_back(h.hi);
+}
+
 class ThirdOrderLp {
  public:
   ThirdOrderLp(const Problem& p, const std::vector<std::pair<std::size_t, std::size_t>>& stretches,
@@ -369,13 +382,7 @@ class ThirdOrderLp {
       for (std::size_t slot = 0; slot < per_; ++slot) {
         if (!active_[k * per_ + slot]) continue;
         half_row(k, slot, h);
-        for (int c = 0; c < h.n; ++c) {
-          indices.push_back(h.col[c]);
-          elements.push_back(h.coef[c]);
-        }
-        starts.push_back(static_cast<CoinBigIndex>(indices.size()));
-        row_lo.push_back(h.lo);
-        row_hi.push_back(h.hi);
+        append_row(h, indices, elements, starts, row_lo, row_hi);
         row_keys_.push_back(block_rows + k * stride + 1 + slot);
       }
     }
@@ -471,13 +478,7 @@ class ThirdOrderLp {
         if (a <= h.hi + kRowTolerance && a >= h.lo - kRowTolerance) continue;
         activate(key);
         row_keys_.push_back(block_rows_ + k * (per_ + 1) + 1 + slot);
-        for (int c = 0; c < h.n; ++c) {
-          indices.push_back(h.col[c]);
-          elements.push_back(h.coef[c]);
-        }
-        starts.push_back(static_cast<CoinBigIndex>(indices.size()));
-        row_lo.push_back(h.lo);
-        row_hi.push_back(h.hi);
+        append_row(h, indices, elements, starts, row_lo, row_hi);
       }
     }
     if (!row_lo.empty()) {

@@ -108,6 +108,26 @@ Trace simulate_truth(const TruthDrive& p, const std::vector<double>& sp, std::ui
   // State: motor angle/speed; load angle/speed (two-mass) or play position (backlash).
   double th = sp.front() / r, om = 0.0, thl = th, oml = 0.0;
   bool stuck = true;
+  // One step of a body of `inertia` under `force` with viscous and dry friction, sticking when
+  // its velocity would change sign and breaking away when the force exceeds the dry friction.
+  auto friction_step = [&](double force, double inertia, double& velocity) {
+    if (stuck) {
+      const double limit = dry(force, 0.0);
+      if (std::abs(force) > limit) {
+        stuck = false;
+        velocity = h * (force - std::copysign(limit, force)) / inertia;
+      }
+    } else {
+      const double next =
+          velocity + h * (force - viscous_at(velocity) - std::copysign(dry(velocity, velocity), velocity)) / inertia;
+      if (next * velocity <= 0.0) {
+        velocity = 0.0;
+        stuck = true;
+      } else {
+        velocity = next;
+      }
+    }
+  };
   int side = 0;  // rigid backlash: +1 / -1 motor pushing the load forwards / backwards, 0 apart
   const double i0 = p.offset_A;
   double omega_set = 0.0, i_applied = i0, i_next = i0;
@@ -165,22 +185,7 @@ Trace simulate_truth(const TruthDrive& p, const std::vector<double>& sp, std::ui
         om += h * motor / jr;
         th += h * om;
         const double on_load = -resist;
-        if (stuck) {
-          const double limit = dry(on_load, 0.0);
-          if (std::abs(on_load) > limit) {
-            stuck = false;
-            oml = h * (on_load - std::copysign(limit, on_load)) / jl;
-          }
-        } else {
-          const double next =
-              oml + h * (on_load - viscous_at(oml) - std::copysign(dry(oml, oml), oml)) / jl;
-          if (next * oml <= 0.0) {
-            oml = 0.0;
-            stuck = true;
-          } else {
-            oml = next;
-          }
-        }
+        friction_step(on_load, jl, oml);
         thl += h * oml;
         if (std::abs(th - thl) >= half) {
           side = th > thl ? 1 : -1;
@@ -190,21 +195,7 @@ Trace simulate_truth(const TruthDrive& p, const std::vector<double>& sp, std::ui
         }
       } else if (!two_mass) {
         const double drive = motor - resist;
-        if (stuck) {
-          const double limit = dry(drive, 0.0);
-          if (std::abs(drive) > limit) {
-            stuck = false;
-            om = h * (drive - std::copysign(limit, drive)) / jm;
-          }
-        } else {
-          const double next = om + h * (drive - viscous_at(om) - std::copysign(dry(om, om), om)) / jm;
-          if (next * om <= 0.0) {
-            om = 0.0;
-            stuck = true;
-          } else {
-            om = next;
-          }
-        }
+        friction_step(drive, jm, om);
         th += h * om;
         if (p.backlash_gap > 0.0) {
           // In contact: one body; the motor leaves the load when it would have to pull it
@@ -221,22 +212,7 @@ Trace simulate_truth(const TruthDrive& p, const std::vector<double>& sp, std::ui
         const double ts = spring * (th - thl) + damper * (om - oml);
         om += h * (motor - ts) / jm;
         const double on_load = ts - resist;
-        if (stuck) {
-          const double limit = dry(on_load, 0.0);
-          if (std::abs(on_load) > limit) {
-            stuck = false;
-            oml = h * (on_load - std::copysign(limit, on_load)) / jl;
-          }
-        } else {
-          const double next =
-              oml + h * (on_load - viscous_at(oml) - std::copysign(dry(oml, oml), oml)) / jl;
-          if (next * oml <= 0.0) {
-            oml = 0.0;
-            stuck = true;
-          } else {
-            oml = next;
-          }
-        }
+        friction_step(on_load, jl, oml);
         th += h * om;
         thl += h * oml;
       }

@@ -111,17 +111,21 @@ TEST(DensePath, DISABLED_ThirdOrderNeverOvershoots) {
   EXPECT_GE(plan.duration_s, plan.lower_bound_s);
 }
 
-TEST(Path2Blade, SingularZoneSecondOrder) {
-  const std::string root = VMSIM_SOURCE_DIR;
-  const auto machine = kinematics::load_machine(root + "/samples/machines/mikron_ucp710.yaml");
-  const Toolpath tp = read_apt(root + "/samples/parts/path2_blade/toolpath.apt");
+// Sample path 2 (blade-like, passing 1.06 deg from the table-table machine's singularity) on
+// the Mikron sample, tool length 60 mm.
+kinematics::PathKinematics path2_blade(const kinematics::MachineModel& machine) {
+  const Toolpath tp = read_apt(std::string(VMSIM_SOURCE_DIR) + "/samples/parts/path2_blade/toolpath.apt");
   std::vector<kinematics::PathPose> poses;
   for (const auto& p : tp.points) {
     if (!poses.empty() && (poses.back().pose.tip_W_m - p.tip_W_m).norm() < 1e-12) continue;
     poses.push_back({{p.tip_W_m, p.axis_W}, p.block});
   }
-  const auto path =
-      kinematics::solve_path_kinematics(machine, poses, machine.home_positions(), 0.060, {});
+  return kinematics::solve_path_kinematics(machine, poses, machine.home_positions(), 0.060, {});
+}
+
+TEST(Path2Blade, SingularZoneSecondOrder) {
+  const auto machine = kinematics::load_machine(std::string(VMSIM_SOURCE_DIR) + "/samples/machines/mikron_ucp710.yaml");
+  const auto path = path2_blade(machine);
   FeedrateOptions options;
   options.third_order = false;
   options.feed_m_per_s = 10.0 / 60.0;
@@ -136,16 +140,8 @@ TEST(Path2Blade, SingularZoneSecondOrder) {
 TEST(Path2Blade, DISABLED_SingularZoneThirdOrder) {
   // The table-table machine's singular zone (the C axis swings fast where the tool axis passes
   // the A axis): the path velocity nearly vanishes there; jerk limits on every axis.
-  const std::string root = VMSIM_SOURCE_DIR;
-  const auto machine = kinematics::load_machine(root + "/samples/machines/mikron_ucp710.yaml");
-  const Toolpath tp = read_apt(root + "/samples/parts/path2_blade/toolpath.apt");
-  std::vector<kinematics::PathPose> poses;
-  for (const auto& p : tp.points) {
-    if (!poses.empty() && (poses.back().pose.tip_W_m - p.tip_W_m).norm() < 1e-12) continue;
-    poses.push_back({{p.tip_W_m, p.axis_W}, p.block});
-  }
-  const auto path =
-      kinematics::solve_path_kinematics(machine, poses, machine.home_positions(), 0.060, {});
+  const auto machine = kinematics::load_machine(std::string(VMSIM_SOURCE_DIR) + "/samples/machines/mikron_ucp710.yaml");
+  const auto path = path2_blade(machine);
   FeedrateOptions options;
   options.feed_m_per_s = 10.0 / 60.0;
   const FeedratePlan plan = plan_feedrate(machine, path, options);
