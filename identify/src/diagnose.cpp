@@ -162,6 +162,37 @@ Eigen::VectorXd regress(const Context& ctx, const Evaluation& base,
   return c.cwiseQuotient(diag.cwiseSqrt());
 }
 
+// The sine/cosine pair of the axis position that explains the residual best among the candidate
+// periods, with a third column (an offset or a friction sign) fitted alongside.
+struct PeriodicRegression {
+  double period = 0.0;
+  Eigen::VectorXd c;  // sin, cos, third column
+};
+
+PeriodicRegression regress_periodic(
+    const Context& ctx, const Evaluation& ev, const std::vector<double>& periods,
+    const std::function<double(const Dataset&, std::size_t)>& third_column, bool on_diff) {
+  PeriodicRegression best;
+  double best_explained = -1.0;
+  for (double period : periods) {
+    double explained = 0.0;
+    const Eigen::VectorXd c = regress(
+        ctx, ev,
+        [&](const Dataset& d, std::size_t i, double* x) {
+          const double phase = kTwoPi * d.m->pos[i] / period;
+          x[0] = std::sin(phase);
+          x[1] = std::cos(phase);
+          x[2] = third_column(d, i);
+        },
+        3, on_diff, &explained);
+    if (explained > best_explained) {
+      best_explained = explained;
+      best = {period, c};
+    }
+  }
+  return best;
+}
+
 // Gauss-Newton on linear-ish parameters with a finite-difference Jacobian of the closed-loop
 // simulation.
 std::vector<double> gauss_newton(const Context& ctx,
@@ -377,26 +408,14 @@ Fit fit_cogging(const Context& ctx, const DriveModel& base, const Evaluation& ev
   const auto& axis = base.servo.axis;
   const double r = axis.drive.ratio, kt = axis.drive.torque_constant_N_m_per_A;
   const double band = 1e-3 * ctx.vmax;
-  int best_n = 1;
-  double best_explained = -1.0;
-  Eigen::VectorXd best_c;
-  for (int n = 1; n <= 64; ++n) {
-    double explained = 0.0;
-    const Eigen::VectorXd c = regress(
-        ctx, ev,
-        [&](const Dataset& d, std::size_t i, double* x) {
-          const double th = n * d.m->pos[i] / r;
-          x[0] = std::sin(th);
-          x[1] = std::cos(th);
-          x[2] = sign_band(d.vc[i], band);  // keeps a friction error from leaking in
-        },
-        3, false, &explained);
-    if (explained > best_explained) {
-      best_explained = explained;
-      best_n = n;
-      best_c = c;
-    }
-  }
+  // A period of 2 pi r / n in the axis position is n periods per motor revolution.
+  std::vector<double> periods;
+  for (int n = 1; n <= 64; ++n) periods.push_back(kTwoPi * r / n);
+  const PeriodicRegression best_fit = regress_periodic(
+      ctx, ev, periods, [&](const Dataset& d, std::size_t i) { return sign_band(d.vc[i], band); },
+      false);  // the sign column keeps a friction error from leaking in
+  const int best_n = static_cast<int>(std::lround(kTwoPi * r / best_fit.period));
+  const Eigen::VectorXd& best_c = best_fit.c;
   auto apply = [&](const std::vector<double>& th) {
     DriveModel m = base;
     auto& c = m.servo.axis.effects.cogging;
@@ -443,26 +462,12 @@ Fit fit_pitch(const Context& ctx, const DriveModel& base, const Evaluation& ev) 
     return f;
   }
   const double lead = lead_of(base.servo.axis);
-  double best_explained = -1.0, best_period = lead;
-  Eigen::VectorXd best_c;
-  for (double ratio : {0.25, 1.0 / 3.0, 0.5, 1.0, 2.0, 3.0, 4.0}) {
-    const double period = ratio * lead;
-    double explained = 0.0;
-    const Eigen::VectorXd c = regress(
-        ctx, ev,
-        [&](const Dataset& d, std::size_t i, double* x) {
-          const double ph = kTwoPi * d.m->pos[i] / period;
-          x[0] = std::sin(ph);
-          x[1] = std::cos(ph);
-          x[2] = 1.0;
-        },
-        3, true, &explained);
-    if (explained > best_explained) {
-      best_explained = explained;
-      best_period = period;
-      best_c = c;
-    }
-  }
+  std::vector<double> periods;
+  for (double ratio : {0.25, 1.0 / 3.0, 0.5, 1.0, 2.0, 3.0, 4.0}) periods.push_back(ratio * lead);
+  const PeriodicRegression best_fit =
+      regress_periodic(ctx, ev, periods, [](const Dataset&, std::size_t) { return 1.0; }, true);
+  const double best_period = best_fit.period;
+  const Eigen::VectorXd& best_c = best_fit.c;
   auto apply = [&](const std::vector<double>& th) {
     DriveModel m = base;
     auto& p = m.servo.axis.effects.pitch_error;
