@@ -400,6 +400,8 @@ CutStatistics NBuffer::cut(const Tool& tool, std::span<const Pose> trajectory, c
       const bool tilted = !s.vertical && s.a.z() > 0.0;
       const bool behind = behind_is_cut(s, top);
       const double ball_reach = s.r * s.a.z();  // ball-end: within this of c0 and c1, the ball decides
+      const detail::VerticalEntry fast(s);     // tilted flat-end / bull-nose: certified entries
+      double phi = std::nan("");               // bull-nose: the last rim angle (warm start)
       for (int iv = tv * kTile; iv < v_end; ++iv) {
         const double y = origin0_.y() + iv * sp;
         double xa = 0.0, xb = 0.0;
@@ -435,11 +437,18 @@ CutStatistics NBuffer::cut(const Tool& tool, std::span<const Pose> trajectory, c
             if (tilted) bound = std::max(bound, (s.amin - s.a.x() * x - s.a.y() * y) / s.a.z());
             if (bound - z0 >= h) continue;
             bool hit;
-            if (s.vertical) {
+            double z = 0.0;
+            if (tilted && s.rho > 0.0 &&
+                (s.r == 0.0 ? fast.flat_rim(x, y, z) : fast.bull_rim(x, y, bound, phi, z)) && z > z0) {
+              t0 = z - z0;  // entry exact (certified); t0 > 0, so the exit is above 0 too
+              t1 = s.hi.z() - z0;
+              hit = true;
+            } else if (s.vertical) {
               hit = detail::vertical_entry(s, x, y, t0, t1);
               t0 -= z0;
               t1 -= z0;
             } else {
+              phi = std::nan("");
               const Eigen::Vector3d o(x, y, z0);
               hit = s.rho > 0.0 && s.r > 0.0 ? detail::bull_interval(s, o, Eigen::Vector3d::UnitZ(), h, t0, t1)
                                              : detail::line_interval(s, o, Eigen::Vector3d::UnitZ(), t0, t1);

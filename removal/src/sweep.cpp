@@ -403,10 +403,105 @@ bool vertical_entry(const Sweep& s, double x, double y, double& z0, double& z1) 
 
 bool flat_bottom_entry(const Sweep& s, double x, double y, double& z) {
   if (s.rho == 0.0 || !(s.a.z() > 0.0)) return false;
-  const Eigen::Vector3d& c = s.a.dot(s.c1) < s.a.dot(s.c0) ? s.c1 : s.c0;
+  const double a0 = s.a.dot(s.c0), a1 = s.a.dot(s.c1);
+  const Eigen::Vector3d& c = a1 < a0 ? s.c1 : s.c0;
   z = (s.amin - s.a.x() * x - s.a.y() * y) / s.a.z();
-  const Eigen::Vector3d v = Eigen::Vector3d(x, y, z) - (c - s.r * s.a);
-  return v.squaredNorm() <= s.rho * s.rho;
+  const Eigen::Vector3d p(x, y, z);
+  // Motion in the bottom's plane: the whole swept bottom (a stadium) lies in the lowest plane.
+  if (a0 == a1) return segment_distance(p, s.c0 - s.r * s.a, s.c1 - s.r * s.a) <= s.rho;
+  return (p - (c - s.r * s.a)).squaredNorm() <= s.rho * s.rho;
+}
+
+VerticalEntry::VerticalEntry(const Sweep& s) : s_(s) {
+  e1_ = s.c1 - s.c0;
+  eu_ = s.a.unitOrthogonal();
+  ev_ = s.a.cross(eu_);
+  ae_ = s.a.dot(e1_);
+  dd_ = e1_.x() * e1_.x() + e1_.y() * e1_.y();
+}
+
+bool VerticalEntry::flat_rim(double x, double y, double& z) const {
+  if (ae_ == 0.0 || dd_ == 0.0 || !(s_.a.z() > 0.0)) return false;
+  // rho (cos phi U + sin phi V) + sigma D = q in the plane; the cross product with D removes sigma.
+  const double qx = x - s_.c0.x(), qy = y - s_.c0.y();
+  const double alpha = eu_.x() * e1_.y() - eu_.y() * e1_.x(), beta = ev_.x() * e1_.y() - ev_.y() * e1_.x();
+  const double gamma = qx * e1_.y() - qy * e1_.x();
+  const double m = std::sqrt(alpha * alpha + beta * beta);
+  if (!(m > 0.0)) return false;
+  const double c = gamma / (s_.rho * m);
+  if (!(std::abs(c) <= 1.0)) return false;
+  const double base = std::atan2(beta, alpha), half = std::acos(c);
+  bool found = false;
+  for (double phi : {base - half, base + half}) {
+    const Eigen::Vector3d w = std::cos(phi) * eu_ + std::sin(phi) * ev_;
+    const double sigma = ((qx - s_.rho * w.x()) * e1_.x() + (qy - s_.rho * w.y()) * e1_.y()) / dd_;
+    if (!(sigma > 0.0 && sigma < 1.0)) continue;
+    // The normal (a.e1) w - (w.e1) a, turned into the rim's normal cone, must point down.
+    const double we = w.dot(e1_), sign = ae_ > 0.0 ? 1.0 : -1.0;
+    if (sign * we < 0.0) continue;
+    const double nz = sign * (ae_ * w.z() - we * s_.a.z());
+    if (!(nz < 0.0)) continue;
+    const double zc = s_.c0.z() + s_.rho * w.z() + sigma * e1_.z();
+    z = found ? std::min(z, zc) : zc;
+    found = true;
+  }
+  return found;
+}
+
+bool VerticalEntry::capsule_low(double x, double y, const Eigen::Vector3d& w, double& z, double& sigma) const {
+  // Lowest point on the line of Segment(A, A + e1) (+) Ball(r), A = c0 + rho w: the minimum over
+  // sigma of A_z + sigma e1_z - sqrt(r^2 - |d0 - sigma D|^2) (convex), unconstrained in closed
+  // form, then clamped to [0, 1].
+  const double r = s_.r;
+  const double d0x = x - s_.c0.x() - s_.rho * w.x(), d0y = y - s_.c0.y() - s_.rho * w.y();
+  const double cross = d0x * e1_.y() - d0y * e1_.x();
+  const double perp2 = cross * cross / dd_;
+  if (perp2 > r * r) return false;
+  const double ez = e1_.z();
+  const double along = e1_.z() * std::sqrt((r * r - perp2) / (dd_ + ez * ez));
+  sigma = std::clamp((d0x * e1_.x() + d0y * e1_.y()) / dd_ - along / std::sqrt(dd_), 0.0, 1.0);
+  const double ex = d0x - sigma * e1_.x(), ey = d0y - sigma * e1_.y();
+  const double q = r * r - ex * ex - ey * ey;
+  if (q < 0.0) return false;
+  z = s_.c0.z() + s_.rho * w.z() + sigma * ez - std::sqrt(q);
+  return true;
+}
+
+bool VerticalEntry::bull_rim(double x, double y, double z_guess, double& phi, double& z) const {
+  if (dd_ == 0.0 || !(s_.a.z() > 0.0) || !(s_.r > 0.0)) return false;
+  if (!std::isfinite(phi)) {
+    const Eigen::Vector3d v = Eigen::Vector3d(x, y, z_guess) - 0.5 * (s_.c0 + s_.c1);
+    phi = std::atan2(v.dot(ev_), v.dot(eu_));
+  }
+  // f(phi): the angle from w(phi) to the contact's direction about the axis (0 at the optimum,
+  // where the contact normal has no tangential part).
+  auto eval = [&](double ph, double& f, bool& certified) {
+    const double cs = std::cos(ph), sn = std::sin(ph);
+    const Eigen::Vector3d w = cs * eu_ + sn * ev_, t = cs * ev_ - sn * eu_;
+    double sigma = 0.0;
+    if (!capsule_low(x, y, w, z, sigma)) return false;
+    const Eigen::Vector3d v = Eigen::Vector3d(x, y, z) - s_.c0 - sigma * e1_;
+    f = std::atan2(v.dot(t), v.dot(w));
+    const Eigen::Vector3d n = (v - s_.rho * w) / s_.r;
+    const double na = n.dot(s_.a), ne = n.dot(e1_);
+    const double n_perp = std::sqrt(std::max(0.0, n.squaredNorm() - na * na));
+    const double gap = s_.rho * (n_perp - n.dot(w)) + s_.ell * std::max(0.0, na) + std::max(0.0, ne) - sigma * ne;
+    certified = n.z() < -1e-3 && gap <= -1e-11 * n.z();
+    return true;
+  };
+  double f0 = 0.0, f1 = 0.0;
+  bool ok = false;
+  if (!eval(phi, f0, ok)) return false;
+  if (ok) return true;
+  double phi0 = phi;
+  phi = phi0 + f0;
+  for (int k = 0; k < 10; ++k) {
+    if (!eval(phi, f1, ok)) return false;
+    if (ok) return true;
+    const double next = f1 != f0 ? phi - f1 * (phi - phi0) / (f1 - f0) : phi + f1;
+    phi0 = phi, f0 = f1, phi = next;
+  }
+  return false;
 }
 
 bool flat_interval(const Sweep& s, const Eigen::Vector3d& o, const Eigen::Vector3d& u, double& t0, double& t1) {

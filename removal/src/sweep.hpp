@@ -56,9 +56,42 @@ bool bull_interval(const Sweep& s, const Eigen::Vector3d& o, const Eigen::Vector
 
 /// Vertical line (x, y) and a sweep with a flat bottom (rho > 0, a_z > 0): the bottom is the
 /// disc of radius rho about c - r a, normal a, and no point of the sweep lies below its plane
-/// at the end of the motion where a . c is least. When the line crosses that disc there, the
-/// crossing is the entry: true with its z; false when the general computation is needed.
+/// at the end of the motion where a . c is least. When the line crosses that disc there (or,
+/// for a motion in the bottom's plane, the swept bottom), the crossing is the entry: true with
+/// its z; false when the general computation is needed.
 bool flat_bottom_entry(const Sweep& s, double x, double y, double& z);
+
+/// Vertical lines against one constant-axis flat-end or bull-nose sweep (rho > 0) whose axis
+/// points up (a_z > 0): fast entries that certify themselves. The sweep is Core (+) Ball(r) with
+/// Core = c0 + Disc(rho) (+) Segment(0, ell a) (+) Segment(0, c1 - c0), a convex set. A point p
+/// of the sweep on the line at distance r from a Core point K, with n = (p - K) / r, is the
+/// line's lowest point of the sweep when the sweep lies in the half-space n . x <= n . p and
+/// n_z < 0. The gap delta = h_Core(n) - n . K (h the support function, known in closed form)
+/// widens that half-space to n . x <= n . p + delta, so the true entry is at most
+/// delta / |n_z| below p: the entry is accepted only when that bound is under 1e-11 m.
+/// A false return means "not decided here": the caller takes the general computation.
+class VerticalEntry {
+ public:
+  explicit VerticalEntry(const Sweep& s);
+  /// Flat-end (r = 0): the line's crossing with the swept bottom rim c0 + rho w(phi) + sigma
+  /// (c1 - c0), 0 < sigma < 1 (the roots of a quadratic in closed form), where the normal
+  /// n = (a.e1) w - (w.e1) a (normal to the motion, in the rim's normal cone) has n_z < 0:
+  /// delta = 0, exact.
+  bool flat_rim(double x, double y, double& z) const;
+  /// Bull-nose (r > 0): the lowest point on the line of the rim tube, min over the rim angle
+  /// phi of the capsule (rim point swept) (+) Ball(r), closed form per phi; phi by secant
+  /// steps from `phi` (a warm start; NaN: from the line's azimuth about the axis at z_guess),
+  /// on return the angle found. Accepted with the bound above.
+  bool bull_rim(double x, double y, double z_guess, double& phi, double& z) const;
+
+ private:
+  bool capsule_low(double x, double y, const Eigen::Vector3d& w, double& z, double& sigma) const;
+  const Sweep& s_;
+  Eigen::Vector3d e1_, eu_, ev_;
+  double ae_ = 0.0;   // a . e1
+  double dd_ = 0.0;   // |e1_xy|^2
+  double slope_ = 0.0;  // for the capsule's lowest point: e1_z / sqrt(|e1_xy|^2 + e1_z^2)
+};
 
 /// Line through a flat-end sweep (r = 0, rho > 0), any line direction: closed form (the
 /// section of the swept cylinder by the plane of the line and the motion is an ellipse cut by
