@@ -24,7 +24,7 @@ struct DynamicsOptions {
 
 int run_dynamics(const DynamicsOptions& options, const CommandContext& context) {
   if (!(options.feed_mm_per_min > 0.0)) {
-    throw InputError("--feed-mm-per-min must be > 0, got " + format_double(options.feed_mm_per_min));
+    throw CommandLineError("--feed-mm-per-min must be > 0, got " + format_double(options.feed_mm_per_min));
   }
   const kinematics::EffectSet effects = parse_effects(options.effects);
   const ChainInputs inputs = load_chain_inputs(options.inputs);

@@ -96,7 +96,7 @@ int run_plan(const PlanOptions& options, const CommandContext& context) {
   fo.effects = parse_effects(options.effects);
   fo.third_order = !options.no_third_order;
   if (options.feed_mm_per_min < 0.0) {
-    throw InputError("--feed-mm-per-min must be > 0, got " + format_double(options.feed_mm_per_min));
+    throw CommandLineError("--feed-mm-per-min must be > 0, got " + format_double(options.feed_mm_per_min));
   }
   fo.feed_m_per_s = options.feed_mm_per_min * 1e-3 / 60.0;
   ChainInputOptions input_options = options.inputs;

@@ -4,6 +4,7 @@
 // inertia, coupled inertia, centrifugal, Coriolis, gravity, friction) or "all".
 #include <string>
 
+#include "exit_codes.hpp"
 #include "vmsim/common/errors.hpp"
 #include "vmsim/kinematics/dynamics.hpp"
 #include "vmsim/planner/feedrate.hpp"
@@ -31,7 +32,7 @@ inline kinematics::EffectSet parse_effects(const std::string& text) {
     } else if (word == "F") {
       effects = effects.with(Effect::friction);
     } else {
-      throw InputError("--effects: '" + word +
+      throw CommandLineError("--effects: '" + word +
                        "' is not an effect (use H, Hcpl, B, C, G, F, comma-separated, or all)");
     }
     if (comma == std::string::npos) break;
@@ -44,14 +45,14 @@ inline kinematics::EffectSet parse_effects(const std::string& text) {
 inline planner::FeedrateMethod parse_method(const std::string& text) {
   if (text == "kinematic") return planner::FeedrateMethod::kinematic;
   if (text == "dynamic") return planner::FeedrateMethod::dynamic;
-  throw InputError("--method must be kinematic or dynamic, got '" + text + "'");
+  throw CommandLineError("--method must be kinematic or dynamic, got '" + text + "'");
 }
 
 /// --limits tuned|actuator
 inline planner::DynamicLimitSource parse_limit_source(const std::string& text) {
   if (text == "tuned") return planner::DynamicLimitSource::tuned;
   if (text == "actuator") return planner::DynamicLimitSource::actuator;
-  throw InputError("--limits must be tuned or actuator, got '" + text + "'");
+  throw CommandLineError("--limits must be tuned or actuator, got '" + text + "'");
 }
 
 }  // namespace vmsim::app

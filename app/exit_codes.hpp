@@ -1,6 +1,15 @@
 #pragma once
 // Exit codes of the vmsim program (documented in the README and in `vmsim --help`).
+#include <stdexcept>
+
 namespace vmsim::app {
+
+/// A command-line value that parses but is not allowed (an unknown method, a negative feed):
+/// exit kUsageError like CLI11's own errors, not kInputError (which names a file).
+class CommandLineError : public std::runtime_error {
+ public:
+  using std::runtime_error::runtime_error;
+};
 
 enum ExitCode : int {
   kSuccess = 0,

@@ -36,6 +36,9 @@ int main(int argc, char** argv) {
   } catch (const CLI::ParseError& error) {
     app.exit(error);
     return kUsageError;
+  } catch (const CommandLineError& error) {
+    std::cerr << "error: " << error.what() << "\nRun with --help for more information.\n";
+    return kUsageError;
   } catch (const vmsim::InputError& error) {
     std::cerr << "error: " << error.what() << '\n';
     return kInputError;

@@ -68,7 +68,7 @@ std::vector<DesignPlane> design_planes(const std::string& file, const YAML::Node
     const YAML::Node patch = surfaces[k];
     const std::string path = "design.surfaces[" + std::to_string(k) + "].";
     if (!patch.IsMap()) fail(file, patch, path + ": expected a map");
-    if (text(file, patch, "type") != "plane") continue;
+    if (text(file, patch, "type") != "plane") continue;  // spheres: design_spheres
     DesignPlane plane;
     plane.point_W_m = vector3(file, patch, "point_mm", path, 1e-3);
     const Eigen::Vector3d normal = vector3(file, patch, "normal", path, 1.0);
@@ -94,6 +94,27 @@ std::vector<DesignPlane> design_planes(const std::string& file, const YAML::Node
     planes.push_back(plane);
   }
   return planes;
+}
+
+std::vector<DesignSphere> design_spheres(const std::string& file, const YAML::Node& design) {
+  std::vector<DesignSphere> spheres;
+  if (!design || !design["surfaces"] || !design["surfaces"].IsSequence()) return spheres;
+  const YAML::Node surfaces = design["surfaces"];
+  for (std::size_t k = 0; k < surfaces.size(); ++k) {
+    const YAML::Node patch = surfaces[k];
+    const std::string path = "design.surfaces[" + std::to_string(k) + "].";
+    if (text(file, patch, "type") != "sphere") continue;
+    DesignSphere sphere;
+    sphere.centre_W_m = vector3(file, patch, "center_mm", path, 1e-3);
+    sphere.radius_m = positive_number(file, patch, "radius_mm", path) * 1e-3;
+    const std::string material = text(file, patch, "material");
+    if (material != "inside" && material != "outside") {
+      fail(file, patch["material"], path + "material: '" + material + "' is not one of inside, outside");
+    }
+    sphere.material_inside = material == "inside";
+    spheres.push_back(sphere);
+  }
+  return spheres;
 }
 
 }  // namespace
@@ -134,16 +155,43 @@ PartDescription load_part(const std::string& path) {
   } else if (part.tool.type == ToolType::ball) {
     part.tool.corner_radius_m = part.tool.diameter_m / 2.0;
   }
-  if (root["stock"]) {
-    const YAML::Node box = required(path, root["stock"], "box", "stock.");
-    StockBox stock{vector3(path, box, "min_mm", "stock.box.", 1e-3),
-                   vector3(path, box, "max_mm", "stock.box.", 1e-3)};
-    if (!(stock.min_W_m.array() < stock.max_W_m.array()).all()) {
-      fail(path, box, "stock.box: min_mm must be below max_mm in x, y and z");
+  if (tool["cutting_length_mm"]) {
+    part.tool.cutting_length_m = positive_number(path, tool, "cutting_length_mm", "tool.") * 1e-3;
+    if (part.tool.cutting_length_m < part.tool.diameter_m - 1e-12 ||
+        part.tool.cutting_length_m > part.tool.length_m + 1e-12) {
+      fail(path, tool["cutting_length_mm"], "tool.cutting_length_mm: must be between diameter_mm and length_mm, got '" +
+                                                tool["cutting_length_mm"].Scalar() + "'");
     }
-    part.stock = stock;
+  }
+  if (root["stock"]) {
+    const YAML::Node stock_node = root["stock"];
+    if (stock_node.IsMap() && stock_node["stl"]) {
+      if (stock_node["box"]) fail(path, stock_node, "stock: give either box or stl, not both");
+      if (!stock_node["stl"].IsScalar()) fail(path, stock_node["stl"], "stock.stl: expected a file name");
+      part.stock_stl_path = (folder / stock_node["stl"].Scalar()).lexically_normal().string();
+      if (!std::filesystem::is_regular_file(part.stock_stl_path)) {
+        fail(path, stock_node["stl"], "stock.stl: no file '" + part.stock_stl_path + "'");
+      }
+      try {
+        part.stock_mesh = removal::read_stl(part.stock_stl_path);
+      } catch (const InputError& error) {
+        fail(path, stock_node["stl"], std::string("stock.stl: ") + error.what());
+      }
+    } else {
+      if (!stock_node.IsMap() || !stock_node["box"]) {
+        fail(path, stock_node, "stock: expected {box: {min_mm: [x, y, z], max_mm: [x, y, z]}} or {stl: <file>}");
+      }
+      const YAML::Node box = stock_node["box"];
+      StockBox stock{vector3(path, box, "min_mm", "stock.box.", 1e-3),
+                     vector3(path, box, "max_mm", "stock.box.", 1e-3)};
+      if (!(stock.min_W_m.array() < stock.max_W_m.array()).all()) {
+        fail(path, box, "stock.box: min_mm must be below max_mm in x, y and z");
+      }
+      part.stock = stock;
+    }
   }
   part.design_planes = design_planes(path, root["design"]);
+  part.design_spheres = design_spheres(path, root["design"]);
   const YAML::Node feeds = required(path, root, "feeds", "");
   part.production_feed_m_per_s =
       positive_number(path, feeds, "production_mm_per_min", "feeds.") * 1e-3 / 60.0;

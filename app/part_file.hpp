@@ -7,6 +7,8 @@
 #include <vector>
 #include <string>
 
+#include "vmsim/removal/stl.hpp"
+
 namespace vmsim::app {
 
 enum class ToolType { ball, flat, bull };
@@ -16,6 +18,10 @@ struct ToolDescription {
   double diameter_m = 0.0;
   double corner_radius_m = 0.0;
   double length_m = 0.0;  ///< from the spindle gauge point to the tool tip
+  /// The cutting body from the tip (`cutting_length_mm`, D <= it <= length_m): the solid the
+  /// material removal sweeps (removal::Tool::length_m); the shank and holder above it are not
+  /// modelled. 0 = not given: the whole length_m.
+  double cutting_length_m = 0.0;
 };
 
 /// The stock box [m, W].
@@ -35,6 +41,14 @@ struct DesignPlane {
   Eigen::Vector3d max_W_m = Eigen::Vector3d::Constant(std::numeric_limits<double>::infinity());
 };
 
+/// A sphere patch of the design surface (`design.surfaces`, type sphere) [m, W]: simulate-part
+/// looks at it along its normals (lines through the centre).
+struct DesignSphere {
+  Eigen::Vector3d centre_W_m = Eigen::Vector3d::Zero();
+  double radius_m = 0.0;
+  bool material_inside = true;  ///< a dome (`material: inside`); else a spherical pocket
+};
+
 struct PartDescription {
   std::string file;
   std::string name;
@@ -43,7 +57,13 @@ struct PartDescription {
   std::string toolpath_path;  ///< resolved against the part file's folder
   ToolDescription tool;
   std::optional<StockBox> stock;  ///< `stock: {box: {min_mm, max_mm}}` where given
+  /// `stock: {stl: <file>}`: a closed mesh (a near-net stock, mm), read and checked with the
+  /// part file; `stock_stl_path` is resolved against the part file's folder. One of `stock` and
+  /// `stock_mesh` at most.
+  std::optional<removal::TriangleMesh> stock_mesh;
+  std::string stock_stl_path;
   std::vector<DesignPlane> design_planes;  ///< the plane patches of `design.surfaces`
+  std::vector<DesignSphere> design_spheres;  ///< the sphere patches of `design.surfaces`
   double production_feed_m_per_s = 0.0;
   double reference_feed_m_per_s = 0.0;
 };

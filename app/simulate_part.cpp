@@ -52,6 +52,7 @@ struct Run {
   std::vector<double> trajectory_t_s;   ///< the time of each kept pose
   std::size_t samples = 0;              ///< servo samples before thinning
   std::vector<removal::NBuffer> buffers;  ///< one per surface view (Context::views)
+  std::vector<removal::CutStatistics> cuts;  ///< one per surface view
   std::map<std::string, double> stage_seconds;
 };
 
@@ -138,8 +139,11 @@ struct Context {
   ChainInputs inputs;
   kinematics::PathKinematics path;
   removal::Tool tool;
-  removal::Box stock;
+  StockShape stock;
   std::vector<SurfaceView> views;
+  /// The uncut buffer of each view, made once (over a mesh stock that takes a while): every run
+  /// starts from a copy, so that all runs cut identical lines.
+  std::vector<removal::NBuffer> uncut;
 };
 
 // s of the plan at time t (linear interpolation in the set points).
@@ -271,8 +275,8 @@ Run simulate_run(const Context& context, const std::string& name, double feed_m_
         }
         return false;
       };
-      run.buffers.push_back(view.fresh_buffer(context.stock));
-      run.buffers.back().cut(context.tool, run.trajectory, cut_options);
+      run.buffers.push_back(context.uncut[static_cast<std::size_t>(&view - context.views.data())]);
+      run.cuts.push_back(run.buffers.back().cut(context.tool, run.trajectory, cut_options));
     }
   }
   return run;
@@ -418,6 +422,21 @@ Json stage_times(const Run& run) {
   return times;
 }
 
+// For each servo sample: true while the plan is on a cutting (non-rapid) move, i.e. the path
+// segment that holds s(t) ends at a point that is not a rapid.
+std::vector<bool> cutting_samples(const Context& context, const Run& run) {
+  std::vector<bool> cutting(run.samples, false);
+  const auto& s_points = context.path.s_m;
+  for (std::size_t k = 0; k < run.samples; ++k) {
+    const double s = plan_s_at(run.plan, run.t_s[k]);
+    std::size_t i = static_cast<std::size_t>(std::upper_bound(s_points.begin(), s_points.end(), s) - s_points.begin());
+    i = std::min(std::max<std::size_t>(i, 1), s_points.size() - 1);
+    const auto& point = context.inputs.toolpath.points[context.inputs.toolpath_point[i]];
+    cutting[k] = point.kind != planner::MotionKind::rapid;
+  }
+  return cutting;
+}
+
 Json run_summary(const Context& context, const Run& run) {
   Json summary;
   summary["feed_mm_per_min"] = run.feed_m_per_s * 60e3;
@@ -427,6 +446,12 @@ Json run_summary(const Context& context, const Run& run) {
   summary["servo_samples"] = run.samples;
   summary["trajectory_poses_cut"] = run.trajectory.size();
   summary["stage_seconds"] = stage_times(run);
+  Json cuts = Json::array();
+  for (const removal::CutStatistics& cut : run.cuts) {
+    cuts.push_back({{"segments", cut.segments}, {"sub_segments", cut.sub_segments},
+                    {"tiles_visited", cut.tiles_visited}, {"lines_lowered", cut.lines_lowered}});
+  }
+  summary["removal_per_view"] = cuts;
   summary["plan_notes"] = run.plan.notes;
   Json axes = Json::array();
   const auto& machine = context.inputs.machine;
@@ -444,6 +469,35 @@ Json run_summary(const Context& context, const Run& run) {
     axes.push_back(entry);
   }
   summary["axes"] = axes;
+  // The same peaks over the cutting moves only (rapids run at the axes' limits, identically in
+  // both runs): what the feed does to the follow-up (second paper, part 3: rotary axes).
+  Json cutting = Json::array();
+  const std::vector<bool> cutting_sample = cutting_samples(context, run);
+  for (std::size_t j = 0; j < machine.axes.size(); ++j) {
+    double peak = 0.0, sum_squares = 0.0;
+    std::size_t at = 0, count = 0;
+    for (std::size_t k = 0; k < run.samples; ++k) {
+      if (!cutting_sample[k]) continue;
+      const double error = std::abs(run.q_cmd(static_cast<Eigen::Index>(j), static_cast<Eigen::Index>(k)) -
+                                    run.q_actual(static_cast<Eigen::Index>(j), static_cast<Eigen::Index>(k)));
+      if (error > peak) peak = error, at = k;
+      sum_squares += error * error;
+      ++count;
+    }
+    const double rms = count > 0 ? std::sqrt(sum_squares / static_cast<double>(count)) : 0.0;
+    const auto& axis = machine.axes[j];
+    Json entry{{"axis", axis.name}, {"at_time_s", run.t_s.empty() ? 0.0 : run.t_s[at]},
+               {"at_s_mm", run.t_s.empty() ? 0.0 : plan_s_at(run.plan, run.t_s[at]) * 1e3}};
+    if (axis.type == kinematics::AxisType::linear) {
+      entry["following_error_peak_um"] = peak * 1e6;
+      entry["following_error_rms_um"] = rms * 1e6;
+    } else {
+      entry["following_error_peak_deg"] = peak * 180.0 / std::numbers::pi;
+      entry["following_error_rms_deg"] = rms * 180.0 / std::numbers::pi;
+    }
+    cutting.push_back(entry);
+  }
+  summary["axes_while_cutting"] = cutting;
   return summary;
 }
 
@@ -744,7 +798,7 @@ void write_renders(const Context& context, const Run& production, const Run& ref
   // Histogram over the lines the reference run cut, in every view.
   std::vector<double> machined;
   for (const ViewComparison& comparison : comparisons) {
-    const removal::NBuffer uncut = comparison.view->fresh_buffer(context.stock);
+    const removal::NBuffer& uncut = context.uncut[comparison.index];
     const removal::NBuffer& cut = reference.buffers[comparison.index];
     for (std::size_t i = 0; i < comparison.deviation_m.size(); ++i) {
       const int iu = static_cast<int>(i % static_cast<std::size_t>(cut.nu()));
@@ -771,17 +825,24 @@ Json simulate_part(const SimulatePartOptions& options, const ProgressSink& progr
   ChainInputOptions chain_options;
   chain_options.part_path = options.part_path;
   chain_options.corner_tolerance_m = options.corner_tolerance_m;
-  Context context{options, progress, load_part(options.part_path), load_chain_inputs(chain_options), {}, {}, {}, {}};
-  if (!context.part.stock) {
-    throw InputError(options.part_path + ": simulate-part needs a stock (stock: {box: {min_mm, max_mm}})");
+  Context context{options, progress, load_part(options.part_path), load_chain_inputs(chain_options), {}, {}, {}, {}, {}};
+  if (context.part.stock_mesh) {
+    context.stock = {context.part.stock_mesh->bounds(), &*context.part.stock_mesh};
+  } else if (context.part.stock) {
+    context.stock = {{context.part.stock->min_W_m, context.part.stock->max_W_m}, nullptr};
+  } else {
+    throw InputError(options.part_path +
+                     ": simulate-part needs a stock (stock: {box: {min_mm, max_mm}} or {stl: <file>})");
   }
-  context.stock = {context.part.stock->min_W_m, context.part.stock->max_W_m};
   context.tool.type = context.part.tool.type == ToolType::ball   ? removal::ToolType::ball
                       : context.part.tool.type == ToolType::flat ? removal::ToolType::flat
                                                                  : removal::ToolType::bull;
   context.tool.diameter_m = context.part.tool.diameter_m;
   context.tool.corner_radius_m = context.part.tool.corner_radius_m;
-  context.tool.length_m = context.part.tool.length_m;
+  // The removal sweeps the cutting body only (removal::Tool: "give a length that covers the
+  // engaged part"): a long body on a tilted tool costs orientation sub-steps on every segment.
+  context.tool.length_m = context.part.tool.cutting_length_m > 0 ? context.part.tool.cutting_length_m
+                                                                : context.part.tool.length_m;
   context.tool.validate();
   for (const std::string& warning : context.inputs.warnings) progress("warning: " + warning);
   const double production_feed =
@@ -797,7 +858,31 @@ Json simulate_part(const SimulatePartOptions& options, const ProgressSink& progr
                                                    context.inputs.path_kinematics);
   stage_seconds["load_and_inverse_kinematics"] = seconds_since(stage_clock);
 
-  context.views = surface_views(context.part, context.stock, options.grid_m);
+  stage_clock = Clock::now();
+  progress("stock" + std::string(context.stock.mesh ? " (" + context.part.stock_stl_path + ")" : "") + " ...");
+  std::vector<Eigen::Vector3d> cutting_tips;
+  for (std::size_t i = 0; i < context.inputs.path.size(); ++i) {
+    const auto& point = context.inputs.toolpath.points[context.inputs.toolpath_point[i]];
+    if (point.kind != planner::MotionKind::rapid) cutting_tips.push_back(point.tip_W_m);
+  }
+  context.views = surface_views(context.part, context.stock.bounds, options.grid_m, cutting_tips,
+                                context.tool.diameter_m);
+  removal::MeshZmapReport mesh_report;
+  for (const SurfaceView& view : context.views) {  // the Z-map first: the others clip to it
+    context.uncut.push_back(view.fresh_buffer(context.stock, view.zmap ? &mesh_report : nullptr,
+                                              context.uncut.empty() ? nullptr : &context.uncut.front()));
+  }
+  const auto millimetres = [](const Eigen::Vector3d& v) { return Json{v.x() * 1e3, v.y() * 1e3, v.z() * 1e3}; };
+  report["stock"] = {{"min_mm", millimetres(context.stock.bounds.min_W_m)},
+                     {"max_mm", millimetres(context.stock.bounds.max_W_m)}};
+  report["removal_tool_length_mm"] = context.tool.length_m * 1e3;
+  if (context.stock.mesh) {
+    report["stock"]["stl"] = context.part.stock_stl_path;
+    report["stock"]["triangles"] = context.stock.mesh->triangles.size();
+    report["stock"]["zmap_lines_outside_the_mesh"] = mesh_report.lines_missing;
+    report["stock"]["zmap_lines_filled_below"] = mesh_report.lines_filled;
+  }
+  stage_seconds["stock"] = seconds_since(stage_clock);
 
   Run reference = simulate_run(context, "reference", reference_feed, options.method);
   Run production = simulate_run(context, "production", production_feed, options.method);
@@ -881,7 +966,7 @@ Json simulate_part(const SimulatePartOptions& options, const ProgressSink& progr
     cut_options.threads = options.threads;
     double worst = 0.0;
     for (std::size_t v = 0; v < context.views.size(); ++v) {
-      removal::NBuffer commanded = context.views[v].fresh_buffer(context.stock);
+      removal::NBuffer commanded = context.uncut[v];
       commanded.cut(context.tool, poses, cut_options);
       std::vector<double> reference_vs_commanded = removal::difference(reference.buffers[v], commanded);
       exclude_steep_lines(commanded, options.grid_m, reference_vs_commanded);

@@ -1,5 +1,8 @@
 #pragma once
 // Where simulate-part looks at the machined surface: one N-buffer per "view".
+//  - Each design sphere the tool path works on gets a buffer of lines along its normals over
+//    the band of polar angles the path covers (a dome's slopes are seen head-on, not through a
+//    Z-map's 1 / cos(slope)).
 //  - The Z-map (lines along +z over the stock box) sees every face that looks up.
 //  - Each steep plane of the design surface (a wall: normal more than 45 deg from +z) gets its
 //    own buffer of lines along its normal, on a grid over the patch, so that a wall's deviation
@@ -15,6 +18,7 @@
 
 #include "part_file.hpp"
 #include "vmsim/removal/nbuffer.hpp"
+#include "vmsim/removal/stl.hpp"
 #include "vmsim/viz/surface.hpp"
 
 namespace vmsim::app {
@@ -22,6 +26,12 @@ namespace vmsim::app {
 /// Neighbouring lines whose reference lengths differ by more than this many line spacings
 /// (a slope above 71.6 deg for the view) are not assessed.
 inline constexpr double kSteepStepPerSpacing = 3.0;
+
+/// What every view starts from: the stock box, or a closed mesh (a near-net stock) and its bounds.
+struct StockShape {
+  removal::Box bounds;
+  const removal::TriangleMesh* mesh = nullptr;  ///< null: the box `bounds` is the stock
+};
 
 struct SurfaceView {
   std::string id;     ///< "zmap", "wall1", ...: file names
@@ -35,17 +45,43 @@ struct SurfaceView {
   Eigen::Vector3d normal_W = Eigen::Vector3d::UnitZ();
   double depth_inside_m = 0.0;
   int nu = 0, nv = 0;
+  // Sphere views: line (i, j) runs along the sphere's normal at azimuth i * azimuth_step about
+  // +z and polar angle polar_first + j * polar_step from +z, from depth_inside_m inside the
+  // material (out of it: away from the centre for a dome, towards it for a pocket).
+  bool sphere = false;
+  Eigen::Vector3d centre_W_m = Eigen::Vector3d::Zero();
+  double radius_m = 0.0;
+  double outward = 1.0;  ///< +1: material inside the sphere (a dome), -1: outside
+  double azimuth_step_rad = 0.0, polar_first_rad = 0.0, polar_step_rad = 0.0;
 
-  /// The uncut buffer of this view over `stock`.
-  removal::NBuffer fresh_buffer(const removal::Box& stock) const;
+  /// Line (i, j): origin (inside the material) and unit direction (out of it) [m, W].
+  void line(int iu, int iv, Eigen::Vector3d& origin_W_m, Eigen::Vector3d& direction_W) const;
+
+  /// The uncut buffer of this view over `stock`: the same lines on every call. Z-map over a
+  /// mesh: each line from the bounds' bottom to the mesh's highest exit
+  /// (removal::NBuffer::zmap(mesh, ...)). Wall and sphere views: lines from 1 mm inside the
+  /// design surface to 1 mm out, clipped to the stock's bounds and, for a mesh, to the top of
+  /// `stock_zmap` (the uncut Z-map over the mesh, interpolated bilinearly; without it, the
+  /// bounds only).
+  /// `mesh_report` (optional) receives how the mesh became Z-map lines.
+  removal::NBuffer fresh_buffer(const StockShape& stock, removal::MeshZmapReport* mesh_report = nullptr,
+                                const removal::NBuffer* stock_zmap = nullptr) const;
   /// Distance of line (iu, iv)'s surface point above the design plane [m] (wall views), or
   /// the height in W (Z-map).
   double surface_offset_m(const removal::NBuffer& buffer, int iu, int iv) const;
 };
 
-/// The Z-map, then one view per steep design plane of the part (in the order of the file).
+/// Line spacing of sphere views: at least this (a general buffer tests every line of the tiles
+/// a sweep meets; the Z-map's 20 um would make part 3's sphere view 25 times slower).
+inline constexpr double kSphereViewMinSpacing_m = 50e-6;
+
+/// The Z-map, then one view per steep design plane of the part (in the order of the file), then
+/// one per design sphere that `cutting_tips_W_m` (the commanded tool tips of the cutting moves)
+/// come within `reach_m` of, over the band of polar angles they span widened by reach_m.
 std::vector<SurfaceView> surface_views(const PartDescription& part, const removal::Box& stock,
-                                       double spacing_m);
+                                       double spacing_m,
+                                       const std::vector<Eigen::Vector3d>& cutting_tips_W_m = {},
+                                       double reach_m = 0.0);
 
 /// Sets the deviation of the lines where `reference` is steep (see above) to 0; returns how
 /// many lines that excluded.

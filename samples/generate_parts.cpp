@@ -12,7 +12,10 @@
 #include <Eigen/Dense>
 
 #include <algorithm>
+#include <array>
+#include <bit>
 #include <cmath>
+#include <cstdint>
 #include <cstdio>
 #include <filesystem>
 #include <fstream>
@@ -62,6 +65,7 @@ struct PartFiles {
   std::string apt;
   std::string yaml;
   std::string summary;  //!< one line for the terminal
+  std::string stock_stl;  //!< binary STL bytes of a near-net stock (stock.stl), or empty
 };
 
 /// Fixed notation with 6 decimals, without a negative zero.
@@ -276,7 +280,7 @@ PartFiles part1_tangency() {
           ", point_step_max_mm: " + num(point_step) + ", safe_z_mm: " + num(z_safe) + "}\n";
   yaml += feeds_yaml(10000.0, 100.0);
 
-  return {"part1_tangency", apt_text(path), yaml, summary("part1_tangency", path, "")};
+  return {"part1_tangency", apt_text(path), yaml, summary("part1_tangency", path, ""), ""};
 }
 
 // ---------------------------------------------------------------------------------------------
@@ -341,7 +345,112 @@ PartFiles part2_corner() {
           ", safe_z_mm: " + num(z_safe) + "}\n";
   yaml += feeds_yaml(10000.0, 100.0);
 
-  return {"part2_corner", apt_text(path), yaml, summary("part2_corner", path, "")};
+  return {"part2_corner", apt_text(path), yaml, summary("part2_corner", path, ""), ""};
+}
+
+// ---------------------------------------------------------------------------------------------
+// Near-net stock: a closed triangle mesh written as binary STL
+
+struct Mesh {
+  std::vector<Eigen::Vector3f> vertices_mm;    //!< float, as STL stores them (shared exactly)
+  std::vector<std::array<int, 3>> triangles;   //!< outward normals by the right-hand rule
+};
+
+/// Triangles between two rings of vertex indices (each ring ordered by increasing azimuth,
+/// ring `a` nearer the z axis than ring `b`), the azimuths of both walked together (exact
+/// integer comparison of i / n_a with j / n_b). `up`: normals towards +z (the cap), else -z (the
+/// base). A ring of one vertex (pole, centre of the base) gives a fan.
+void ring_strip(Mesh& mesh, const std::vector<int>& a, const std::vector<int>& b, bool up) {
+  const std::size_t na = a.size();
+  const std::size_t nb = b.size();
+  std::size_t i = na == 1 ? 1 : 0;  // a single vertex: a fan, ring a has nothing to walk
+  std::size_t j = 0;
+  auto add = [&](int p, int q, int r) {
+    mesh.triangles.push_back(up ? std::array<int, 3>{p, q, r} : std::array<int, 3>{p, r, q});
+  };
+  while (i < na || j < nb) {
+    const bool advance_a = i < na && (j == nb || (i + 1) * nb <= (j + 1) * na);
+    if (advance_a) {
+      add(a[i], b[j % nb], a[(i + 1) % na]);
+      ++i;
+    } else {
+      add(a[i % na], b[j], b[(j + 1) % nb]);
+      ++j;
+    }
+  }
+}
+
+/// A dome: the half sphere z >= 0 of radius radius_mm centred at the origin, closed by the disc
+/// z = 0. Rings of constant polar angle on the cap, each with as many vertices as keep its
+/// edges within cap_edge_mm; rings of constant radius on the flat base, coarser (base_edge_mm);
+/// the two meet at the equator ring.
+Mesh dome_mesh(double radius_mm, double cap_edge_mm, double base_edge_mm) {
+  Mesh mesh;
+  const auto ring_size = [](double ring_radius_mm, double edge_mm) {
+    return std::max(3, static_cast<int>(std::ceil(2.0 * kPi * ring_radius_mm / edge_mm)));
+  };
+  const auto add_ring = [&](int count, double ring_radius_mm, double z_mm) {
+    std::vector<int> ring;
+    for (int j = 0; j < count; ++j) {
+      const double azimuth = 2.0 * kPi * j / count;
+      ring.push_back(static_cast<int>(mesh.vertices_mm.size()));
+      mesh.vertices_mm.emplace_back(static_cast<float>(ring_radius_mm * std::cos(azimuth)),
+                                    static_cast<float>(ring_radius_mm * std::sin(azimuth)),
+                                    static_cast<float>(z_mm));
+    }
+    return ring;
+  };
+  const int cap_rings = static_cast<int>(std::ceil(0.5 * kPi * radius_mm / cap_edge_mm));
+  mesh.vertices_mm.emplace_back(0.0f, 0.0f, static_cast<float>(radius_mm));  // the pole
+  std::vector<int> previous{0};
+  for (int k = 1; k <= cap_rings; ++k) {
+    const double polar = 0.5 * kPi * k / cap_rings;
+    const double ring_radius = k == cap_rings ? radius_mm : radius_mm * std::sin(polar);
+    const double z = k == cap_rings ? 0.0 : radius_mm * std::cos(polar);
+    std::vector<int> ring = add_ring(ring_size(ring_radius, cap_edge_mm), ring_radius, z);
+    ring_strip(mesh, previous, ring, true);
+    previous = std::move(ring);
+  }
+  const std::vector<int> equator = previous;
+  const int base_rings = static_cast<int>(std::ceil(radius_mm / base_edge_mm));
+  mesh.vertices_mm.emplace_back(0.0f, 0.0f, 0.0f);  // the centre of the base
+  previous = {static_cast<int>(mesh.vertices_mm.size()) - 1};
+  for (int k = 1; k <= base_rings; ++k) {
+    const double ring_radius = radius_mm * k / base_rings;
+    std::vector<int> ring =
+        k == base_rings ? equator : add_ring(ring_size(ring_radius, base_edge_mm), ring_radius, 0.0);
+    ring_strip(mesh, previous, ring, false);
+    previous = std::move(ring);
+  }
+  return mesh;
+}
+
+void append_le32(std::string& bytes, std::uint32_t value) {
+  for (int shift = 0; shift < 32; shift += 8) bytes.push_back(static_cast<char>((value >> shift) & 0xffu));
+}
+
+void append_float(std::string& bytes, float value) {
+  append_le32(bytes, std::bit_cast<std::uint32_t>(value));
+}
+
+/// Binary STL (little-endian, mm): an 80-byte header, the triangle count, then per triangle the
+/// unit normal, the three corners and a zero attribute word.
+std::string binary_stl(const Mesh& mesh, const std::string& header) {
+  std::string bytes = header.substr(0, 80);
+  bytes.resize(80, ' ');
+  append_le32(bytes, static_cast<std::uint32_t>(mesh.triangles.size()));
+  for (const auto& triangle : mesh.triangles) {
+    const Eigen::Vector3f& p = mesh.vertices_mm[static_cast<std::size_t>(triangle[0])];
+    const Eigen::Vector3f& q = mesh.vertices_mm[static_cast<std::size_t>(triangle[1])];
+    const Eigen::Vector3f& r = mesh.vertices_mm[static_cast<std::size_t>(triangle[2])];
+    const Eigen::Vector3f normal = (q - p).cross(r - p).normalized();
+    for (const Eigen::Vector3f* v : {&normal, &p, &q, &r}) {
+      for (int c = 0; c < 3; ++c) append_float(bytes, (*v)[c]);
+    }
+    bytes.push_back('\0');
+    bytes.push_back('\0');
+  }
+  return bytes;
 }
 
 // ---------------------------------------------------------------------------------------------
@@ -358,10 +467,22 @@ PartFiles part3_five_axis() {
   const double turns = 10.0;
   const double point_step = 0.5;
   const double retract = 20.0;
+  const double clearance = 80.0;  // along the normal, where the tool axis turns
+  // Start at azimuth 180 deg: from A = C = 0 the inverse kinematics then takes the branch with
+  // A < 0 (the Mikron's A travels -120..+30 deg), which holds the whole 20..60 deg tilt; from
+  // azimuth 0 it took A > 0 and had to flip branch (A to -A, C by 180 deg) on the spot at 30 deg.
+  const double azimuth_first = -0.5 * kPi;
+  // Near-net stock: the dome offset by a finishing allowance (the full 80 x 80 x 40 mm box made
+  // the tilted tool and its shank sweep through uncut material all along the spiral: a collision
+  // on a machine, and minutes of removal). Cap facets at most 0.8 mm long stay within a few um
+  // of the offset sphere, far below the allowance (tests/samples checks it).
+  const double allowance = 0.3;
+  const double stock_max_edge = 0.8;
+  const double stock_base_edge = 8.0;  // the flat base needs no fine facets
 
   const auto normal = [&](double t) {
     const double polar = polar_first + (polar_last - polar_first) * t;
-    const double azimuth = 2.0 * kPi * turns * t;
+    const double azimuth = azimuth_first + 2.0 * kPi * turns * t;
     return Vector3d(std::sin(polar) * std::cos(azimuth), std::sin(polar) * std::sin(azimuth),
                     std::cos(polar));
   };
@@ -373,6 +494,10 @@ PartFiles part3_five_axis() {
   path.from.tip_W_mm = Vector3d(0.0, 0.0, 100.0);
   const std::vector<double> ts = equal_arc_parameters(contact, point_step);
   // Ball-end normal to the surface: the tip is the contact point.
+  // The tool turns from +z to the start orientation far above the dome: rapids move the axes
+  // jointly, so the tip does not go straight in W while A and C turn (from FROM straight to the
+  // approach point it would sweep through the dome), then it comes down the normal.
+  path.rapid({contact(0.0) + clearance * normal(0.0), normal(0.0)});
   path.rapid({contact(0.0) + retract * normal(0.0), normal(0.0)});
   for (double t : ts) path.feed({contact(t), normal(t)});
   path.rapid({contact(1.0) + retract * normal(1.0), normal(1.0)});
@@ -390,11 +515,16 @@ PartFiles part3_five_axis() {
           "40 mm high). Spiral on it from "
           "20 to 60 deg from the pole in 10 turns (pitch about 2.8 mm), polar angle linear in the "
           "azimuth, tip points every 0.5 mm or less, tool axis along the sphere normal (the tip is "
-          "the contact point). Rapid approach and retract 20 mm along the axis.\"\n";
+          "the contact point). Rapid to 80 mm above the start point along the normal (the tool axis "
+          "turns there), rapid approach and retract 20 mm along the axis.\"\n";
   yaml += kMachine;
   yaml += "toolpath: toolpath.apt\n";
-  yaml += "tool: {type: ball, diameter_mm: 10, corner_radius_mm: 5, length_mm: 60}\n";
-  yaml += stock_yaml(Vector3d(-40.0, -40.0, 0.0), Vector3d(40.0, 40.0, 40.0));
+  // The removal sweeps only the ball (cutting_length_mm = D): normal to the convex dome, the
+  // shank stays outside the offset sphere, and a longer body only costs orientation sub-steps.
+  yaml += "tool: {type: ball, diameter_mm: 10, corner_radius_mm: 5, length_mm: 60, cutting_length_mm: 10}\n";
+  yaml += "# Stock: the dome offset by the allowance, closed by the disc z = 0 (cap facets at most " +
+          num(stock_max_edge) + " mm).\n";
+  yaml += "stock: {stl: stock.stl, allowance_mm: " + num(allowance) + "}\n";
   yaml += "design:\n";
   yaml += "  surfaces:\n";
   yaml += "    - {type: sphere, center_mm: " + vec(centre) + ", radius_mm: " + num(sphere_radius) +
@@ -403,7 +533,12 @@ PartFiles part3_five_axis() {
           ", point_step_max_mm: " + num(point_step) + ", tool_axis: surface_normal}\n";
   yaml += feeds_yaml(10000.0, 100.0);
 
-  return {"part3_five_axis", apt_text(path), yaml, summary("part3_five_axis", path, "")};
+  const Mesh stock = dome_mesh(sphere_radius + allowance, stock_max_edge, stock_base_edge);
+  return {"part3_five_axis", apt_text(path), yaml,
+          summary("part3_five_axis", path,
+                  ", stock.stl " + std::to_string(stock.triangles.size()) + " triangles"),
+          binary_stl(stock, "vmsim sample part3_five_axis: near-net stock, dome R" +
+                                num(sphere_radius + allowance) + " mm + disc z = 0, mm")};
 }
 
 // ---------------------------------------------------------------------------------------------
@@ -471,7 +606,7 @@ PartFiles path1_yz() {
           ", point_step_max_mm: " + num(point_step) + ", tool_axis: surface_normal}\n";
   yaml += feeds_yaml(10000.0, 100.0);
 
-  return {"path1_yz", apt_text(path), yaml, summary("path1_yz", path, "")};
+  return {"path1_yz", apt_text(path), yaml, summary("path1_yz", path, ""), ""};
 }
 
 // ---------------------------------------------------------------------------------------------
@@ -593,7 +728,7 @@ PartFiles path2_blade() {
           ", tool_axis: surface_normal}\n";
   yaml += feeds_yaml(10000.0, 100.0);
 
-  return {"path2_blade", apt_text(path), yaml, summary("path2_blade", path, extra)};
+  return {"path2_blade", apt_text(path), yaml, summary("path2_blade", path, extra), ""};
 }
 
 // ---------------------------------------------------------------------------------------------
@@ -615,7 +750,8 @@ void write_file(const std::filesystem::path& path, const std::string& text) {
 int main(int argc, char** argv) {
   if (argc != 2 || std::string(argv[1]) == "-h" || std::string(argv[1]) == "--help") {
     std::cerr << "usage: generate_parts <output folder>   (e.g. generate_parts samples/parts)\n"
-                 "Writes <output folder>/<part>/toolpath.apt and part.yaml for the sample parts.\n";
+                 "Writes <output folder>/<part>/toolpath.apt and part.yaml for the sample parts\n"
+                 "(and stock.stl where a part has a near-net stock).\n";
     return argc == 2 ? 0 : 2;
   }
   try {
@@ -627,6 +763,7 @@ int main(int argc, char** argv) {
       std::filesystem::create_directories(dir);
       write_file(dir / "toolpath.apt", part.apt);
       write_file(dir / "part.yaml", part.yaml);
+      if (!part.stock_stl.empty()) write_file(dir / "stock.stl", part.stock_stl);
       std::cout << part.summary << '\n';
     }
   } catch (const std::exception& error) {

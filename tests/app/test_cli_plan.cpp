@@ -267,8 +267,8 @@ TEST(CliPlan, BadInputExitsWithItsCodeAndWritesNothing) {
       {"plan --part " + kRoot + "/samples/parts/no_such_part.yaml" + common, 2, "no_such_part.yaml"},
       {"plan --machine " + kMikron + " --toolpath /nonexistent.apt --tool-length-mm 60" + common, 2, "nonexistent.apt"},
       // bad method / limits / feed / tolerance values
-      {"plan --part " + kPart + " --method fast" + common, 3, "'fast'"},
-      {"plan --part " + kPart + " --feed-mm-per-min -5" + common, 3, "-5"},
+      {"plan --part " + kPart + " --method fast" + common, 2, "'fast'"},
+      {"plan --part " + kPart + " --feed-mm-per-min -5" + common, 2, "-5"},
       {"plan --part " + kPart + " --feed-mm-per-min fast" + common, 2, "fast"},
       {"plan --part " + kPart + " --corner-tolerance-mm -0.1" + common, 2, "-0.1"},
       {"plan --part " + kPart + " --corner-tolerance-mm 0.1 --exact-stop" + common, 2, "exact-stop"},

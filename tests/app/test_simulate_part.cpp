@@ -5,14 +5,21 @@
 //  - the reference-feed surface matches the commanded tool path's surface.
 #include <gtest/gtest.h>
 
+#include <array>
 #include <cstdlib>
 #include <fstream>
 #include <sstream>
 
+#include <numbers>
+
+#include "chain_inputs.hpp"
 #include "cli_runner.hpp"
 #include "effects_option.hpp"
+#include "part_file.hpp"
 #include "simulate_part.hpp"
+#include "vmsim/common/errors.hpp"
 #include "vmsim/common/files.hpp"
+#include "vmsim/removal/nbuffer.hpp"
 #include "vmsim/viz/display.hpp"
 #include "vmsim/viz/image_compare.hpp"
 
@@ -22,8 +29,9 @@ namespace {
 const std::string kRoot = VMSIM_SOURCE_DIR;
 
 // Writes a part file with the first `passes` passes of sample part 1 and a stock strip around
-// them; returns its path.
-std::string small_part(const std::filesystem::path& folder, int passes) {
+// them (the box, or `stock_line` in its place); returns its path.
+std::string small_part(const std::filesystem::path& folder, int passes,
+                       const std::string& stock_line = "stock: {box: {min_mm: [-12, -5, 0], max_mm: [16, -4.5, 40]}}") {
   std::istringstream apt(read_file(kRoot + "/samples/parts/part1_tangency/toolpath.apt"));
   std::ostringstream out;
   int rapids = 0;
@@ -39,7 +47,7 @@ std::string small_part(const std::filesystem::path& folder, int passes) {
          "machine: " << kRoot << "/samples/machines/mikron_ucp710.yaml\n"
          "toolpath: toolpath.apt\n"
          "tool: {type: ball, diameter_mm: 10, corner_radius_mm: 5, length_mm: 60}\n"
-         "stock: {box: {min_mm: [-12, -5, 0], max_mm: [16, -4.5, 40]}}\n"
+         << stock_line << "\n"
          "feeds: {production_mm_per_min: 10000, reference_mm_per_min: 100}\n";
   return (folder / "part.yaml").string();
 }
@@ -103,6 +111,210 @@ TEST(SimulatePart, TheReferenceRunMatchesTheCommandedSurface) {
   // Every stage was timed.
   EXPECT_GT(report["stage_seconds"]["total"].get<double>(), 0.0);
   EXPECT_TRUE(report["stage_seconds"]["production"].contains("servo"));
+}
+
+// The box [-12, 16] x [-5, -4.5] x [0, 40] mm of small_part as an ASCII STL: 12 outward
+// triangles, `facets` of them written (fewer: an open mesh).
+std::string box_stl(int facets = 12) {
+  const double lo[3] = {-12, -5, 0}, hi[3] = {16, -4.5, 40};
+  std::ostringstream stl;
+  stl << "solid box\n";
+  int written = 0;
+  for (int axis = 0; axis < 3; ++axis) {
+    const int u = (axis + 1) % 3, v = (axis + 2) % 3;
+    for (int side = 0; side < 2; ++side) {
+      // Corners of the face in (u, v) order, counter-clockwise seen from outside.
+      double corner[4][3];
+      const int order[4][2] = {{0, 0}, {1, 0}, {1, 1}, {0, 1}};
+      for (int c = 0; c < 4; ++c) {
+        const int cu = side ? order[c][0] : order[3 - c][0], cv = side ? order[c][1] : order[3 - c][1];
+        corner[c][axis] = side ? hi[axis] : lo[axis];
+        corner[c][u] = cu ? hi[u] : lo[u];
+        corner[c][v] = cv ? hi[v] : lo[v];
+      }
+      for (const auto& triangle : {std::array<int, 3>{0, 1, 2}, std::array<int, 3>{0, 2, 3}}) {
+        if (written++ >= facets) continue;
+        stl << " facet normal 0 0 0\n  outer loop\n";
+        for (int c : triangle) stl << "   vertex " << corner[c][0] << " " << corner[c][1] << " " << corner[c][2] << "\n";
+        stl << "  endloop\n endfacet\n";
+      }
+    }
+  }
+  stl << "endsolid box\n";
+  return stl.str();
+}
+
+// The same part with its stock box given as a closed STL: the same grid and, inside the box,
+// identical lines, so identical surfaces and the same mark (here a planted deviation).
+TEST(SimulatePart, AnStlStockOfTheBoxGivesTheBoxResultLineByLine) {
+  const auto box_folder = test::fresh_folder("simulate_stock_box");
+  const auto stl_folder = test::fresh_folder("simulate_stock_stl");
+  std::ofstream(stl_folder / "stock.stl") << box_stl();
+  nlohmann::json reports[2];
+  for (int k = 0; k < 2; ++k) {
+    const auto& folder = k == 0 ? box_folder : stl_folder;
+    app::SimulatePartOptions options = options_for(folder);
+    if (k == 1) options.part_path = small_part(folder, 3, "stock: {stl: stock.stl}");
+    options.perfect_drives = true;
+    options.commanded_check = false;
+    options.production_disturbance = [](double, Eigen::VectorXd& q) {
+      if (q[0] >= -6e-3 && q[0] <= -4e-3 && std::abs(q[1] + 4.75e-3) < 1e-6) q[2] -= 20e-6;
+    };
+    reports[k] = app::simulate_part(options, kSilent);
+  }
+  EXPECT_EQ(reports[1]["stock"]["triangles"], 12);
+  EXPECT_EQ(reports[0]["stock"]["min_mm"], reports[1]["stock"]["min_mm"]);
+  EXPECT_EQ(reports[0]["stock"]["max_mm"], reports[1]["stock"]["max_mm"]);
+  // Lines inside the box: bit for bit the same lengths. Lines on the mesh's side faces (the
+  // grid's first and last rows and columns) may count as outside the mesh (length 0).
+  const auto nu = reports[0]["surface"]["nx"].get<int>(), nv = reports[0]["surface"]["ny"].get<int>();
+  EXPECT_LE(reports[1]["stock"]["zmap_lines_outside_the_mesh"].get<int>(), 2 * (nu + nv));
+  for (const char* file : {"production_heights.bin", "reference_heights.bin"}) {
+    const std::string box = read_file((box_folder / "out" / file).string());
+    const std::string stl = read_file((stl_folder / "out" / file).string());
+    ASSERT_EQ(box.size(), stl.size()) << file;
+    ASSERT_EQ(box.compare(0, 52, stl, 0, 52), 0) << file << ": the same grid";
+    std::size_t inside = 0, different = 0;
+    for (int j = 1; j + 1 < nv; ++j) {
+      for (int i = 1; i + 1 < nu; ++i) {
+        const std::size_t at = 52 + 8 * (static_cast<std::size_t>(i) + static_cast<std::size_t>(nu) * static_cast<std::size_t>(j));
+        ++inside;
+        different += box.compare(at, 8, stl, at, 8) != 0;
+      }
+    }
+    EXPECT_GT(inside, 10000u);
+    EXPECT_EQ(different, 0u) << file;
+  }
+  ASSERT_EQ(reports[0]["marks"].size(), 1u);
+  ASSERT_EQ(reports[1]["marks"].size(), 1u);
+  EXPECT_EQ(reports[1]["marks"][0]["depth_um"], reports[0]["marks"][0]["depth_um"]);
+  EXPECT_EQ(reports[1]["marks"][0]["deepest_point_mm"], reports[0]["marks"][0]["deepest_point_mm"]);
+  EXPECT_NEAR(reports[1]["marks"][0]["depth_um"].get<double>(), 20.0, 0.5);
+}
+
+// A stock STL that is not there, or not a closed mesh: an error naming the part file, the line
+// of `stock` and the STL's problem, exit code 3 (bad input file), and no output folder.
+TEST(SimulatePart, AMissingOrOpenStockStlIsALocatedErrorAndWritesNothing) {
+  const auto folder = test::fresh_folder("simulate_stock_bad");
+  std::ofstream(folder / "open.stl") << box_stl(11);
+  for (const std::string stl : {"missing.stl", "open.stl"}) {
+    SCOPED_TRACE(stl);
+    app::SimulatePartOptions options = options_for(folder);
+    const std::string part = small_part(folder, 1, "stock: {stl: " + stl + "}");
+    options.part_path = part;
+    const auto out = folder / "out";
+    try {
+      app::simulate_part(options, kSilent);
+      ADD_FAILURE() << "no error";
+    } catch (const InputError& error) {
+      const std::string message = error.what();
+      EXPECT_NE(message.find(part + ":6:"), std::string::npos) << message;  // line 6: stock
+      EXPECT_NE(message.find("stock.stl"), std::string::npos) << message;
+      EXPECT_NE(message.find(stl), std::string::npos) << message;
+    }
+    EXPECT_FALSE(std::filesystem::exists(out));
+    const test::RunResult run =
+        test::run_vmsim("-q simulate-part --part " + part + " --out " + out.string() + " --no-renders");
+    EXPECT_EQ(run.exit_code, 3) << run.output;
+    EXPECT_NE(run.output.find("part.yaml:6:"), std::string::npos) << run.output;
+    EXPECT_FALSE(std::filesystem::exists(out));
+  }
+}
+
+// Sample part 3 sweeps only the ball (cutting_length_mm = D): on its near-net stock, the
+// commanded poses where the tilt is largest (about 60 deg, where the shank leans lowest) cut
+// the same lines as a tool 30 mm long (its shank and the orientation sub-steps it brings).
+TEST(SimulatePart, Part3BallOnlyCutsAsTheLongerToolOnItsNearNetStock) {
+  const app::PartDescription part = app::load_part(kRoot + "/samples/parts/part3_five_axis/part.yaml");
+  ASSERT_TRUE(part.stock_mesh.has_value());
+  EXPECT_DOUBLE_EQ(part.tool.cutting_length_m, part.tool.diameter_m);
+  app::ChainInputOptions chain;
+  chain.part_path = kRoot + "/samples/parts/part3_five_axis/part.yaml";
+  const app::ChainInputs inputs = app::load_chain_inputs(chain);
+  std::vector<removal::Pose> poses;
+  for (std::size_t i = inputs.path.size() - 40; i + 2 < inputs.path.size(); ++i) {
+    poses.push_back({inputs.path[i].pose.tip_W_m, inputs.path[i].pose.axis_W});
+  }
+  ASSERT_GT(std::acos(poses.back().axis_W.z()), 59.0 * std::numbers::pi / 180.0);
+  const removal::NBuffer stock = removal::NBuffer::zmap(*part.stock_mesh, 100e-6);
+  removal::Tool tool;
+  tool.type = removal::ToolType::ball;
+  tool.diameter_m = part.tool.diameter_m;
+  tool.corner_radius_m = part.tool.corner_radius_m;
+  removal::CutOptions options;
+  options.orientation_tolerance_m = 0.5e-6;  // fewer sub-steps: the shank must not cut at all
+  std::vector<double> lengths[2];
+  std::size_t sub_segments[2] = {0, 0};
+  for (int k = 0; k < 2; ++k) {
+    tool.length_m = k == 0 ? part.tool.cutting_length_m : 30e-3;
+    removal::NBuffer buffer = stock;
+    sub_segments[k] = buffer.cut(tool, poses, options).sub_segments;
+    lengths[k] = buffer.lengths();
+  }
+  EXPECT_GT(sub_segments[1], 10 * sub_segments[0]) << "the long tool is sub-stepped";
+  std::size_t cut = 0;
+  double largest = 0.0;
+  const std::vector<double> uncut = stock.lengths();
+  for (std::size_t i = 0; i < uncut.size(); ++i) {
+    cut += lengths[0][i] < uncut[i] - 1e-6;
+    largest = std::max(largest, std::abs(lengths[1][i] - lengths[0][i]));
+  }
+  EXPECT_GT(cut, 1000u);
+  EXPECT_LT(largest, 1e-9);
+}
+
+// The start of sample part 3 (ball-end normal to the dome, tilt 20 deg, the part's near-net
+// stock) with perfect drives and Z 20 um lower while C is between -60 and -40 deg. The tool
+// axis is the machine's Z and the dome's normal there: the sphere view (lines along the
+// normals) sees a 20 um gouge, the Z-map the same gouge through the slope of the groove (at
+// least 1 / cos(20 deg)).
+TEST(SimulatePart, APlantedDeviationOnTheDomeIsItsDepthAlongTheNormalOnTheSphereView) {
+  const auto folder = test::fresh_folder("simulate_dome");
+  std::istringstream apt(read_file(kRoot + "/samples/parts/part3_five_axis/toolpath.apt"));
+  std::ostringstream out;
+  int gotos = 0;
+  for (std::string line; std::getline(apt, line) && gotos < 90;) {
+    out << line << '\n';
+    gotos += line.rfind("GOTO/", 0) == 0;
+  }
+  out << "FINI\n";
+  std::ofstream(folder / "toolpath.apt") << out.str();
+  std::ofstream(folder / "part.yaml")
+      << "name: dome_start\ndescription: the first 90 moves of sample part 3\n"
+         "machine: " << kRoot << "/samples/machines/mikron_ucp710.yaml\n"
+         "toolpath: toolpath.apt\n"
+         "tool: {type: ball, diameter_mm: 10, corner_radius_mm: 5, length_mm: 60, cutting_length_mm: 10}\n"
+         "stock: {stl: " << kRoot << "/samples/parts/part3_five_axis/stock.stl}\n"
+         "design: {surfaces: [{type: sphere, center_mm: [0, 0, 0], radius_mm: 40, material: inside}]}\n"
+         "feeds: {production_mm_per_min: 10000, reference_mm_per_min: 100}\n";
+  app::SimulatePartOptions options;
+  options.part_path = (folder / "part.yaml").string();
+  options.out_dir = (folder / "out").string();
+  options.grid_m = 50e-6;
+  options.renders = false;
+  options.commanded_check = false;
+  options.perfect_drives = true;
+  constexpr double kDegree = std::numbers::pi / 180.0;
+  options.production_disturbance = [](double, Eigen::VectorXd& q) {
+    if (q[4] >= -60 * kDegree && q[4] <= -40 * kDegree) q[2] -= 20e-6;
+  };
+  const nlohmann::json report = app::simulate_part(options, kSilent);
+  const auto& views = report["surface"]["views"];
+  ASSERT_EQ(views.size(), 2u) << views.dump(2);
+  EXPECT_EQ(views[1]["id"], "sphere1");
+  double depth[2] = {0.0, 0.0};
+  for (const auto& mark : report["marks"]) {
+    const int v = mark["view"] == "zmap" ? 0 : 1;
+    EXPECT_EQ(mark["responsible_axes"][0], "Z");
+    depth[v] = std::max(depth[v], mark["depth_um"].get<double>());
+  }
+  EXPECT_NEAR(depth[1], 20.0, 0.5) << report["marks"].dump(2);
+  // Z-map: a shift d along n0 moves a surface point of normal m by d (m.n0) / (m.z) along z:
+  // d / cos(20 deg) at the contact, most on the groove's lower flank, where the ball (centre at
+  // 45 mm from the dome's) meets the stock (40.3 mm): m is gamma from n0 towards the equator.
+  const double gamma = std::acos((45.0 * 45.0 + 5.0 * 5.0 - 40.3 * 40.3) / (2 * 45.0 * 5.0));
+  EXPECT_GT(depth[0], 20.0 / std::cos(20 * kDegree) - 0.5) << report["marks"].dump(2);
+  EXPECT_LT(depth[0], 20.0 * std::cos(gamma) / std::cos(20 * kDegree + gamma) + 0.5) << report["marks"].dump(2);
 }
 
 // The first paper's finding, through the whole chain: with the tuned (equivalent) torque limits of

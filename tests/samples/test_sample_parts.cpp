@@ -9,7 +9,11 @@
 #include <Eigen/Dense>
 
 #include <algorithm>
+#include <array>
 #include <cmath>
+#include <cstdint>
+#include <cstring>
+#include <iostream>
 #include <cstdlib>
 #include <filesystem>
 #include <fstream>
@@ -207,8 +211,11 @@ TEST(SampleParts, GeneratorReproducesCheckedInFilesByteForByte) {
   const std::string command =
       std::string("\"") + VMSIM_GENERATE_PARTS + "\" \"" + out.string() + "\" > /dev/null";
   ASSERT_EQ(std::system(command.c_str()), 0) << command;
+  int expected_files = 0;
   for (const std::string& name : kParts) {
-    for (const char* file : {"toolpath.apt", "part.yaml"}) {
+    for (const char* file : {"toolpath.apt", "part.yaml", "stock.stl"}) {
+      if (std::string(file) == "stock.stl" && !fs::exists(kPartsDir / name / file)) continue;
+      ++expected_files;
       const std::string generated = read_text(out / name / file);
       const std::string checked_in = read_text(kPartsDir / name / file);
       EXPECT_FALSE(generated.empty()) << name << "/" << file;
@@ -220,7 +227,7 @@ TEST(SampleParts, GeneratorReproducesCheckedInFilesByteForByte) {
   // Nothing else is written (no temporary file left behind).
   int files = 0;
   for (const auto& entry : fs::recursive_directory_iterator(out)) files += entry.is_regular_file();
-  EXPECT_EQ(files, 2 * static_cast<int>(kParts.size()));
+  EXPECT_EQ(files, expected_files);
   fs::remove_all(out);
 }
 
@@ -235,10 +242,15 @@ TEST(SampleParts, EveryPartIsWellFormed) {
     EXPECT_EQ(y["toolpath"].as<std::string>(), "toolpath.apt");
     EXPECT_GT(y["feeds"]["production_mm_per_min"].as<double>(),
               y["feeds"]["reference_mm_per_min"].as<double>());
-    const Vector3d low = vec3(y["stock"]["box"]["min_mm"]);
-    const Vector3d high = vec3(y["stock"]["box"]["max_mm"]);
-    EXPECT_TRUE((low.array() < high.array()).all());
-    EXPECT_GE(low.z(), 0.0);
+    if (y["stock"]["stl"]) {  // a near-net stock beside the part file (checked below for part 3)
+      EXPECT_TRUE(fs::is_regular_file(kPartsDir / name / y["stock"]["stl"].as<std::string>()));
+      EXPECT_GT(y["stock"]["allowance_mm"].as<double>(), 0.0);
+    } else {
+      const Vector3d low = vec3(y["stock"]["box"]["min_mm"]);
+      const Vector3d high = vec3(y["stock"]["box"]["max_mm"]);
+      EXPECT_TRUE((low.array() < high.array()).all());
+      EXPECT_GE(low.z(), 0.0);
+    }
     ASSERT_TRUE(y["design"]["surfaces"].IsSequence());
 
     // The APT header and the tool agree with part.yaml.
@@ -416,6 +428,88 @@ TEST(SampleParts, Part3BallCentresAtTheRadiusFromTheDomeWithTheToolNormal) {
   EXPECT_NEAR(tilt_min, 20.0, 1e-3);
   EXPECT_NEAR(tilt_max, 60.0, 1e-3);
   EXPECT_NEAR(std::abs(azimuth_turned) / kDegree, 3600.0, 1e-3);
+}
+
+// Part 3's near-net stock (stock.stl), read here by a few lines of binary STL: closed and
+// consistently oriented outwards, and everywhere between the design sphere offset by the
+// allowance and that offset sphere less a small chord error (the facets lie inside the sphere
+// through their corners), closed by the disc z = 0 that the dome stands on.
+TEST(SampleParts, Part3StockIsAClosedDomeWithinTheAllowanceOfTheDesignSphere) {
+  const Part part = load("part3_five_axis");
+  const YAML::Node sphere = part.yaml["design"]["surfaces"][0];
+  ASSERT_EQ(sphere["type"].as<std::string>(), "sphere");
+  const Vector3d centre = vec3(sphere["center_mm"]);
+  const double allowance = part.yaml["stock"]["allowance_mm"].as<double>();
+  const double offset_radius = sphere["radius_mm"].as<double>() + allowance;
+  const std::string bytes =
+      read_text(kPartsDir / "part3_five_axis" / part.yaml["stock"]["stl"].as<std::string>());
+  ASSERT_GE(bytes.size(), 84u);
+  std::uint32_t count = 0;
+  std::memcpy(&count, bytes.data() + 80, 4);
+  ASSERT_EQ(bytes.size(), 84u + 50u * count) << "binary STL of " << count << " triangles";
+  auto read_float = [&](std::size_t offset) {
+    float value = 0.0f;
+    std::memcpy(&value, bytes.data() + offset, 4);
+    return static_cast<double>(value);
+  };
+
+  // Weld bit-equal corners; every directed edge once, its reverse once (closed, oriented).
+  std::map<std::array<double, 3>, int> index;
+  std::map<std::pair<int, int>, int> directed;
+  std::vector<std::array<Vector3d, 3>> triangles;
+  double volume = 0.0;
+  for (std::uint32_t t = 0; t < count; ++t) {
+    const std::size_t at = 84u + 50u * t;
+    const Vector3d stored_normal(read_float(at), read_float(at + 4), read_float(at + 8));
+    std::array<Vector3d, 3> corner;
+    std::array<int, 3> id{};
+    for (int c = 0; c < 3; ++c) {
+      const std::size_t offset = at + 12u + 12u * static_cast<std::size_t>(c);
+      corner[c] = Vector3d(read_float(offset), read_float(offset + 4), read_float(offset + 8));
+      id[c] = index.emplace(std::array<double, 3>{corner[c].x(), corner[c].y(), corner[c].z()},
+                            static_cast<int>(index.size()))
+                  .first->second;
+    }
+    const Vector3d normal = (corner[1] - corner[0]).cross(corner[2] - corner[0]);
+    ASSERT_GT(normal.norm(), 0.0) << "triangle " << t << " is degenerate";
+    EXPECT_GT(normal.normalized().dot(stored_normal), 0.999) << "triangle " << t;
+    for (int c = 0; c < 3; ++c) ++directed[{id[c], id[(c + 1) % 3]}];
+    volume += corner[0].dot(corner[1].cross(corner[2])) / 6.0;
+    triangles.push_back(corner);
+  }
+  for (const auto& [edge, uses] : directed) {
+    ASSERT_EQ(uses, 1) << "edge " << edge.first << "-" << edge.second << " used " << uses << " times";
+    ASSERT_EQ(directed.count({edge.second, edge.first}), 1u) << "open edge " << edge.first << "-" << edge.second;
+  }
+  const double half_ball = 2.0 / 3.0 * std::numbers::pi * std::pow(offset_radius, 3);
+  EXPECT_GT(volume, 0.0) << "outward normals";
+  EXPECT_NEAR(volume / half_ball, 1.0, 1e-3);
+
+  // Points of every facet (corners, edges and inside): on the base disc, or between the offset
+  // sphere less the chord error and the offset sphere; never below the design surface.
+  constexpr double kChordTolerance_mm = 0.01;  // 3 % of the allowance
+  constexpr double kFloat_mm = 2e-5;           // float coordinates of about 40 mm
+  double chord_error = 0.0;
+  double lowest_z = std::numeric_limits<double>::infinity();
+  double highest_z = -lowest_z;
+  for (const auto& corner : triangles) {
+    const bool base = std::max({std::abs(corner[0].z()), std::abs(corner[1].z()), std::abs(corner[2].z())}) == 0.0;
+    for (int i = 0; i <= 8; ++i) {
+      for (int j = 0; i + j <= 8; ++j) {
+        const Vector3d p = corner[0] + (corner[1] - corner[0]) * (i / 8.0) + (corner[2] - corner[0]) * (j / 8.0);
+        const double r = (p - centre).norm();
+        lowest_z = std::min(lowest_z, p.z());
+        highest_z = std::max(highest_z, p.z());
+        EXPECT_LE(r, offset_radius + kFloat_mm);
+        if (!base) chord_error = std::max(chord_error, offset_radius - r);
+      }
+    }
+  }
+  EXPECT_LT(chord_error, kChordTolerance_mm) << "the facets stay within the allowance";
+  EXPECT_GT(offset_radius - chord_error, offset_radius - allowance) << "the stock covers the design";
+  EXPECT_EQ(lowest_z, 0.0);
+  EXPECT_NEAR(highest_z, centre.z() + offset_radius, kFloat_mm);
+  std::cout << "stock.stl: " << count << " triangles, chord error " << chord_error * 1e3 << " um\n";
 }
 
 TEST(SampleParts, Path1IsInTheYzPlaneAbout100MmLongWithTheToolNormal) {
