@@ -25,6 +25,14 @@ constexpr int kMaxOuterIterations = 40;
 constexpr int kMaxLazyRounds = 60;
 /// Outer iterations stop when the objective improves by less than this (relative).
 constexpr double kConvergence = 1e-7;
+/// Nodes (grid points with columns) per time scale of the acceleration (limit / third-order
+/// limit) along the second-order profile, and the longest node span in grid segments.
+constexpr double kNodesPerRamp = 8.0;
+constexpr std::size_t kMaxSegmentsPerNode = 32;
+/// The largest relative change of the second-order sd over a node span. A jerk ramp from rest
+/// has u ~ s^(1/3): a chord of u over a span is held by the jerk row at its fastest end, so
+/// long spans where sd grows fast cost time (0.2 % on a straight line with time spacing alone).
+constexpr double kMaxSpeedChangePerNode = 0.01;
 
 /// The constant-jerk motion from rest (or to rest) at the ends of a stretch: s = j t^3 / 6 from
 /// the stop, so x = alpha z and u = dir beta z with z = j^(2/3), alpha = (6 d)^(4/3) / 4,
@@ -70,11 +78,18 @@ void append_row(const HalfRow& h, std::vector<int>& indices, std::vector<double>
   row_hi.push_back(h.hi);
 }
 
+/// A linear form in at most three columns (x or u at a grid point in terms of the node columns).
+struct Form {
+  int n = 0;
+  int col[3] = {0, 0, 0};
+  double coef[3] = {0, 0, 0};
+};
+
 class ThirdOrderLp {
  public:
   ThirdOrderLp(const Problem& p, const std::vector<std::pair<std::size_t, std::size_t>>& stretches,
                const std::vector<double>& x_upper)
-      : p_(p), x_upper_(x_upper), points_(p.s.size()), per_(6 * p.n2 + 4 * p.n3) {
+      : p_(p), x_upper_(x_upper), points_(p.s.size()), per_(6 * p.n2 + 4 * p.n3 + 2) {
     regular_.assign(p.segments(), 1);
     for (const auto& [k0, k1] : stretches) {
       const std::size_t n = k1 - k0;
@@ -85,21 +100,31 @@ class ThirdOrderLp {
     for (const Block& b : blocks_) {
       for (std::size_t i = 0; i < b.m; ++i) regular_[b.dir > 0 ? b.stop + i : b.stop - i - 1] = 0;
     }
+    choose_nodes();
   }
 
   bool solve(ThirdOrderProfile& out) {
     const std::size_t segments = p_.segments();
+    const std::size_t nodes = nodes_.size();
+    xn_.assign(nodes, 0.0);
+    un_.assign(nodes, 0.0);
+    z_.assign(blocks_.size(), 0.0);
     x_.assign(points_, 0.0);
     u_.assign(points_, 0.0);
     // The first linearisation point: the second-order profile (above every third-order one).
     lin_ = x_upper_;
     active_.assign(segments * per_, 0);
-    active_list_.clear();
     seed_active_rows();
-    double previous = -1.0;
+    // Sequential linear programming on the time itself: each programme maximises the first-order
+    // gain in T = sum ds / sd at the current iterate (weights ds / x^(3/2); the first at the
+    // second-order profile), then a line search on T between the previous iterate and the new
+    // one (both satisfy every row of this programme, whose feasible set is convex, so each point
+    // between them does: the iterates stay feasible and T decreases monotonically).
+    weight_x_ = x_upper_;
+    double time_now = kInf;
     bool solved = false;
     for (int outer = 0; outer < kMaxOuterIterations; ++outer) {
-      std::vector<double> x_keep = x_, u_keep = u_, z_keep = z_;
+      const std::vector<double> xn_keep = xn_, un_keep = un_, z_keep = z_;
       build();
       bool ok = run_lp(out.iterations);
       for (int round = 0; ok && round < kMaxLazyRounds; ++round) {
@@ -108,14 +133,32 @@ class ThirdOrderLp {
       }
       if (!ok) {
         if (!solved) return false;
-        x_ = x_keep, u_ = u_keep, z_ = z_keep;
+        xn_ = xn_keep, un_ = un_keep, z_ = z_keep;
+        expand();
         break;
       }
+      double time_new = estimated_time();
+      if (solved) {
+        const std::vector<double> xn_new = xn_, un_new = un_, z_new = z_;
+        double best_lambda = 1.0;
+        for (double lambda = 0.5; lambda > 0.06; lambda *= 0.5) {
+          blend(xn_keep, un_keep, z_keep, xn_new, un_new, z_new, lambda);
+          const double t = estimated_time();
+          if (t < time_new) time_new = t, best_lambda = lambda;
+        }
+        blend(xn_keep, un_keep, z_keep, xn_new, un_new, z_new, best_lambda);
+        if (!(time_new < time_now)) {  // no gain: keep the previous iterate
+          xn_ = xn_keep, un_ = un_keep, z_ = z_keep;
+          expand();
+          break;
+        }
+      }
       solved = true;
-      const double objective = objective_value();
+      const bool converged = time_now - time_new <= kConvergence * time_new;
+      time_now = time_new;
       for (std::size_t i = 0; i < points_; ++i) lin_[i] = linearisation_point(i);
-      if (outer > 0 && objective - previous <= kConvergence * std::abs(objective)) break;
-      previous = objective;
+      weight_x_ = x_;
+      if (converged) break;
     }
     out.x = x_;
     out.u = u_;
@@ -135,10 +178,81 @@ class ThirdOrderLp {
   }
 
  private:
-  int col_x(std::size_t i) const { return static_cast<int>(i); }
-  int col_u(std::size_t i) const { return static_cast<int>(points_ + i); }
-  int col_z(std::size_t b) const { return static_cast<int>(2 * points_ + b); }
-  int columns() const { return static_cast<int>(2 * points_ + blocks_.size()); }
+  int col_x(std::size_t c) const { return static_cast<int>(c); }
+  int col_u(std::size_t c) const { return static_cast<int>(nodes_.size() + c); }
+  int col_z(std::size_t b) const { return static_cast<int>(2 * nodes_.size() + b); }
+  int columns() const { return static_cast<int>(2 * nodes_.size() + blocks_.size()); }
+
+  /// The nodes: the grid points at which x and u are columns; u is linear in s between them
+  /// (x quadratic), and every row is still imposed at every grid point. Fewer columns make the
+  /// simplex far cheaper; the spacing follows the time scale on which the acceleration can
+  /// change (limit / third-order limit of each axis) along the second-order profile, so that
+  /// the jerk ramps keep several nodes. Every block point is a node.
+  void choose_nodes() {
+    double tau = kInf;
+    for (std::size_t r3 = 0; r3 < p_.n3; ++r3) {
+      const Row3& a = p_.r3.empty() ? Row3{} : p_.r3[r3];
+      for (std::size_t r2 = 0; r2 < p_.n2; ++r2) {
+        const Row2& b = p_.r2[r2];
+        if (b.axis == a.axis && a.L > 0.0) tau = std::min(tau, b.L / a.L);
+      }
+    }
+    const double step_t = tau / kNodesPerRamp;
+    nodes_.assign(1, 0);
+    double elapsed = 0.0;
+    std::size_t count = 0;
+    const std::size_t segments = p_.segments();
+    double sd_first = 0.0;  // the second-order sd at the node span's start
+    for (std::size_t k = 0; k < segments; ++k) {
+      const double den = std::sqrt(std::max(x_upper_[k], 0.0)) + std::sqrt(std::max(x_upper_[k + 1], 0.0));
+      elapsed += den > 0.0 ? 2.0 * p_.delta(k) / den : kInf;
+      ++count;
+      const bool block_edge = !regular_[k] || (k + 1 < segments && !regular_[k + 1]);
+      const double sd_next = std::sqrt(std::max(x_upper_[k + 1], 0.0));
+      const bool speed_change = std::abs(sd_next - sd_first) > kMaxSpeedChangePerNode * std::max(sd_next, sd_first);
+      if (block_edge || k + 1 == segments || elapsed >= step_t || count >= kMaxSegmentsPerNode ||
+          speed_change) {
+        nodes_.push_back(k + 1);
+        elapsed = 0.0;
+        count = 0;
+        sd_first = sd_next;
+      }
+    }
+    node_of_segment_.resize(segments);
+    node_of_point_.assign(points_, -1);
+    for (std::size_t c = 0; c + 1 < nodes_.size(); ++c) {
+      node_of_point_[nodes_[c]] = static_cast<long>(c);
+      for (std::size_t k = nodes_[c]; k < nodes_[c + 1]; ++k) node_of_segment_[k] = c;
+    }
+    node_of_point_[nodes_.back()] = static_cast<long>(nodes_.size() - 1);
+  }
+
+  /// x and u at s within node segment c (sigma from its start) as linear forms.
+  void forms_at(std::size_t c, double sigma, Form& x, Form& u) const {
+    const double span = p_.s[nodes_[c + 1]] - p_.s[nodes_[c]];
+    const double lambda = sigma / span;
+    x = Form{3, {col_x(c), col_u(c), col_u(c + 1)}, {1.0, sigma * (2.0 - lambda), sigma * lambda}};
+    u = Form{2, {col_u(c), col_u(c + 1), 0}, {1.0 - lambda, lambda, 0.0}};
+  }
+
+  double form_value(const Form& f) const {
+    double sum = 0.0;
+    for (int i = 0; i < f.n; ++i) sum += f.coef[i] * value(f.col[i]);
+    return sum;
+  }
+
+  /// x and u at every grid point from the node solution.
+  void expand() {
+    Form fx, fu;
+    for (std::size_t k = 0; k < p_.segments(); ++k) {
+      const std::size_t c = node_of_segment_[k];
+      forms_at(c, p_.s[k] - p_.s[nodes_[c]], fx, fu);
+      x_[k] = std::max(form_value(fx), 0.0);
+      u_[k] = form_value(fu);
+    }
+    x_[points_ - 1] = std::max(xn_.back(), 0.0);
+    u_[points_ - 1] = un_.back();
+  }
 
   double linearisation_point(std::size_t i) const {
     return std::max(x_[i], 1e-9 * x_upper_[i]);
@@ -206,13 +320,19 @@ class ThirdOrderLp {
     return b;
   }
 
-  /// Half-row `slot` of regular segment k under the current linearisation (see the slot order
-  /// in the constructor: 2nd-order ends, 2nd-order middle, 3rd-order ends; two sides each).
+  /// Half-row `slot` of regular grid segment k under the current linearisation. Slot order:
+  /// 2nd-order ends, 2nd-order middle, 3rd-order ends (two sides each), then 0 <= x <= x_upper
+  /// at the right end when it is not a node.
   void half_row(std::size_t k, std::size_t slot, HalfRow& h) const {
     h = HalfRow{};
-    const double delta = p_.delta(k);
     const int side = static_cast<int>(slot % 2);  // 0: upper bound, 1: lower bound
     const std::size_t n2 = p_.n2;
+    const std::size_t c = node_of_segment_[k];
+    const double base = p_.s[nodes_[c]];
+    Form fx, fu;
+    auto add = [&](const Form& f, double scale) {
+      for (int i = 0; i < f.n; ++i) h.add(f.col[i], scale * f.coef[i]);
+    };
     // sqrt(x) bounded linearly: above by its tangent at q, below by its chord on [0, x_max].
     auto sqrt_bound = [](bool above, double q, double x_max, double& slope, double& intercept) {
       if (above) {
@@ -231,24 +351,28 @@ class ThirdOrderLp {
       const Row2& row = middle ? p_.rows2mid(k)[r] : p_.rows2(k, end)[r];
       const std::size_t i = k + static_cast<std::size_t>(end);
       double q = lin_[i], x_max = x_upper_[i];
+      double s_at = p_.s[i];
       if (middle) {
         q = 0.5 * (lin_[k] + lin_[k + 1]);
         x_max = 1.5 * std::max(x_upper_[k], x_upper_[k + 1]);
+        s_at = 0.5 * (p_.s[k] + p_.s[k + 1]);
       }
       double slope = 0.0, intercept = 0.0;
       if (row.D != 0.0) sqrt_bound((row.D > 0.0) == (side == 0), q, x_max, slope, intercept);
-      const double B = (row.B + row.D * slope) / row.L;
-      const double A = row.A / row.L;
+      forms_at(c, s_at - base, fx, fu);
+      add(fx, (row.B + row.D * slope) / row.L);
+      add(fu, row.A / row.L);
       const double constant = (row.C + row.E + row.D * intercept) / row.L;
-      if (middle) {  // x = x_k + (3 u_k + u_k+1) delta / 4, u = (u_k + u_k+1) / 2
-        h.add(col_x(k), B);
-        h.add(col_u(k), 0.5 * A + 0.75 * delta * B);
-        h.add(col_u(k + 1), 0.5 * A + 0.25 * delta * B);
-      } else {
-        h.add(col_x(i), B);
-        h.add(col_u(i), A);
-      }
       if (side == 0) h.hi = 1.0 - constant; else h.lo = -1.0 - constant;
+      return;
+    }
+    if (slot >= 6 * n2 + 4 * p_.n3) {  // the x range at the right end
+      const std::size_t i = k + 1;
+      if (node_of_point_[i] >= 0) return;  // a column bound there
+      forms_at(c, p_.s[i] - base, fx, fu);
+      const double scale = std::max(x_upper_[i], 1e-300);
+      add(fx, 1.0 / scale);
+      if (side == 0) h.hi = x_upper_[i] / scale; else h.lo = 0.0;
       return;
     }
     const std::size_t rest = slot - 6 * n2;
@@ -263,16 +387,24 @@ class ThirdOrderLp {
     const double rq = std::sqrt(q);
     const double scale = row.L / rq;  // the limit at q
     const double viscous = row.V * rq + row.Z * u_[i] / rq;
-    h.add(col_u(k + 1), row.P / delta / scale);
-    h.add(col_u(k), -row.P / delta / scale);
-    h.add(col_u(i), row.R / scale);
+    const double span = p_.s[nodes_[c + 1]] - base;
+    h.add(col_u(c + 1), row.P / span / scale);
+    h.add(col_u(c), -row.P / span / scale);
+    forms_at(c, p_.s[i] - base, fx, fu);
+    add(fu, row.R / scale);
     const double constant = (row.W + viscous) / scale;
     // Tangent of L / sqrt(x) at q, over the scale: 1.5 - 0.5 x / q.
     if (side == 0) {
-      h.add(col_x(i), row.S / scale + 0.5 / q);
+      add(fx, row.S / scale);
+      h.add(fx.col[0], 0.5 / q * fx.coef[0]);
+      h.add(fx.col[1], 0.5 / q * fx.coef[1]);
+      h.add(fx.col[2], 0.5 / q * fx.coef[2]);
       h.hi = 1.5 - constant;
     } else {
-      h.add(col_x(i), row.S / scale - 0.5 / q);
+      add(fx, row.S / scale);
+      h.add(fx.col[0], -0.5 / q * fx.coef[0]);
+      h.add(fx.col[1], -0.5 / q * fx.coef[1]);
+      h.add(fx.col[2], -0.5 / q * fx.coef[2]);
       h.lo = -1.5 - constant;
     }
   }
@@ -284,17 +416,19 @@ class ThirdOrderLp {
   }
   double value(int column) const {
     const auto c = static_cast<std::size_t>(column);
-    if (c < points_) return x_[c];
-    if (c < 2 * points_) return u_[c - points_];
-    return z_[c - 2 * points_];
+    const std::size_t nodes = nodes_.size();
+    if (c < nodes) return xn_[c];
+    if (c < 2 * nodes) return un_[c - nodes];
+    return z_[c - 2 * nodes];
   }
 
-  /// Before the first programme: on every regular segment, the jerk row (both sides) of the
-  /// axis with the largest |P| / L at its right end (it bounds u' there). The rest is added as
-  /// violated: few rows keep each simplex iteration cheap.
+  /// Before the first programme: on every regular node segment, the jerk row (both sides) of
+  /// the axis with the largest |P| / L at its last grid segment's right end (it bounds u'
+  /// there). The rest is added as violated: few rows keep each simplex iteration cheap.
   void seed_active_rows() {
     if (p_.n3 == 0) return;
-    for (std::size_t k = 0; k < p_.segments(); ++k) {
+    for (std::size_t c = 0; c + 1 < nodes_.size(); ++c) {
+      const std::size_t k = nodes_[c + 1] - 1;
       if (!regular_[k]) continue;
       std::size_t best = 0;
       double weight = -1.0;
@@ -306,43 +440,58 @@ class ThirdOrderLp {
         }
       }
       const std::size_t slot = 6 * p_.n2 + (p_.n3 + best) * 2;
-      activate(k * per_ + slot);
-      activate(k * per_ + slot + 1);
+      active_[k * per_ + slot] = 1;
+      active_[k * per_ + slot + 1] = 1;
     }
   }
 
-  void activate(std::size_t key) {
-    if (active_[key]) return;
-    active_[key] = 1;
-    active_list_.push_back(key);
+  std::size_t row_key(std::size_t k, std::size_t slot) const {
+    return block_rows_ + nodes_.size() + k * per_ + slot;
   }
 
   /// (Re)builds the programme: the equalities, then the active half-rows in their order;
   /// the previous basis is kept (same columns and rows, new rows basic).
   void build() {
     const int ncols = columns();
+    const std::size_t nodes = nodes_.size();
     std::vector<double> col_lo(static_cast<std::size_t>(ncols)), col_hi(col_lo.size()),
         objective(col_lo.size(), 0.0);
-    double total = 0.0;
-    for (std::size_t i = 0; i < points_; ++i) {
-      col_lo[i] = 0.0;
-      col_hi[i] = std::max(x_upper_[i], 0.0);
+    for (std::size_t c = 0; c < nodes; ++c) {
+      const std::size_t i = nodes_[c];
+      col_lo[c] = 0.0;
+      col_hi[c] = std::max(x_upper_[i], 0.0);
       const bool stop = x_upper_[i] <= 0.0;
       const double u_bound = stop ? 0.0 : u_bound_at(i);
-      col_lo[points_ + i] = -u_bound;
-      col_hi[points_ + i] = u_bound;
-      // Maximise sum w x with w the time's sensitivity at the second-order profile,
-      // ds / x^(3/2) (bounded where x is tiny), normalised.
-      const double ds = 0.5 * (p_.s[std::min(i + 1, points_ - 1)] - p_.s[i > 0 ? i - 1 : 0]);
-      const double x_ref = std::max(x_upper_[i], 1e-4 * max_upper());
-      objective[i] = stop ? 0.0 : ds / (x_ref * std::sqrt(x_ref));
-      total += objective[i];
+      col_lo[nodes + c] = -u_bound;
+      col_hi[nodes + c] = u_bound;
     }
-    for (std::size_t i = 0; i < points_; ++i) objective[i] /= total;
-    weights_.assign(objective.begin(), objective.begin() + static_cast<long>(points_));
+    // Maximise sum w x over the grid points with w the time's sensitivity at the second-order
+    // profile, ds / x^(3/2) (bounded where x is tiny), normalised; x at the grid points is a
+    // form in the node columns.
+    weights_.assign(points_, 0.0);
+    double total = 0.0;
+    for (std::size_t i = 0; i < points_; ++i) {
+      if (x_upper_[i] <= 0.0) continue;
+      const double ds = 0.5 * (p_.s[std::min(i + 1, points_ - 1)] - p_.s[i > 0 ? i - 1 : 0]);
+      const double x_ref = std::max(weight_x_[i], 1e-4 * max_upper());
+      weights_[i] = ds / (x_ref * std::sqrt(x_ref));
+      total += weights_[i];
+    }
+    Form fx, fu;
+    for (std::size_t i = 0; i < points_; ++i) {
+      weights_[i] /= total;
+      if (weights_[i] == 0.0) continue;
+      if (node_of_point_[i] >= 0) {
+        objective[static_cast<std::size_t>(node_of_point_[i])] += weights_[i];
+        continue;
+      }
+      const std::size_t c = node_of_segment_[i];
+      forms_at(c, p_.s[i] - p_.s[nodes_[c]], fx, fu);
+      for (int t = 0; t < fx.n; ++t) objective[static_cast<std::size_t>(fx.col[t])] += weights_[i] * fx.coef[t];
+    }
     for (std::size_t b = 0; b < blocks_.size(); ++b) {
-      col_lo[2 * points_ + b] = 0.0;
-      col_hi[2 * points_ + b] = blocks_[b].z_max;
+      col_lo[2 * nodes + b] = 0.0;
+      col_hi[2 * nodes + b] = blocks_[b].z_max;
     }
     std::vector<double> row_lo, row_hi, elements;
     std::vector<int> indices;
@@ -360,30 +509,32 @@ class ThirdOrderLp {
     // factorisations profit from. Each row has a key, under which its basis status is kept.
     if (model_) save_status();
     row_keys_.clear();
-    const std::size_t stride = per_ + 1;
     for (std::size_t b = 0; b < blocks_.size(); ++b) {
       const Block& block = blocks_[b];
       for (std::size_t i = 1; i <= block.m; ++i) {
-        const std::size_t pt = block.point(i);
-        row({{col_x(pt), 1.0}, {col_z(b), -block.alpha[i]}}, 0.0, 0.0);
+        const auto c = static_cast<std::size_t>(node_of_point_[block.point(i)]);
+        row({{col_x(c), 1.0}, {col_z(b), -block.alpha[i]}}, 0.0, 0.0);
         row_keys_.push_back(row_keys_.size());
-        row({{col_u(pt), 1.0}, {col_z(b), -block.dir * block.beta[i]}}, 0.0, 0.0);
+        row({{col_u(c), 1.0}, {col_z(b), -block.dir * block.beta[i]}}, 0.0, 0.0);
         row_keys_.push_back(row_keys_.size());
       }
     }
-    const std::size_t block_rows = row_keys_.size();
-    block_rows_ = block_rows;
+    block_rows_ = row_keys_.size();
     HalfRow h;
-    for (std::size_t k = 0; k < p_.segments(); ++k) {
-      if (!regular_[k]) continue;
-      const double delta = p_.delta(k);  // x_k+1 = x_k + delta (u_k + u_k+1)
-      row({{col_x(k + 1), 1.0}, {col_x(k), -1.0}, {col_u(k), -delta}, {col_u(k + 1), -delta}}, 0.0, 0.0);
-      row_keys_.push_back(block_rows + k * stride);
-      for (std::size_t slot = 0; slot < per_; ++slot) {
-        if (!active_[k * per_ + slot]) continue;
-        half_row(k, slot, h);
-        append_row(h, indices, elements, starts, row_lo, row_hi);
-        row_keys_.push_back(block_rows + k * stride + 1 + slot);
+    for (std::size_t c = 0; c + 1 < nodes; ++c) {
+      const std::size_t k0 = nodes_[c], k1 = nodes_[c + 1];
+      if (!regular_[k0]) continue;
+      const double span = p_.s[k1] - p_.s[k0];  // x_c+1 = x_c + span (u_c + u_c+1)
+      row({{col_x(c + 1), 1.0}, {col_x(c), -1.0}, {col_u(c), -span}, {col_u(c + 1), -span}}, 0.0, 0.0);
+      row_keys_.push_back(block_rows_ + c);
+      for (std::size_t k = k0; k < k1; ++k) {
+        for (std::size_t slot = 0; slot < per_; ++slot) {
+          if (!active_[k * per_ + slot]) continue;
+          half_row(k, slot, h);
+          if (h.n == 0) continue;
+          append_row(h, indices, elements, starts, row_lo, row_hi);
+          row_keys_.push_back(row_key(k, slot));
+        }
       }
     }
     const int nrows = static_cast<int>(row_lo.size());
@@ -454,11 +605,13 @@ class ThirdOrderLp {
       if (model_->status() != 0) return false;
     }
     const double* solution = model_->primalColumnSolution();
-    for (std::size_t i = 0; i < points_; ++i) {
-      x_[i] = std::clamp(solution[i], 0.0, std::max(x_upper_[i], 0.0));
-      u_[i] = solution[points_ + i];
+    const std::size_t nodes = nodes_.size();
+    for (std::size_t c = 0; c < nodes; ++c) {
+      xn_[c] = std::clamp(solution[c], 0.0, std::max(x_upper_[nodes_[c]], 0.0));
+      un_[c] = solution[nodes + c];
     }
-    z_.assign(solution + 2 * points_, solution + 2 * points_ + blocks_.size());
+    z_.assign(solution + 2 * nodes, solution + 2 * nodes + blocks_.size());
+    expand();
     return true;
   }
 
@@ -474,10 +627,11 @@ class ThirdOrderLp {
         const std::size_t key = k * per_ + slot;
         if (active_[key]) continue;
         half_row(k, slot, h);
+        if (h.n == 0) continue;
         const double a = activity(h);
         if (a <= h.hi + kRowTolerance && a >= h.lo - kRowTolerance) continue;
-        activate(key);
-        row_keys_.push_back(block_rows_ + k * (per_ + 1) + 1 + slot);
+        active_[key] = 1;
+        row_keys_.push_back(row_key(k, slot));
         append_row(h, indices, elements, starts, row_lo, row_hi);
       }
     }
@@ -488,21 +642,41 @@ class ThirdOrderLp {
     return row_lo.size();
   }
 
-  double objective_value() const {
+  /// T = sum over the grid segments of 2 delta / (sd_k + sd_k+1) at the current x (the
+  /// line search's measure; exact for x linear in s).
+  double estimated_time() const {
     double sum = 0.0;
-    for (std::size_t i = 0; i < points_; ++i) sum += weights_[i] * x_[i];
+    for (std::size_t k = 0; k + 1 < points_; ++k) {
+      const double den = std::sqrt(x_[k]) + std::sqrt(x_[k + 1]);
+      sum += den > 0.0 ? 2.0 * p_.delta(k) / den : kInf;
+    }
     return sum;
+  }
+
+  /// The iterate (1 - lambda) a + lambda b, expanded to the grid points.
+  void blend(const std::vector<double>& xa, const std::vector<double>& ua, const std::vector<double>& za,
+             const std::vector<double>& xb, const std::vector<double>& ub, const std::vector<double>& zb,
+             double lambda) {
+    for (std::size_t c = 0; c < xn_.size(); ++c) {
+      xn_[c] = (1.0 - lambda) * xa[c] + lambda * xb[c];
+      un_[c] = (1.0 - lambda) * ua[c] + lambda * ub[c];
+    }
+    for (std::size_t b = 0; b < z_.size(); ++b) z_[b] = (1.0 - lambda) * za[b] + lambda * zb[b];
+    expand();
   }
 
   const Problem& p_;
   const std::vector<double>& x_upper_;
   std::size_t points_;
-  std::size_t per_;  // half-row slots per regular segment
+  std::size_t per_;  // half-row slots per regular grid segment
   std::vector<char> regular_;
   std::vector<Block> blocks_;
-  std::vector<double> x_, u_, z_, lin_, weights_;
+  std::vector<std::size_t> nodes_;             // grid points that carry columns
+  std::vector<std::size_t> node_of_segment_;   // node segment of each grid segment
+  std::vector<long> node_of_point_;            // node index of a grid point, -1 if none
+  std::vector<double> xn_, un_, z_;            // the programme's solution
+  std::vector<double> x_, u_, lin_, weights_, weight_x_;  // at the grid points
   std::vector<char> active_;
-  std::vector<std::size_t> active_list_;
   std::vector<std::size_t> row_keys_;  // per model row
   std::vector<unsigned char> column_status_, row_status_;
   mutable double max_upper_ = -1.0;
