@@ -189,6 +189,7 @@ PathKinematics solve_path_kinematics(const MachineModel& model, const std::vecto
   stretches.push_back({first, n - 1});
   // Later stretches overwrite the shared corner point: it keeps the outgoing derivatives.
   for (const Stretch& stretch : stretches) fit_stretch(stretch, out.s_m, out.q, options, out);
+  out.derivatives_fitted = true;
 
   // Singular zones: runs of singular points.
   for (std::size_t i = 0; i < n; ++i) {

@@ -60,9 +60,15 @@ double detail::first_exit(double p0, double p1, double p2, double p3, double L) 
   while (degree > 0 && p[degree] == 0.0) --degree;
   if (degree == 0) return kInf;
   auto f = [&](double s) { return p0 + s * (p1 + s * (p2 + s * p3)); };
+  // Fujiwara's bound on the roots of f -+ L: 2 max (|p_i| / |p_degree|)^(1 / (degree - i)), with
+  // |p0| + L for i = 0. (1 + max |p_i| / |p_degree| is far too wide for a tiny leading
+  // coefficient: the bisection below would not reach the root.)
   double bound = 0.0;
-  for (int i = 0; i < degree; ++i) bound = std::max(bound, std::abs(p[i]) + (i == 0 ? L : 0.0));
-  bound = 1.0 + bound / std::abs(p[degree]);
+  for (int i = 0; i < degree; ++i) {
+    const double coefficient = std::abs(p[i]) + (i == 0 ? L : 0.0);
+    bound = std::max(bound, std::pow(coefficient / std::abs(p[degree]), 1.0 / (degree - i)));
+  }
+  bound *= 2.0;
   // Monotone pieces between the critical points.
   std::vector<double> breaks{0.0};
   const double c1 = p1, c2 = 2.0 * p2, c3 = 3.0 * p3;
@@ -359,6 +365,10 @@ struct SampleCheck {
   SetPointCheck check;
   std::vector<double> worst;  // per sample
   std::vector<int> order;     // 1 velocity, 2 acceleration / torque, 3 jerk / torque rate
+  // Where the largest ratio of all is (for error messages).
+  std::size_t worst_sample = 0;
+  Index worst_axis = 0;
+  ConstraintKind worst_kind = ConstraintKind::velocity;
 };
 
 SampleCheck check_samples(const kinematics::MachineModel& machine,
@@ -377,10 +387,17 @@ SampleCheck check_samples(const kinematics::MachineModel& machine,
     const long clamped = std::clamp(k, 0L, static_cast<long>(n) - 1);
     return sp.q.col(static_cast<Index>(clamped));
   };
+  double largest = 0.0;
   auto note = [&](std::size_t k, Index axis, ConstraintKind kind, double value, double limit, int order) {
     if (!(limit > 0.0)) return;
     const double r = std::abs(value) / limit;
     double& cell = out.check.ratio(axis, static_cast<Index>(kind));
+    if (r > largest) {
+      largest = r;
+      out.worst_sample = k;
+      out.worst_axis = axis;
+      out.worst_kind = kind;
+    }
     cell = std::max(cell, r);
     if (r > out.worst[k]) {
       out.worst[k] = r;
@@ -551,11 +568,7 @@ FeedratePlan plan_feedrate(const kinematics::MachineModel& machine,
   for (std::size_t k = 0; k < segments; ++k) {
     {
       const double sigma = p.sigma0[k] + 0.5 * p.delta(k);
-      spline.evaluate(p.seg[k], sigma, &e.q, &e.q_s, &e.q_ss, nullptr);
-      const std::size_t a = p.seg[k];
-      const double h = path.s_m[a + 1] - path.s_m[a];
-      const double lambda = corner_point[a + 1] ? 0.0 : sigma / h;
-      e.q_sss = (1.0 - lambda) * path.q_sss.col(idx(a)) + lambda * path.q_sss.col(idx(a + 1));
+      spline.evaluate(p.seg[k], sigma, &e.q, &e.q_s, &e.q_ss, &e.q_sss);
       if (dynamic) {
         kinematics::path_torque_coefficients(*dyn_model, *dyn_data, e.q, e.q_s, e.q_ss, e.q_sss,
                                              options.effects);
@@ -570,23 +583,12 @@ FeedratePlan plan_feedrate(const kinematics::MachineModel& machine,
     }
     for (int end = 0; end < 2; ++end) {
       const double sigma = p.sigma0[k] + (end == 0 ? 0.0 : p.delta(k));
+      // The spline's own derivatives, q_sss included: the rows then bound what the set points
+      // (on the same spline) really do; see PathSpline.
       spline.evaluate(p.seg[k], sigma, &e.q, &e.q_s, &e.q_ss, &e.q_sss);
-      {
-        // q_sss: the fitted values of solve_path_kinematics, linear between the path points
-        // (the quintic's own third derivative carries the mismatch between the raw positions
-        // and the fitted derivatives, e / h^3; see path_kinematics.hpp on dense polylines).
-        const std::size_t a = p.seg[k];
-        const double h = path.s_m[a + 1] - path.s_m[a];
-        const double lambda = corner_point[a + 1] ? 0.0 : sigma / h;
-        e.q_sss = (1.0 - lambda) * path.q_sss.col(idx(a)) + lambda * path.q_sss.col(idx(a + 1));
-      }
       if (dynamic) {
-        // The left end of a segment is usually the right end of the one before (q, q_s, q_ss
-        // and the interpolated q_sss are continuous): reuse its coefficients then.
-        {
-          kinematics::path_torque_coefficients(*dyn_model, *dyn_data, e.q, e.q_s, e.q_ss, e.q_sss,
-                                               options.effects);
-        }
+        kinematics::path_torque_coefficients(*dyn_model, *dyn_data, e.q, e.q_s, e.q_ss, e.q_sss,
+                                             options.effects);
       }
       const auto& c = dynamic ? dyn_data->coefficients : kinematics::PathTorqueCoefficients{};
       Row2* rows2 = p.r2.data() + (2 * k + static_cast<std::size_t>(end)) * p.n2;
@@ -845,7 +847,11 @@ FeedratePlan plan_feedrate(const kinematics::MachineModel& machine,
     if (round + 1 >= options.max_verification_rounds) {
       throw InfeasibleError("feedrate interpolation: the set points still exceed a limit by " +
                             format_double((sc.check.worst() - 1.0) * 100.0) + " % after " +
-                            std::to_string(round + 1) + " slow-down rounds");
+                            std::to_string(round + 1) + " slow-down rounds (axis " +
+                            machine.axes[static_cast<std::size_t>(sc.worst_axis)].name + ", " +
+                            std::string(constraint_name(sc.worst_kind)) + ", at s = " +
+                            format_double(sp.s_m[sc.worst_sample] * 1e3) + " mm, t = " +
+                            format_double(sp.t_s[sc.worst_sample]) + " s)");
     }
     for (std::size_t i = 0; i < points; ++i) slow[i] *= factor[i];
     ++plan.slowdown_rounds;

@@ -52,6 +52,11 @@ struct PathKinematics {
   Eigen::MatrixXd q_s;       ///< dq/ds      [joint unit / m]
   Eigen::MatrixXd q_ss;      ///< d2q/ds2    [joint unit / m^2]
   Eigen::MatrixXd q_sss;     ///< d3q/ds3    [joint unit / m^3]
+  /// True when q_s, q_ss, q_sss are estimates from local fits (solve_path_kinematics), false
+  /// when they are exact (paths made by hand): the planner's PathSpline then interpolates q
+  /// alone, since a quintic through q and fitted derivatives wiggles between the points where
+  /// the fits smooth a feature (e.g. the curvature jump of a tangency).
+  bool derivatives_fitted = false;
   /// Points at which the derivatives are one-sided because a corner or a path end is there.
   std::vector<Corner> corners;
   std::vector<SingularZone> singular_zones;

@@ -66,11 +66,11 @@
 // tool path before planning (corner_blend.hpp).
 //
 // Set points: s(t) on each grid segment is the quintic Hermite interpolant in t of (s, sd, sdd)
-// at its ends (exact for the constant-sdd and constant-sddd segments), and q(s) the quintic
-// Hermite interpolant in s of (q, q_s, q_ss) at the path points (PathSpline); the planner's
-// rows use q, q_s, q_ss of that same interpolant, and q_sss of solve_path_kinematics linearly
-// interpolated between the path points (the quintic's own third derivative carries the
-// mismatch between raw positions and fitted derivatives, e / h^3, on dense polylines).
+// at its ends (exact for the constant-sdd and constant-sddd segments), and q(s) the PathSpline
+// (below). The planner's rows use q, q_s, q_ss and q_sss of that same spline, so that they
+// bound what the set points do (with the fitted q_sss of solve_path_kinematics instead, the
+// spline's own third derivative between the points went unseen: on sample part 1 the set points
+// exceeded the X jerk by 44 % round after round).
 // Grid: every path point, segments longer than max_grid_step_m subdivided, at least 4 grid
 // segments per stretch.
 #include <Eigen/Core>
@@ -88,10 +88,18 @@ namespace vmsim::planner {
 // ---------------------------------------------------------------------------------------------
 // q(s) between path points
 
-/// Quintic Hermite interpolation of the axis positions in s through (q, q_s, q_ss) at the path
-/// points: C2 within a stretch; at a corner the incoming segment ends with the derivatives
-/// extrapolated from the point before (q_s + q_ss h + q_sss h^2 / 2, q_ss + q_sss h), so that
-/// the incoming segment is not bent towards the outgoing direction.
+/// q(s) between the path points, C2 within each stretch between corners.
+///  - Paths from solve_path_kinematics (PathKinematics::derivatives_fitted): per stretch, the
+///    clamped cubic spline through the points, end slopes from the fits. Its derivatives are
+///    its own: a quintic through the points with the fitted derivatives wiggles between them
+///    where the fits smooth a feature (on sample part 1's tangency, Z's q_ss swung by +-100 /m
+///    inside 0.2 mm segments and the set points exceeded the X jerk by 44 %). A cubic's q_sss
+///    is constant per segment, so the rows at both segment ends see it whole; rounding noise e
+///    of the points shows as about e / h^3 in it (the planner slows down for it, honestly).
+///  - Hand-made paths (exact derivatives): the quintic Hermite through (q, q_s, q_ss).
+/// At a corner the incoming side ends with the derivatives extrapolated from the point before
+/// (q_s + q_ss h + q_sss h^2 / 2, q_ss + q_sss h), so that it is not bent towards the outgoing
+/// direction.
 class PathSpline {
  public:
   /// Throws vmsim::InputError when two consecutive points share s (an orientation change
