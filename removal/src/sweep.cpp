@@ -401,39 +401,124 @@ bool vertical_entry(const Sweep& s, double x, double y, double& z0, double& z1) 
   return true;
 }
 
-bool flat_bottom_entry(const Sweep& s, double x, double y, double& z) {
-  if (s.rho == 0.0 || !(s.a.z() > 0.0)) return false;
-  const double a0 = s.a.dot(s.c0), a1 = s.a.dot(s.c1);
-  const Eigen::Vector3d& c = a1 < a0 ? s.c1 : s.c0;
-  z = (s.amin - s.a.x() * x - s.a.y() * y) / s.a.z();
-  const Eigen::Vector3d p(x, y, z);
-  // Motion in the bottom's plane: the whole swept bottom (a stadium) lies in the lowest plane.
-  if (a0 == a1) return segment_distance(p, s.c0 - s.r * s.a, s.c1 - s.r * s.a) <= s.rho;
-  return (p - (c - s.r * s.a)).squaredNorm() <= s.rho * s.rho;
-}
-
 VerticalEntry::VerticalEntry(const Sweep& s) : s_(s) {
   e1_ = s.c1 - s.c0;
   eu_ = s.a.unitOrthogonal();
   ev_ = s.a.cross(eu_);
   ae_ = s.a.dot(e1_);
   dd_ = e1_.x() * e1_.x() + e1_.y() * e1_.y();
+  // flat_rim: rho (cos phi U + sin phi V) + sigma D = q in the plane; the cross product with D
+  // removes sigma: rho (alpha cos phi + beta sin phi) = gamma, so with (alpha, beta) = m (cos b,
+  // sin b) the roots are phi = b +- acos(gamma / (rho m)), i.e. w = c U' +- sqrt(1 - c^2) V'.
+  const double alpha = eu_.x() * e1_.y() - eu_.y() * e1_.x(), beta = ev_.x() * e1_.y() - ev_.y() * e1_.x();
+  rim_m_ = std::sqrt(alpha * alpha + beta * beta);
+  if (rim_m_ > 0.0) {
+    rim_u_ = (alpha * eu_ + beta * ev_) / rim_m_;
+    rim_v_ = (alpha * ev_ - beta * eu_) / rim_m_;
+  }
+  // bottom: the plane a . p = amin, and the disc at the end where a . c is least.
+  const double a0 = s.a.dot(s.c0), a1 = s.a.dot(s.c1);
+  plane_motion_ = a0 == a1;
+  start_lowest_ = !(a1 < a0);
+  b0_ = s.c0 - s.r * s.a;
+  b1_ = s.c1 - s.r * s.a;
+  b_low_ = start_lowest_ ? b0_ : b1_;
+  // start_disc_row: |p - b0|^2 <= rho^2 with p on the disc's plane over (x, y), times a_z^2.
+  const double ax = s.a.x(), ay = s.a.y(), az = s.a.z();
+  qa_ = az * az + ax * ax;
+  qb_ = ax * ay;
+  qc_ = az * az + ay * ay;
 }
 
-bool VerticalEntry::flat_rim(double x, double y, double& z) const {
-  if (ae_ == 0.0 || dd_ == 0.0 || !(s_.a.z() > 0.0)) return false;
-  // rho (cos phi U + sin phi V) + sigma D = q in the plane; the cross product with D removes sigma.
+bool VerticalEntry::bottom(double x, double y, double& z) const {
+  if (s_.rho == 0.0 || !(s_.a.z() > 0.0)) return false;
+  z = (s_.amin - s_.a.x() * x - s_.a.y() * y) / s_.a.z();
+  const Eigen::Vector3d p(x, y, z);
+  // Motion in the bottom's plane: the whole swept bottom (a stadium) lies in the lowest plane.
+  if (plane_motion_) return segment_distance(p, b0_, b1_) <= s_.rho;
+  return (p - b_low_).squaredNorm() <= s_.rho * s_.rho;
+}
+
+bool VerticalEntry::start_disc_row(double y, double margin, double& x0, double& x1) const {
+  if (s_.rho == 0.0 || !(s_.a.z() > 0.0)) return false;
+  const double Y = y - b0_.y(), az = s_.a.z();
+  const double b = qb_ * Y, c = qc_ * Y * Y - s_.rho * s_.rho * az * az;
+  const double disc = b * b - qa_ * c;
+  if (!(disc > 0.0)) return false;
+  const double root = std::sqrt(disc);
+  x0 = b0_.x() + (-b - root) / qa_ + margin;
+  x1 = b0_.x() + (-b + root) / qa_ - margin;
+  return x0 <= x1;
+}
+
+double VerticalEntry::support(const Eigen::Vector3d& n) const {
+  const double na = n.dot(s_.a), nn = n.squaredNorm();
+  return n.dot(s_.c0) + s_.rho * std::sqrt(std::max(0.0, nn - na * na)) + s_.ell * std::max(0.0, na) +
+         std::max(0.0, n.dot(e1_)) + s_.r * std::sqrt(nn);
+}
+
+void VerticalEntry::set_plane(const Eigen::Vector3d& n, Warm& warm) const {
+  // Only planes that are not too steep: the bound divides by -n_z.
+  if (!(n.z() < -1e-3 * n.norm())) return;
+  warm.plane = true;
+  warm.nx = n.x(), warm.ny = n.y(), warm.inv_nz = -1.0 / n.z(), warm.hn = support(n);
+}
+
+VerticalEntry::Result VerticalEntry::entry(double x, double y, double floor, double top, long index, Warm& warm,
+                                           double& z) const {
+  // The plane bound is computed in doubles (values ~ |c0|, divided by at most 1e3): a margin far
+  // above its rounding and far below any accuracy that matters.
+  constexpr double margin = 1e-12;
+  if (bottom(x, y, z)) return z > floor ? Result::exact : Result::undecided;
+  if (warm.plane && (warm.nx * x + warm.ny * y - warm.hn) * warm.inv_nz >= top + margin) return Result::above;
+  const double d = distance_2d(x, y, s_.c0.x(), s_.c0.y(), s_.c1.x(), s_.c1.y());
+  const double bound = std::max(lowest_z_beyond(s_, d), (s_.amin - s_.a.x() * x - s_.a.y() * y) / s_.a.z());
+  if (bound >= top) return Result::above;
+  Eigen::Vector3d n;
+  if (s_.r == 0.0) {
+    if (flat_rim(x, y, z, &n)) {
+      set_plane(n, warm);
+      return z > floor ? Result::exact : Result::undecided;
+    }
+    // Off the swept bottom: the flank, if anything. Its supporting plane along the radial
+    // direction of the line at the bottom's plane (midway along the motion) bounds the entry.
+    const Eigen::Vector3d bm = 0.5 * (b0_ + b1_);
+    const double zp = bm.z() - (s_.a.x() * (x - bm.x()) + s_.a.y() * (y - bm.y())) / s_.a.z();
+    const Eigen::Vector3d v(x - bm.x(), y - bm.y(), zp - bm.z());
+    const double len = v.norm();
+    if (len > 0.0) {
+      set_plane(v / len, warm);
+      if (warm.plane && (warm.nx * x + warm.ny * y - warm.hn) * warm.inv_nz >= top + margin) return Result::above;
+    }
+    return Result::undecided;
+  }
+  // Bull-nose: the rim angle extrapolated from the two lines before (consecutive in the row),
+  // else the last one found.
+  double phi = warm.phi;
+  if (warm.at == index - 1 && warm.at_prev == index - 2 && std::isfinite(warm.phi_prev)) {
+    phi = 2.0 * warm.phi - warm.phi_prev;
+  }
+  if (bull_rim(x, y, bound, phi, z, &n)) {
+    warm.phi_prev = warm.phi, warm.at_prev = warm.at;
+    warm.phi = phi, warm.at = index;
+    set_plane(n, warm);
+    return z > floor ? Result::exact : Result::undecided;
+  }
+  warm.phi = std::numeric_limits<double>::quiet_NaN();
+  warm.at = -2;
+  return Result::undecided;
+}
+
+bool VerticalEntry::flat_rim(double x, double y, double& z, Eigen::Vector3d* n) const {
+  if (ae_ == 0.0 || dd_ == 0.0 || !(s_.a.z() > 0.0) || !(rim_m_ > 0.0)) return false;
   const double qx = x - s_.c0.x(), qy = y - s_.c0.y();
-  const double alpha = eu_.x() * e1_.y() - eu_.y() * e1_.x(), beta = ev_.x() * e1_.y() - ev_.y() * e1_.x();
   const double gamma = qx * e1_.y() - qy * e1_.x();
-  const double m = std::sqrt(alpha * alpha + beta * beta);
-  if (!(m > 0.0)) return false;
-  const double c = gamma / (s_.rho * m);
+  const double c = gamma / (s_.rho * rim_m_);
   if (!(std::abs(c) <= 1.0)) return false;
-  const double base = std::atan2(beta, alpha), half = std::acos(c);
+  const double sh = std::sqrt((1.0 - c) * (1.0 + c));
   bool found = false;
-  for (double phi : {base - half, base + half}) {
-    const Eigen::Vector3d w = std::cos(phi) * eu_ + std::sin(phi) * ev_;
+  for (double sign_root : {-1.0, 1.0}) {
+    const Eigen::Vector3d w = c * rim_u_ + sign_root * sh * rim_v_;
     const double sigma = ((qx - s_.rho * w.x()) * e1_.x() + (qy - s_.rho * w.y()) * e1_.y()) / dd_;
     if (!(sigma > 0.0 && sigma < 1.0)) continue;
     // The normal (a.e1) w - (w.e1) a, turned into the rim's normal cone, must point down.
@@ -442,7 +527,10 @@ bool VerticalEntry::flat_rim(double x, double y, double& z) const {
     const double nz = sign * (ae_ * w.z() - we * s_.a.z());
     if (!(nz < 0.0)) continue;
     const double zc = s_.c0.z() + s_.rho * w.z() + sigma * e1_.z();
-    z = found ? std::min(z, zc) : zc;
+    if (!found || zc < z) {
+      z = zc;
+      if (n) *n = sign * (ae_ * w - we * s_.a);
+    }
     found = true;
   }
   return found;
@@ -467,7 +555,7 @@ bool VerticalEntry::capsule_low(double x, double y, const Eigen::Vector3d& w, do
   return true;
 }
 
-bool VerticalEntry::bull_rim(double x, double y, double z_guess, double& phi, double& z) const {
+bool VerticalEntry::bull_rim(double x, double y, double z_guess, double& phi, double& z, Eigen::Vector3d* n_out) const {
   if (dd_ == 0.0 || !(s_.a.z() > 0.0) || !(s_.r > 0.0)) return false;
   if (!std::isfinite(phi)) {
     const Eigen::Vector3d v = Eigen::Vector3d(x, y, z_guess) - 0.5 * (s_.c0 + s_.c1);
@@ -487,6 +575,7 @@ bool VerticalEntry::bull_rim(double x, double y, double z_guess, double& phi, do
     const double n_perp = std::sqrt(std::max(0.0, n.squaredNorm() - na * na));
     const double gap = s_.rho * (n_perp - n.dot(w)) + s_.ell * std::max(0.0, na) + std::max(0.0, ne) - sigma * ne;
     certified = n.z() < -1e-3 && gap <= -1e-11 * n.z();
+    if (certified && n_out) *n_out = n;
     return true;
   };
   double f0 = 0.0, f1 = 0.0;
