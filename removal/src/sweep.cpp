@@ -492,19 +492,22 @@ VerticalEntry::Result VerticalEntry::entry(double x, double y, double floor, dou
     }
     return Result::undecided;
   }
-  // Bull-nose: the rim angle extrapolated from the two lines before (consecutive in the row),
-  // else the last one found.
-  double phi = warm.phi;
-  if (warm.at == index - 1 && warm.at_prev == index - 2 && std::isfinite(warm.phi_prev)) {
-    phi = 2.0 * warm.phi - warm.phi_prev;
+  // Bull-nose: the rim direction extrapolated from the two lines before (consecutive in the
+  // row: the turn from the one before last to the last, once more), else the last one found.
+  Eigen::Vector2d dir = warm.dir;
+  if (warm.at == index - 1 && warm.at_prev == index - 2 && warm.dir_prev.allFinite()) {
+    const Eigen::Vector2d& d1 = warm.dir;
+    const Eigen::Vector2d& d2 = warm.dir_prev;
+    const Eigen::Vector2d d11(d1.x() * d1.x() - d1.y() * d1.y(), 2.0 * d1.x() * d1.y());  // d1^2 / d2 (complex)
+    dir = Eigen::Vector2d(d11.x() * d2.x() + d11.y() * d2.y(), d11.y() * d2.x() - d11.x() * d2.y()).normalized();
   }
-  if (bull_rim(x, y, bound, phi, z, &n)) {
-    warm.phi_prev = warm.phi, warm.at_prev = warm.at;
-    warm.phi = phi, warm.at = index;
+  if (bull_rim(x, y, bound, dir, z, &n)) {
+    warm.dir_prev = warm.dir, warm.at_prev = warm.at;
+    warm.dir = dir, warm.at = index;
     set_plane(n, warm);
     return z > floor ? Result::exact : Result::undecided;
   }
-  warm.phi = std::numeric_limits<double>::quiet_NaN();
+  warm.dir = Eigen::Vector2d::Constant(std::numeric_limits<double>::quiet_NaN());
   warm.at = -2;
   return Result::undecided;
 }
@@ -555,21 +558,31 @@ bool VerticalEntry::capsule_low(double x, double y, const Eigen::Vector3d& w, do
   return true;
 }
 
-bool VerticalEntry::bull_rim(double x, double y, double z_guess, double& phi, double& z, Eigen::Vector3d* n_out) const {
+bool VerticalEntry::bull_rim(double x, double y, double z_guess, Eigen::Vector2d& dir, double& z,
+                             Eigen::Vector3d* n_out) const {
   if (dd_ == 0.0 || !(s_.a.z() > 0.0) || !(s_.r > 0.0)) return false;
-  if (!std::isfinite(phi)) {
+  if (!dir.allFinite()) {
     const Eigen::Vector3d v = Eigen::Vector3d(x, y, z_guess) - 0.5 * (s_.c0 + s_.c1);
-    phi = std::atan2(v.dot(ev_), v.dot(eu_));
+    dir = Eigen::Vector2d(v.dot(eu_), v.dot(ev_));
+    const double len = dir.norm();
+    dir = len > 0.0 ? Eigen::Vector2d(dir / len) : Eigen::Vector2d(1.0, 0.0);
   }
-  // f(phi): the angle from w(phi) to the contact's direction about the axis (0 at the optimum,
-  // where the contact normal has no tangential part).
-  auto eval = [&](double ph, double& f, bool& certified) {
-    const double cs = std::cos(ph), sn = std::sin(ph);
-    const Eigen::Vector3d w = cs * eu_ + sn * ev_, t = cs * ev_ - sn * eu_;
+  // Rim directions w = cs eu + sn ev, as turns of the start direction by the angle 2 atan(tau)
+  // (rational: no trigonometry, unit up to rounding). f(tau) = tan(half the angle from w to the
+  // contact's direction about the axis): 0 at the optimum, where the contact normal has no
+  // tangential part. The first step turns w onto that direction, then secant steps on tau.
+  const Eigen::Vector2d start = dir;
+  auto turn = [&](double tau) {
+    const double q = 1.0 / (1.0 + tau * tau), c = (1.0 - tau * tau) * q, sn = 2.0 * tau * q;
+    return Eigen::Vector2d(c * start.x() - sn * start.y(), sn * start.x() + c * start.y());
+  };
+  auto eval = [&](const Eigen::Vector2d& d, double& f, bool& certified) {
+    const Eigen::Vector3d w = d.x() * eu_ + d.y() * ev_, t = d.x() * ev_ - d.y() * eu_;
     double sigma = 0.0;
     if (!capsule_low(x, y, w, z, sigma)) return false;
     const Eigen::Vector3d v = Eigen::Vector3d(x, y, z) - s_.c0 - sigma * e1_;
-    f = std::atan2(v.dot(t), v.dot(w));
+    const double vw = v.dot(w), vt = v.dot(t), len = std::sqrt(vw * vw + vt * vt);
+    f = len + vw > 0.0 ? vt / (len + vw) : 1e300;  // tan(alpha / 2) of the angle alpha = atan2(vt, vw)
     const Eigen::Vector3d n = (v - s_.rho * w) / s_.r;
     const double na = n.dot(s_.a), ne = n.dot(e1_);
     const double n_perp = std::sqrt(std::max(0.0, n.squaredNorm() - na * na));
@@ -580,15 +593,17 @@ bool VerticalEntry::bull_rim(double x, double y, double z_guess, double& phi, do
   };
   double f0 = 0.0, f1 = 0.0;
   bool ok = false;
-  if (!eval(phi, f0, ok)) return false;
+  if (!eval(dir, f0, ok)) return false;
   if (ok) return true;
-  double phi0 = phi;
-  phi = phi0 + f0;
+  if (!(std::abs(f0) < 1e3)) return false;
+  double tau0 = 0.0, tau = f0;
   for (int k = 0; k < 10; ++k) {
-    if (!eval(phi, f1, ok)) return false;
+    dir = turn(tau);
+    if (!eval(dir, f1, ok)) return false;
     if (ok) return true;
-    const double next = f1 != f0 ? phi - f1 * (phi - phi0) / (f1 - f0) : phi + f1;
-    phi0 = phi, f0 = f1, phi = next;
+    if (!(std::abs(f1) < 1e3)) return false;
+    const double next = f1 != f0 ? tau - f1 * (tau - tau0) / (f1 - f0) : tau + f1;
+    tau0 = tau, f0 = f1, tau = next;
   }
   return false;
 }

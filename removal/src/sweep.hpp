@@ -77,11 +77,12 @@ class VerticalEntry {
 
   /// What the last lines along one caller's walk left for the next (one per thread; a walk is
   /// the rows of a tile for one sweep): a supporting plane (the last contact normal) and the
-  /// last bull-nose rim angles. Any state gives the same certified results; it only saves work.
+  /// last bull-nose rim directions. Any state gives certified results; it only saves work.
   struct Warm {
     bool plane = false;
     double nx = 0.0, ny = 0.0, inv_nz = 0.0, hn = 0.0;  // z >= (nx x + ny y - hn) * inv_nz
-    double phi = std::numeric_limits<double>::quiet_NaN(), phi_prev = phi;  // rim angles found
+    // rim directions found (cos, sin of the rim angle; NaN: none)
+    Eigen::Vector2d dir = Eigen::Vector2d::Constant(std::numeric_limits<double>::quiet_NaN()), dir_prev = dir;
     long at = -2, at_prev = -2;  // the walk positions (line counters) where they were found
   };
   enum class Result { above, exact, undecided };
@@ -110,9 +111,10 @@ class VerticalEntry {
   bool flat_rim(double x, double y, double& z, Eigen::Vector3d* n = nullptr) const;
   /// Bull-nose (r > 0): the lowest point on the line of the rim tube, min over the rim angle
   /// phi of the capsule (rim point swept) (+) Ball(r), closed form per phi; phi by secant
-  /// steps from `phi` (a warm start; NaN: from the line's azimuth about the axis at z_guess),
-  /// on return the angle found. Accepted with the bound above; `n` gets the contact normal.
-  bool bull_rim(double x, double y, double z_guess, double& phi, double& z, Eigen::Vector3d* n = nullptr) const;
+  /// steps (without trigonometry) from `dir` = (cos phi, sin phi) in the frame (eu, ev) normal
+  /// to the axis (a warm start; NaN: from the line's azimuth about the axis at z_guess), on
+  /// return the direction found. Accepted with the bound above; `n` gets the contact normal.
+  bool bull_rim(double x, double y, double z_guess, Eigen::Vector2d& dir, double& z, Eigen::Vector3d* n = nullptr) const;
   /// The support function h(n) above.
   double support(const Eigen::Vector3d& n) const;
 
