@@ -480,8 +480,17 @@ VerticalEntry::Result VerticalEntry::entry(double x, double y, double floor, dou
       set_plane(n, warm);
       return z > floor ? Result::exact : Result::undecided;
     }
-    // Off the swept bottom: the flank, if anything. Its supporting plane along the radial
-    // direction of the line at the bottom's plane (midway along the motion) bounds the entry.
+    // Off the swept bottom: the flank, if anything. The flank of the tool at either end where
+    // the line enters it, if certified (delta = 0 exactly where its normal faces along the
+    // motion at c1, against it at c0: then that end's tool is the sweep's lowest on the line).
+    for (const Eigen::Vector3d* c : {&s_.c1, &s_.c0}) {
+      if (flank(x, y, *c, z, n) && support(n) - n.dot(Eigen::Vector3d(x, y, z)) <= -1e-11 * n.z()) {
+        set_plane(n, warm);
+        return z > floor ? Result::exact : Result::undecided;
+      }
+    }
+    // Else the flank's supporting plane along the radial direction of the line at the bottom's
+    // plane (midway along the motion) bounds the entry.
     const Eigen::Vector3d bm = 0.5 * (b0_ + b1_);
     const double zp = bm.z() - (s_.a.x() * (x - bm.x()) + s_.a.y() * (y - bm.y())) / s_.a.z();
     const Eigen::Vector3d v(x - bm.x(), y - bm.y(), zp - bm.z());
@@ -510,6 +519,28 @@ VerticalEntry::Result VerticalEntry::entry(double x, double y, double floor, dou
   warm.dir = Eigen::Vector2d::Constant(std::numeric_limits<double>::quiet_NaN());
   warm.at = -2;
   return Result::undecided;
+}
+
+bool VerticalEntry::flank(double x, double y, const Eigen::Vector3d& c, double& z, Eigen::Vector3d& n) const {
+  // The cylinder |q - (q . a) a| = rho about the axis through c, q = (X, Y, zeta) relative to c:
+  // (1 - a_z^2) zeta^2 - 2 a_z (Q . a) zeta + |Q|^2 - (Q . a)^2 - rho^2 = 0, Q = (X, Y, 0). The
+  // lower root is the line's entry into the flank when it lies between the bottom and the top
+  // (0 <= q . a <= ell) and the flank faces down there.
+  const double ax = s_.a.x(), ay = s_.a.y(), az = s_.a.z();
+  const double A = ax * ax + ay * ay;
+  if (!(A > 0.0)) return false;
+  const double X = x - c.x(), Y = y - c.y(), qa = X * ax + Y * ay;
+  const double B = -az * qa, C = X * X + Y * Y - qa * qa - s_.rho * s_.rho;
+  const double disc = B * B - A * C;
+  if (!(disc >= 0.0)) return false;
+  const double zeta = (-B - std::sqrt(disc)) / A;
+  const double lambda = qa + zeta * az;
+  if (!(lambda >= 0.0 && lambda <= s_.ell)) return false;
+  const Eigen::Vector3d q(X, Y, zeta);
+  n = (q - lambda * s_.a) / s_.rho;
+  if (!(n.z() < -1e-3)) return false;
+  z = c.z() + zeta;
+  return true;
 }
 
 bool VerticalEntry::flat_rim(double x, double y, double& z, Eigen::Vector3d* n) const {

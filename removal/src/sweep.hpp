@@ -120,6 +120,9 @@ class VerticalEntry {
 
  private:
   bool capsule_low(double x, double y, const Eigen::Vector3d& w, double& z, double& sigma) const;
+  /// Flat-end: the line's entry into the flank (cylinder wall) of the tool at core point c, where
+  /// the flank faces down, with its outer normal n.
+  bool flank(double x, double y, const Eigen::Vector3d& c, double& z, Eigen::Vector3d& n) const;
   void set_plane(const Eigen::Vector3d& n, Warm& warm) const;
   const Sweep& s_;
   Eigen::Vector3d e1_, eu_, ev_;
