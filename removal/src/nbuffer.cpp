@@ -164,9 +164,10 @@ void NBuffer::refresh_tile(std::size_t tile) {
   b.h_max = 0.0;
   b.lo = Eigen::Vector3d::Constant(detail::kInf);
   b.hi = Eigen::Vector3d::Constant(-detail::kInf);
+  const std::size_t base = tile * kTile * kTile;  // index(iu, iv) within the tile
   for (int iv = tv * kTile; iv < v_end; ++iv) {
     for (int iu = tu * kTile; iu < u_end; ++iu) {
-      const std::size_t s = index(iu, iv);
+      const std::size_t s = base + static_cast<std::size_t>(iu - tu * kTile) + static_cast<std::size_t>(kTile) * (iv - tv * kTile);
       b.h_max = std::max(b.h_max, h_[s]);
       if (!zmap_) {
         const Eigen::Vector3d end = o_[s] + h_[s] * u_[s];
@@ -418,6 +419,7 @@ CutStatistics NBuffer::cut(const Tool& tool, std::span<const Pose> trajectory, c
         if (!(xa <= xb)) continue;
         const int ia = std::max(tu * kTile, static_cast<int>(std::ceil((xa - origin0_.x()) / sp)));
         const int ib = std::min(u_end - 1, static_cast<int>(std::floor((xb - origin0_.x()) / sp)));
+        double* row = &h_[tile * kTile * kTile + static_cast<std::size_t>(kTile) * (iv - tv * kTile)];  // == index(iu, iv)
         int skip_a = ib + 1, skip_b = ib;  // lines [skip_a, skip_b] skipped
         double sx0 = 0.0, sx1 = 0.0;
         if (skip_start_disc && fast.start_disc_row(y, slack, sx0, sx1)) {
@@ -429,7 +431,7 @@ CutStatistics NBuffer::cut(const Tool& tool, std::span<const Pose> trajectory, c
             iu = skip_b;
             continue;
           }
-          double& h = h_[index(iu, iv)];
+          double& h = row[iu - tu * kTile];
           const double x = origin0_.x() + iu * sp;
           double t0 = 0.0, t1 = 0.0;
           if (tilted && s.rho > 0.0) {  // flat-end / bull-nose, tilted: VerticalEntry decides most lines

@@ -425,6 +425,8 @@ VerticalEntry::VerticalEntry(const Sweep& s) : s_(s) {
   b_low_ = start_lowest_ ? b0_ : b1_;
   // start_disc_row: |p - b0|^2 <= rho^2 with p on the disc's plane over (x, y), times a_z^2.
   const double ax = s.a.x(), ay = s.a.y(), az = s.a.z();
+  usable_ = s.rho > 0.0 && az > 0.0;
+  if (usable_) k0_ = s.amin / az, kx_ = ax / az, ky_ = ay / az;
   qa_ = az * az + ax * ax;
   qb_ = ax * ay;
   qc_ = az * az + ay * ay;
@@ -432,11 +434,12 @@ VerticalEntry::VerticalEntry(const Sweep& s) : s_(s) {
 
 bool VerticalEntry::bottom(double x, double y, double& z) const {
   if (s_.rho == 0.0 || !(s_.a.z() > 0.0)) return false;
-  z = (s_.amin - s_.a.x() * x - s_.a.y() * y) / s_.a.z();
-  const Eigen::Vector3d p(x, y, z);
-  // Motion in the bottom's plane: the whole swept bottom (a stadium) lies in the lowest plane.
-  if (plane_motion_) return segment_distance(p, b0_, b1_) <= s_.rho;
-  return (p - b_low_).squaredNorm() <= s_.rho * s_.rho;
+  z = k0_ - kx_ * x - ky_ * y;
+  return in_bottom(x, y, z);
+}
+
+bool VerticalEntry::in_stadium(double x, double y, double z) const {
+  return segment_distance(Eigen::Vector3d(x, y, z), b0_, b1_) <= s_.rho;
 }
 
 bool VerticalEntry::start_disc_row(double y, double margin, double& x0, double& x1) const {
@@ -464,15 +467,10 @@ void VerticalEntry::set_plane(const Eigen::Vector3d& n, Warm& warm) const {
   warm.nx = n.x(), warm.ny = n.y(), warm.inv_nz = -1.0 / n.z(), warm.hn = support(n);
 }
 
-VerticalEntry::Result VerticalEntry::entry(double x, double y, double floor, double top, long index, Warm& warm,
-                                           double& z) const {
-  // The plane bound is computed in doubles (values ~ |c0|, divided by at most 1e3): a margin far
-  // above its rounding and far below any accuracy that matters.
-  constexpr double margin = 1e-12;
-  if (bottom(x, y, z)) return z > floor ? Result::exact : Result::undecided;
-  if (warm.plane && (warm.nx * x + warm.ny * y - warm.hn) * warm.inv_nz >= top + margin) return Result::above;
-  const double d = distance_2d(x, y, s_.c0.x(), s_.c0.y(), s_.c1.x(), s_.c1.y());
-  const double bound = std::max(lowest_z_beyond(s_, d), (s_.amin - s_.a.x() * x - s_.a.y() * y) / s_.a.z());
+VerticalEntry::Result VerticalEntry::entry_off_bottom(double x, double y, double zp, double floor, double top,
+                                                      long index, Warm& warm, double& z) const {
+  constexpr double margin = kPlaneMargin;
+  const double bound = std::max(zp, lowest_z_beyond(s_, distance_2d(x, y, s_.c0.x(), s_.c0.y(), s_.c1.x(), s_.c1.y())));
   if (bound >= top) return Result::above;
   Eigen::Vector3d n;
   if (s_.r == 0.0) {

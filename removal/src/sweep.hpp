@@ -91,7 +91,20 @@ class VerticalEntry {
   /// (z, m): `above` when the entry is certainly at or above `top` (nothing to cut), `exact`
   /// with z the entry when it is certified and above `floor`, else `undecided`. `index`
   /// numbers the lines of the walk (consecutive for neighbours in a row; used for warm starts).
-  Result entry(double x, double y, double floor, double top, long index, Warm& warm, double& z) const;
+  Result entry(double x, double y, double floor, double top, long index, Warm& warm, double& z) const {
+    if (!usable_) return Result::undecided;
+    // The lowest bottom's plane over the line: the entry where the line crosses that bottom,
+    // else a lower bound (no point of the sweep lies below it). The cheap decisions are inline:
+    // most lines end here.
+    const double zp = k0_ - kx_ * x - ky_ * y;
+    if (in_bottom(x, y, zp)) {
+      z = zp;
+      return z > floor ? Result::exact : Result::undecided;
+    }
+    if (warm.plane && (warm.nx * x + warm.ny * y - warm.hn) * warm.inv_nz >= top + kPlaneMargin) return Result::above;
+    if (zp >= top) return Result::above;
+    return entry_off_bottom(x, y, zp, floor, top, index, warm, z);
+  }
 
   /// The bottom disc (radius rho about c - r a, normal a) at the end of the motion where a . c
   /// is least: no point of the sweep lies below its plane, so where the line crosses it (or,
@@ -120,6 +133,19 @@ class VerticalEntry {
 
  private:
   bool capsule_low(double x, double y, const Eigen::Vector3d& w, double& z, double& sigma) const;
+  // (x, y, z) on the lowest plane: in the lowest bottom disc (or the swept bottom, a stadium,
+  // for a motion in the bottom's plane)?
+  bool in_bottom(double x, double y, double z) const {
+    if (plane_motion_) return in_stadium(x, y, z);
+    const double dx = x - b_low_.x(), dy = y - b_low_.y(), dz = z - b_low_.z();
+    return dx * dx + dy * dy + dz * dz <= s_.rho * s_.rho;
+  }
+  bool in_stadium(double x, double y, double z) const;
+  Result entry_off_bottom(double x, double y, double zp, double floor, double top, long index, Warm& warm,
+                          double& z) const;
+  // The plane bounds are computed in doubles (values ~ |c0|, divided by at most 1e3): a margin
+  // far above their rounding and far below any accuracy that matters [m].
+  static constexpr double kPlaneMargin = 1e-12;
   /// Flat-end: the line's entry into the flank (cylinder wall) of the tool at core point c, where
   /// the flank faces down, with its outer normal n.
   bool flank(double x, double y, const Eigen::Vector3d& c, double& z, Eigen::Vector3d& n) const;
@@ -131,12 +157,12 @@ class VerticalEntry {
   // flat_rim: the rim angle's cosine and sine axes (the roots are w = c U +- sqrt(1 - c^2) V)
   Eigen::Vector3d rim_u_, rim_v_;
   double rim_m_ = 0.0;
-  // bottom: the plane z = k0 - kx x - ky y and the lowest disc's centre
+  // bottom: the plane a . p = amin as z = k0 - kx x - ky y, and the lowest disc's centre
   double k0_ = 0.0, kx_ = 0.0, ky_ = 0.0;
   Eigen::Vector3d b_low_, b0_, b1_;
   // start_disc_row: the quadratic form of the start disc's projection
   double qa_ = 0.0, qb_ = 0.0, qc_ = 0.0;
-  bool plane_motion_ = false, start_lowest_ = true;
+  bool plane_motion_ = false, start_lowest_ = true, usable_ = false;
 };
 
 /// Line through a flat-end sweep (r = 0, rho > 0), any line direction: closed form (the
