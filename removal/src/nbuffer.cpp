@@ -436,8 +436,7 @@ CutStatistics NBuffer::cut(const Tool& tool, std::span<const Pose> trajectory, c
           double t0 = 0.0, t1 = 0.0;
           if (tilted && s.rho > 0.0) {  // flat-end / bull-nose, tilted: VerticalEntry decides most lines
             double z = 0.0;
-            const long walk = iu + static_cast<long>(iv) * (nu_ + 2);  // consecutive along a row only
-            const auto result = fast.entry(x, y, z0, z0 + h, walk, warm, z);
+            const auto result = fast.entry(x, y, z0, z0 + h, iv, iu, warm, z);
             if (result == detail::VerticalEntry::Result::above) continue;
             if (result == detail::VerticalEntry::Result::exact) {
               t0 = z - z0;  // entry exact (certified); t0 > 0, so the exit is above 0 too

@@ -468,7 +468,7 @@ void VerticalEntry::set_plane(const Eigen::Vector3d& n, Warm& warm) const {
 }
 
 VerticalEntry::Result VerticalEntry::entry_off_bottom(double x, double y, double zp, double floor, double top,
-                                                      long index, Warm& warm, double& z) const {
+                                                      int row, int col, Warm& warm, double& z) const {
   constexpr double margin = kPlaneMargin;
   const double bound = std::max(zp, lowest_z_beyond(s_, distance_2d(x, y, s_.c0.x(), s_.c0.y(), s_.c1.x(), s_.c1.y())));
   if (bound >= top) return Result::above;
@@ -499,23 +499,40 @@ VerticalEntry::Result VerticalEntry::entry_off_bottom(double x, double y, double
     }
     return Result::undecided;
   }
-  // Bull-nose: the rim direction extrapolated from the two lines before (consecutive in the
-  // row: the turn from the one before last to the last, once more), else the last one found.
-  Eigen::Vector2d dir = warm.dir;
-  if (warm.at == index - 1 && warm.at_prev == index - 2 && warm.dir_prev.allFinite()) {
-    const Eigen::Vector2d& d1 = warm.dir;
-    const Eigen::Vector2d& d2 = warm.dir_prev;
-    const Eigen::Vector2d d11(d1.x() * d1.x() - d1.y() * d1.y(), 2.0 * d1.x() * d1.y());  // d1^2 / d2 (complex)
-    dir = Eigen::Vector2d(d11.x() * d2.x() + d11.y() * d2.y(), d11.y() * d2.x() - d11.x() * d2.y()).normalized();
+  // Bull-nose: the rim direction extrapolated from the neighbours found before (unit complex
+  // numbers: a turn repeated is a ratio): along the row (two to the left), across the rows
+  // (left, up and up-left; or two up), else the nearest one, else the last one found.
+  auto at = [&](int r, int c) -> const Eigen::Vector2d* {
+    if (c < 0) return nullptr;
+    const Warm::Found& f = warm.found[((r % 3) + 3) % 3][c % 16];
+    return f.row == r && f.col == c ? &f.dir : nullptr;
+  };
+  auto mul = [](const Eigen::Vector2d& p, const Eigen::Vector2d& q) {
+    return Eigen::Vector2d(p.x() * q.x() - p.y() * q.y(), p.x() * q.y() + p.y() * q.x());
+  };
+  auto div = [](const Eigen::Vector2d& p, const Eigen::Vector2d& q) {  // p / q for |q| = 1
+    return Eigen::Vector2d(p.x() * q.x() + p.y() * q.y(), p.y() * q.x() - p.x() * q.y());
+  };
+  const Eigen::Vector2d *left = at(row, col - 1), *left2 = at(row, col - 2), *up = at(row - 1, col),
+                        *up_left = at(row - 1, col - 1), *up2 = at(row - 2, col);
+  Eigen::Vector2d dir = warm.last;
+  if (left && left2) {
+    dir = div(mul(*left, *left), *left2).normalized();
+  } else if (left && up && up_left) {
+    dir = div(mul(*left, *up), *up_left).normalized();
+  } else if (up && up2) {
+    dir = div(mul(*up, *up), *up2).normalized();
+  } else if (left || up) {
+    dir = left ? *left : *up;
   }
   if (bull_rim(x, y, bound, dir, z, &n)) {
-    warm.dir_prev = warm.dir, warm.at_prev = warm.at;
-    warm.dir = dir, warm.at = index;
+    Warm::Found& f = warm.found[((row % 3) + 3) % 3][((col % 16) + 16) % 16];
+    f.dir = dir, f.row = row, f.col = col;
+    warm.last = dir;
     set_plane(n, warm);
     return z > floor ? Result::exact : Result::undecided;
   }
-  warm.dir = Eigen::Vector2d::Constant(std::numeric_limits<double>::quiet_NaN());
-  warm.at = -2;
+  warm.last = Eigen::Vector2d::Constant(std::numeric_limits<double>::quiet_NaN());
   return Result::undecided;
 }
 
@@ -600,11 +617,14 @@ bool VerticalEntry::bull_rim(double x, double y, double z_guess, Eigen::Vector2d
   // (rational: no trigonometry, unit up to rounding). f(tau) = tan(half the angle from w to the
   // contact's direction about the axis): 0 at the optimum, where the contact normal has no
   // tangential part. The first step turns w onto that direction, then secant steps on tau.
-  const Eigen::Vector2d start = dir;
-  auto turn = [&](double tau) {
+  auto rotate = [](const Eigen::Vector2d& d, double tau) {
     const double q = 1.0 / (1.0 + tau * tau), c = (1.0 - tau * tau) * q, sn = 2.0 * tau * q;
-    return Eigen::Vector2d(c * start.x() - sn * start.y(), sn * start.x() + c * start.y());
+    return Eigen::Vector2d(c * d.x() - sn * d.y(), sn * d.x() + c * d.y());
   };
+  const Eigen::Vector2d start = dir;
+  auto turn = [&](double tau) { return rotate(start, tau); };
+  // Once certified, `dir` returns turned onto the contact's direction (one more fixed-point
+  // step, free): a better warm start for the neighbours than the accepted direction.
   auto eval = [&](const Eigen::Vector2d& d, double& f, bool& certified) {
     const Eigen::Vector3d w = d.x() * eu_ + d.y() * ev_, t = d.x() * ev_ - d.y() * eu_;
     double sigma = 0.0;
@@ -623,13 +643,19 @@ bool VerticalEntry::bull_rim(double x, double y, double z_guess, Eigen::Vector2d
   double f0 = 0.0, f1 = 0.0;
   bool ok = false;
   if (!eval(dir, f0, ok)) return false;
-  if (ok) return true;
+  if (ok) {
+    dir = rotate(dir, f0);
+    return true;
+  }
   if (!(std::abs(f0) < 1e3)) return false;
   double tau0 = 0.0, tau = f0;
   for (int k = 0; k < 10; ++k) {
     dir = turn(tau);
     if (!eval(dir, f1, ok)) return false;
-    if (ok) return true;
+    if (ok) {
+      dir = rotate(dir, f1);
+      return true;
+    }
     if (!(std::abs(f1) < 1e3)) return false;
     const double next = f1 != f0 ? tau - f1 * (tau - tau0) / (f1 - f0) : tau + f1;
     tau0 = tau, f0 = f1, tau = next;

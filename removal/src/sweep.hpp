@@ -81,17 +81,22 @@ class VerticalEntry {
   struct Warm {
     bool plane = false;
     double nx = 0.0, ny = 0.0, inv_nz = 0.0, hn = 0.0;  // z >= (nx x + ny y - hn) * inv_nz
-    // rim directions found (cos, sin of the rim angle; NaN: none)
-    Eigen::Vector2d dir = Eigen::Vector2d::Constant(std::numeric_limits<double>::quiet_NaN()), dir_prev = dir;
-    long at = -2, at_prev = -2;  // the walk positions (line counters) where they were found
+    // Bull-nose rim directions found (cos, sin of the rim angle) in the last three rows, by
+    // column modulo 16 (a walk spans at most 16 columns), with their row and column.
+    struct Found {
+      Eigen::Vector2d dir = Eigen::Vector2d::Zero();
+      int row = -10, col = -10;
+    };
+    Found found[3][16];
+    Eigen::Vector2d last = Eigen::Vector2d::Constant(std::numeric_limits<double>::quiet_NaN());
   };
   enum class Result { above, exact, undecided };
 
   /// The entry of the vertical line (x, y) whose material reaches from `floor` up to `top`
   /// (z, m): `above` when the entry is certainly at or above `top` (nothing to cut), `exact`
-  /// with z the entry when it is certified and above `floor`, else `undecided`. `index`
-  /// numbers the lines of the walk (consecutive for neighbours in a row; used for warm starts).
-  Result entry(double x, double y, double floor, double top, long index, Warm& warm, double& z) const {
+  /// with z the entry when it is certified and above `floor`, else `undecided`. `row`, `col`
+  /// number the lines of the walk (neighbours differ by 1; used for warm starts only).
+  Result entry(double x, double y, double floor, double top, int row, int col, Warm& warm, double& z) const {
     if (!usable_) return Result::undecided;
     // The lowest bottom's plane over the line: the entry where the line crosses that bottom,
     // else a lower bound (no point of the sweep lies below it). The cheap decisions are inline:
@@ -103,7 +108,7 @@ class VerticalEntry {
     }
     if (warm.plane && (warm.nx * x + warm.ny * y - warm.hn) * warm.inv_nz >= top + kPlaneMargin) return Result::above;
     if (zp >= top) return Result::above;
-    return entry_off_bottom(x, y, zp, floor, top, index, warm, z);
+    return entry_off_bottom(x, y, zp, floor, top, row, col, warm, z);
   }
 
   /// The bottom disc (radius rho about c - r a, normal a) at the end of the motion where a . c
@@ -141,7 +146,7 @@ class VerticalEntry {
     return dx * dx + dy * dy + dz * dz <= s_.rho * s_.rho;
   }
   bool in_stadium(double x, double y, double z) const;
-  Result entry_off_bottom(double x, double y, double zp, double floor, double top, long index, Warm& warm,
+  Result entry_off_bottom(double x, double y, double zp, double floor, double top, int row, int col, Warm& warm,
                           double& z) const;
   // The plane bounds are computed in doubles (values ~ |c0|, divided by at most 1e3): a margin
   // far above their rounding and far below any accuracy that matters [m].

@@ -115,12 +115,12 @@ TEST(NBufferPaths, VerticalEntryAgreesWithLineInterval) {
     const double y = (k % 3 == 0 ? c0.y() + (rho + r) * c(rng) : 3 * c(rng) * mm);
     const double floor = c0.z() - 3 * mm;  // the lines start below the sweep: line_interval's t0 is from there
     // One line against line_interval; returns its entry (or +inf on a miss).
-    auto check = [&](double x, double y, double top, long walk, detail::VerticalEntry::Warm& warm) {
+    auto check = [&](double x, double y, double top, int walk, detail::VerticalEntry::Warm& warm) {
       double t0 = 0.0, t1 = 0.0;
       const bool hit = detail::line_interval(s, Eigen::Vector3d(x, y, floor), Eigen::Vector3d::UnitZ(), t0, t1);
       t0 += floor;
       double z = 0.0;
-      const auto result = fast.entry(x, y, floor, top, walk, warm, z);
+      const auto result = fast.entry(x, y, floor, top, 0, walk, warm, z);
       if (result == detail::VerticalEntry::Result::above) {
         ++above;
         if (hit) EXPECT_GE(t0, top - 1e-11) << k << " x " << x << " y " << y;
@@ -138,7 +138,7 @@ TEST(NBufferPaths, VerticalEntryAgreesWithLineInterval) {
       }
       return hit ? t0 : detail::kInf;
     };
-    long walk = 0;
+    int walk = 0;
     for (double x = -3.5 * mm; x < 3.5 * mm; x += 0.01 * mm, ++walk) {
       // Tops near the entry (the culling's hard case), above it and below it.
       double t0 = 0.0, t1 = 0.0;
