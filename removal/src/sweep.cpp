@@ -502,9 +502,10 @@ VerticalEntry::Result VerticalEntry::entry_off_bottom(double x, double y, double
   // Bull-nose: the rim direction extrapolated from the neighbours found before (unit complex
   // numbers: a turn repeated is a ratio): along the row (two to the left), across the rows
   // (left, up and up-left; or two up), else the nearest one, else the last one found.
+  auto slot = [](int r, int c) { return static_cast<unsigned>(r) % 3u * 16u + (static_cast<unsigned>(c) & 15u); };
   auto at = [&](int r, int c) -> const Eigen::Vector2d* {
-    if (c < 0) return nullptr;
-    const Warm::Found& f = warm.found[((r % 3) + 3) % 3][c % 16];
+    if (r < 0 || c < 0) return nullptr;
+    const Warm::Found& f = warm.found[slot(r, c)];
     return f.row == r && f.col == c ? &f.dir : nullptr;
   };
   auto mul = [](const Eigen::Vector2d& p, const Eigen::Vector2d& q) {
@@ -513,20 +514,25 @@ VerticalEntry::Result VerticalEntry::entry_off_bottom(double x, double y, double
   auto div = [](const Eigen::Vector2d& p, const Eigen::Vector2d& q) {  // p / q for |q| = 1
     return Eigen::Vector2d(p.x() * q.x() + p.y() * q.y(), p.y() * q.x() - p.x() * q.y());
   };
-  const Eigen::Vector2d *left = at(row, col - 1), *left2 = at(row, col - 2), *up = at(row - 1, col),
-                        *up_left = at(row - 1, col - 1), *up2 = at(row - 2, col);
   Eigen::Vector2d dir = warm.last;
+  const Eigen::Vector2d* left = at(row, col - 1);
+  const Eigen::Vector2d* left2 = left ? at(row, col - 2) : nullptr;
   if (left && left2) {
     dir = div(mul(*left, *left), *left2).normalized();
-  } else if (left && up && up_left) {
-    dir = div(mul(*left, *up), *up_left).normalized();
-  } else if (up && up2) {
-    dir = div(mul(*up, *up), *up2).normalized();
-  } else if (left || up) {
-    dir = left ? *left : *up;
+  } else {
+    const Eigen::Vector2d* up = at(row - 1, col);
+    const Eigen::Vector2d* up_left = left && up ? at(row - 1, col - 1) : nullptr;
+    const Eigen::Vector2d* up2 = up && !up_left ? at(row - 2, col) : nullptr;
+    if (up_left) {
+      dir = div(mul(*left, *up), *up_left).normalized();
+    } else if (up2) {
+      dir = div(mul(*up, *up), *up2).normalized();
+    } else if (left || up) {
+      dir = left ? *left : *up;
+    }
   }
   if (bull_rim(x, y, bound, dir, z, &n)) {
-    Warm::Found& f = warm.found[((row % 3) + 3) % 3][((col % 16) + 16) % 16];
+    Warm::Found& f = warm.found[slot(row, col)];
     f.dir = dir, f.row = row, f.col = col;
     warm.last = dir;
     set_plane(n, warm);

@@ -82,12 +82,13 @@ class VerticalEntry {
     bool plane = false;
     double nx = 0.0, ny = 0.0, inv_nz = 0.0, hn = 0.0;  // z >= (nx x + ny y - hn) * inv_nz
     // Bull-nose rim directions found (cos, sin of the rim angle) in the last three rows, by
-    // column modulo 16 (a walk spans at most 16 columns), with their row and column.
+    // row modulo 3 and column modulo 16 (a walk spans at most 16 columns), with their row and
+    // column (both >= 0).
     struct Found {
       Eigen::Vector2d dir = Eigen::Vector2d::Zero();
       int row = -10, col = -10;
     };
-    Found found[3][16];
+    Found found[3 * 16];
     Eigen::Vector2d last = Eigen::Vector2d::Constant(std::numeric_limits<double>::quiet_NaN());
   };
   enum class Result { above, exact, undecided };
