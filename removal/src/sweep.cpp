@@ -460,24 +460,30 @@ double VerticalEntry::support(const Eigen::Vector3d& n) const {
          std::max(0.0, n.dot(e1_)) + s_.r * std::sqrt(nn);
 }
 
-void VerticalEntry::set_plane(const Eigen::Vector3d& n, Warm& warm) const {
+void VerticalEntry::set_plane(const Eigen::Vector3d& n, Warm& warm) const { set_plane(n, support(n), warm); }
+
+void VerticalEntry::set_plane(const Eigen::Vector3d& n, double hn, Warm& warm) const {
   // Only planes that are not too steep: the bound divides by -n_z.
   if (!(n.z() < -1e-3 * n.norm())) return;
   warm.plane = true;
-  warm.nx = n.x(), warm.ny = n.y(), warm.inv_nz = -1.0 / n.z(), warm.hn = support(n);
+  warm.nx = n.x(), warm.ny = n.y(), warm.inv_nz = -1.0 / n.z(), warm.hn = hn;
 }
 
 VerticalEntry::Result VerticalEntry::entry_off_bottom(double x, double y, double zp, double floor, double top,
                                                       int row, int col, Warm& warm, double& z) const {
   constexpr double margin = kPlaneMargin;
-  const double bound = std::max(zp, lowest_z_beyond(s_, distance_2d(x, y, s_.c0.x(), s_.c0.y(), s_.c1.x(), s_.c1.y())));
-  if (bound >= top) return Result::above;
+  auto capsule_bound = [&] {  // the tilted capsule's envelope by planar distance, and the bottom plane
+    return std::max(zp, lowest_z_beyond(s_, distance_2d(x, y, s_.c0.x(), s_.c0.y(), s_.c1.x(), s_.c1.y())));
+  };
   Eigen::Vector3d n;
   if (s_.r == 0.0) {
     if (flat_rim(x, y, z, &n)) {
-      set_plane(n, warm);
+      // n = sign (ae w - we a) with w . a = 0 and sign we >= 0: n . a <= 0, |n - (n . a) a| = |ae|
+      // and n . e1 = 0, so h(n) = n . c0 + rho |ae| (no square root).
+      set_plane(n, n.dot(s_.c0) + s_.rho * std::abs(ae_), warm);
       return z > floor ? Result::exact : Result::undecided;
     }
+    if (capsule_bound() >= top) return Result::above;
     // Off the swept bottom: the flank, if anything. The flank of the tool at either end where
     // the line enters it, if certified (delta = 0 exactly where its normal faces along the
     // motion at c1, against it at c0: then that end's tool is the sweep's lowest on the line).
@@ -499,6 +505,8 @@ VerticalEntry::Result VerticalEntry::entry_off_bottom(double x, double y, double
     }
     return Result::undecided;
   }
+  const double bound = capsule_bound();
+  if (bound >= top) return Result::above;
   // Bull-nose: the rim direction extrapolated from the neighbours found before (unit complex
   // numbers: a turn repeated is a ratio): along the row (two to the left), across the rows
   // (left, up and up-left; or two up), else the nearest one, else the last one found.

@@ -156,6 +156,7 @@ class VerticalEntry {
   /// the flank faces down, with its outer normal n.
   bool flank(double x, double y, const Eigen::Vector3d& c, double& z, Eigen::Vector3d& n) const;
   void set_plane(const Eigen::Vector3d& n, Warm& warm) const;
+  void set_plane(const Eigen::Vector3d& n, double support_n, Warm& warm) const;  // h(n) known
   const Sweep& s_;
   Eigen::Vector3d e1_, eu_, ev_;
   double ae_ = 0.0;   // a . e1
