@@ -539,11 +539,12 @@ VerticalEntry::Result VerticalEntry::entry_off_bottom(double x, double y, double
       dir = left ? *left : *up;
     }
   }
-  if (bull_rim(x, y, bound, dir, z, &n)) {
+  double hn = 0.0;
+  if (bull_rim(x, y, bound, dir, z, &n, &hn)) {
     Warm::Found& f = warm.found[slot(row, col)];
     f.dir = dir, f.row = row, f.col = col;
     warm.last = dir;
-    set_plane(n, warm);
+    set_plane(n, hn, warm);
     return z > floor ? Result::exact : Result::undecided;
   }
   warm.last = Eigen::Vector2d::Constant(std::numeric_limits<double>::quiet_NaN());
@@ -619,7 +620,7 @@ bool VerticalEntry::capsule_low(double x, double y, const Eigen::Vector3d& w, do
 }
 
 bool VerticalEntry::bull_rim(double x, double y, double z_guess, Eigen::Vector2d& dir, double& z,
-                             Eigen::Vector3d* n_out) const {
+                             Eigen::Vector3d* n_out, double* support_out) const {
   if (dd_ == 0.0 || !(s_.a.z() > 0.0) || !(s_.r > 0.0)) return false;
   if (!dir.allFinite()) {
     const Eigen::Vector3d v = Eigen::Vector3d(x, y, z_guess) - 0.5 * (s_.c0 + s_.c1);
@@ -652,6 +653,7 @@ bool VerticalEntry::bull_rim(double x, double y, double z_guess, Eigen::Vector2d
     const double gap = s_.rho * (n_perp - n.dot(w)) + s_.ell * std::max(0.0, na) + std::max(0.0, ne) - sigma * ne;
     certified = n.z() < -1e-3 && gap <= -1e-11 * n.z();
     if (certified && n_out) *n_out = n;
+    if (certified && support_out) *support_out = gap + n.dot(Eigen::Vector3d(x, y, z));  // h(n) = gap + n . p
     return true;
   };
   double f0 = 0.0, f1 = 0.0;

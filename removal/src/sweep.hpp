@@ -132,8 +132,10 @@ class VerticalEntry {
   /// phi of the capsule (rim point swept) (+) Ball(r), closed form per phi; phi by secant
   /// steps (without trigonometry) from `dir` = (cos phi, sin phi) in the frame (eu, ev) normal
   /// to the axis (a warm start; NaN: from the line's azimuth about the axis at z_guess), on
-  /// return the direction found. Accepted with the bound above; `n` gets the contact normal.
-  bool bull_rim(double x, double y, double z_guess, Eigen::Vector2d& dir, double& z, Eigen::Vector3d* n = nullptr) const;
+  /// return the direction found. Accepted with the bound above; `n` gets the contact normal and
+  /// `support_n` its support value h(n).
+  bool bull_rim(double x, double y, double z_guess, Eigen::Vector2d& dir, double& z, Eigen::Vector3d* n = nullptr,
+                double* support_n = nullptr) const;
   /// The support function h(n) above.
   double support(const Eigen::Vector3d& n) const;
 
