@@ -407,6 +407,10 @@ VerticalEntry::VerticalEntry(const Sweep& s) : s_(s) {
   ev_ = s.a.cross(eu_);
   ae_ = s.a.dot(e1_);
   dd_ = e1_.x() * e1_.x() + e1_.y() * e1_.y();
+  if (dd_ > 0.0) {
+    inv_dd_ = 1.0 / dd_;
+    slope_ = e1_.z() / (std::sqrt(dd_) * std::sqrt(dd_ + e1_.z() * e1_.z()));
+  }
   // flat_rim: rho (cos phi U + sin phi V) + sigma D = q in the plane; the cross product with D
   // removes sigma: rho (alpha cos phi + beta sin phi) = gamma, so with (alpha, beta) = m (cos b,
   // sin b) the roots are phi = b +- acos(gamma / (rho m)), i.e. w = c U' +- sqrt(1 - c^2) V'.
@@ -426,6 +430,7 @@ VerticalEntry::VerticalEntry(const Sweep& s) : s_(s) {
   // start_disc_row: |p - b0|^2 <= rho^2 with p on the disc's plane over (x, y), times a_z^2.
   const double ax = s.a.x(), ay = s.a.y(), az = s.a.z();
   usable_ = s.rho > 0.0 && az > 0.0;
+  if (s.r > 0.0) inv_r_ = 1.0 / s.r;
   if (usable_) k0_ = s.amin / az, kx_ = ax / az, ky_ = ay / az;
   qa_ = az * az + ax * ax;
   qb_ = ax * ay;
@@ -607,11 +612,11 @@ bool VerticalEntry::capsule_low(double x, double y, const Eigen::Vector3d& w, do
   const double r = s_.r;
   const double d0x = x - s_.c0.x() - s_.rho * w.x(), d0y = y - s_.c0.y() - s_.rho * w.y();
   const double cross = d0x * e1_.y() - d0y * e1_.x();
-  const double perp2 = cross * cross / dd_;
+  const double perp2 = cross * cross * inv_dd_;
   if (perp2 > r * r) return false;
   const double ez = e1_.z();
-  const double along = e1_.z() * std::sqrt((r * r - perp2) / (dd_ + ez * ez));
-  sigma = std::clamp((d0x * e1_.x() + d0y * e1_.y()) / dd_ - along / std::sqrt(dd_), 0.0, 1.0);
+  const double along = slope_ * std::sqrt(r * r - perp2);
+  sigma = std::clamp((d0x * e1_.x() + d0y * e1_.y()) * inv_dd_ - along, 0.0, 1.0);
   const double ex = d0x - sigma * e1_.x(), ey = d0y - sigma * e1_.y();
   const double q = r * r - ex * ex - ey * ey;
   if (q < 0.0) return false;
@@ -647,7 +652,7 @@ bool VerticalEntry::bull_rim(double x, double y, double z_guess, Eigen::Vector2d
     const Eigen::Vector3d v = Eigen::Vector3d(x, y, z) - s_.c0 - sigma * e1_;
     const double vw = v.dot(w), vt = v.dot(t), len = std::sqrt(vw * vw + vt * vt);
     f = len + vw > 0.0 ? vt / (len + vw) : 1e300;  // tan(alpha / 2) of the angle alpha = atan2(vt, vw)
-    const Eigen::Vector3d n = (v - s_.rho * w) / s_.r;
+    const Eigen::Vector3d n = (v - s_.rho * w) * inv_r_;
     const double na = n.dot(s_.a), ne = n.dot(e1_);
     const double n_perp = std::sqrt(std::max(0.0, n.squaredNorm() - na * na));
     const double gap = s_.rho * (n_perp - n.dot(w)) + s_.ell * std::max(0.0, na) + std::max(0.0, ne) - sigma * ne;

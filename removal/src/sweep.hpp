@@ -163,6 +163,8 @@ class VerticalEntry {
   Eigen::Vector3d e1_, eu_, ev_;
   double ae_ = 0.0;   // a . e1
   double dd_ = 0.0;   // |e1_xy|^2
+  // capsule_low: 1 / |e1_xy|^2, e1_z / (|e1_xy| sqrt(|e1_xy|^2 + e1_z^2)); bull_rim: 1 / r
+  double inv_dd_ = 0.0, slope_ = 0.0, inv_r_ = 0.0;
   // flat_rim: the rim angle's cosine and sine axes (the roots are w = c U +- sqrt(1 - c^2) V)
   Eigen::Vector3d rim_u_, rim_v_;
   double rim_m_ = 0.0;
