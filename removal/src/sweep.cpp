@@ -501,8 +501,8 @@ VerticalEntry::Result VerticalEntry::entry_off_bottom(double x, double y, double
     // Else the flank's supporting plane along the radial direction of the line at the bottom's
     // plane (midway along the motion) bounds the entry.
     const Eigen::Vector3d bm = 0.5 * (b0_ + b1_);
-    const double zp = bm.z() - (s_.a.x() * (x - bm.x()) + s_.a.y() * (y - bm.y())) / s_.a.z();
-    const Eigen::Vector3d v(x - bm.x(), y - bm.y(), zp - bm.z());
+    const double z_mid = bm.z() - (s_.a.x() * (x - bm.x()) + s_.a.y() * (y - bm.y())) / s_.a.z();
+    const Eigen::Vector3d v(x - bm.x(), y - bm.y(), z_mid - bm.z());
     const double len = v.norm();
     if (len > 0.0) {
       set_plane(v / len, warm);

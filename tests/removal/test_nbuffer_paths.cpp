@@ -111,8 +111,8 @@ TEST(NBufferPaths, VerticalEntryAgreesWithLineInterval) {
     const detail::Sweep s = detail::make_sweep(c0, c0 + move, a, rho, r, 4 * mm);
     const detail::Sweep start = detail::make_sweep(c0, c0, a, rho, r, 4 * mm);
     const detail::VerticalEntry fast(s);
-    detail::VerticalEntry::Warm warm;
-    const double y = (k % 3 == 0 ? c0.y() + (rho + r) * c(rng) : 3 * c(rng) * mm);
+    detail::VerticalEntry::Warm row_warm;
+    const double row_y = (k % 3 == 0 ? c0.y() + (rho + r) * c(rng) : 3 * c(rng) * mm);
     const double floor = c0.z() - 3 * mm;  // the lines start below the sweep: line_interval's t0 is from there
     // One line against line_interval; returns its entry (or +inf on a miss).
     auto check = [&](double x, double y, double top, int walk, detail::VerticalEntry::Warm& warm) {
@@ -123,7 +123,9 @@ TEST(NBufferPaths, VerticalEntryAgreesWithLineInterval) {
       const auto result = fast.entry(x, y, floor, top, 0, walk, warm, z);
       if (result == detail::VerticalEntry::Result::above) {
         ++above;
-        if (hit) EXPECT_GE(t0, top - 1e-11) << k << " x " << x << " y " << y;
+        if (hit) {
+          EXPECT_GE(t0, top - 1e-11) << k << " x " << x << " y " << y;
+        }
       } else if (result == detail::VerticalEntry::Result::exact) {
         ++exact;
         // Both must be points of the sweep's boundary; apart by more than 1e-11 m only where the
@@ -131,7 +133,9 @@ TEST(NBufferPaths, VerticalEntryAgreesWithLineInterval) {
         // no interior point between them.
         EXPECT_LT(std::abs(detail::signed_distance(s, Eigen::Vector3d(x, y, z))), 1e-11) << k << " x " << x;
         if (!hit || std::abs(z - t0) > 1e-11) {
-          if (hit) EXPECT_GT(detail::signed_distance(s, Eigen::Vector3d(x, y, 0.5 * (z + t0))), -1e-11) << k << " x " << x;
+          if (hit) {
+            EXPECT_GT(detail::signed_distance(s, Eigen::Vector3d(x, y, 0.5 * (z + t0))), -1e-11) << k << " x " << x;
+          }
           ++grazing;
         }
         EXPECT_GT(z, floor);
@@ -142,10 +146,10 @@ TEST(NBufferPaths, VerticalEntryAgreesWithLineInterval) {
     for (double x = -3.5 * mm; x < 3.5 * mm; x += 0.01 * mm, ++walk) {
       // Tops near the entry (the culling's hard case), above it and below it.
       double t0 = 0.0, t1 = 0.0;
-      const bool hit = detail::line_interval(s, Eigen::Vector3d(x, y, floor), Eigen::Vector3d::UnitZ(), t0, t1);
+      const bool hit = detail::line_interval(s, Eigen::Vector3d(x, row_y, floor), Eigen::Vector3d::UnitZ(), t0, t1);
       const double top = hit && k % 4 != 0 ? floor + t0 + (unit(rng) - 0.5) * (walk % 7 == 0 ? 1e-3 : 0.05) * mm
                                            : c0.z() + c(rng) * mm;
-      check(x, y, top, walk, warm);
+      check(x, row_y, top, walk, row_warm);
     }
     // Lines on the edge of the bottom disc at c0 and just inside and outside it (grazing the rim).
     for (double yy = c0.y() - 2.5 * mm; yy < c0.y() + 2.5 * mm; yy += 0.1 * mm) {
