@@ -164,9 +164,10 @@ void NBuffer::refresh_tile(std::size_t tile) {
   b.h_max = 0.0;
   b.lo = Eigen::Vector3d::Constant(detail::kInf);
   b.hi = Eigen::Vector3d::Constant(-detail::kInf);
+  const std::size_t base = tile * kTile * kTile;  // index(iu, iv) within the tile
   for (int iv = tv * kTile; iv < v_end; ++iv) {
     for (int iu = tu * kTile; iu < u_end; ++iu) {
-      const std::size_t s = index(iu, iv);
+      const std::size_t s = base + static_cast<std::size_t>(iu - tu * kTile) + static_cast<std::size_t>(kTile) * (iv - tv * kTile);
       b.h_max = std::max(b.h_max, h_[s]);
       if (!zmap_) {
         const Eigen::Vector3d end = o_[s] + h_[s] * u_[s];
@@ -346,6 +347,8 @@ CutStatistics NBuffer::cut(const Tool& tool, std::span<const Pose> trajectory, c
       s.continues = have_previous && previous.c1 == s.c0 && previous.rho == s.rho && previous.r == s.r &&
                     s.c1.z() >= s.c0.z() &&
                     ((previous.vertical && s.vertical && previous.ell == s.ell) || s.rho == 0.0);
+      s.continues_axis = have_previous && previous.c1 == s.c0 && previous.a == s.a && previous.rho == s.rho &&
+                         previous.r == s.r;
       previous = s;
       have_previous = true;
     }
@@ -401,7 +404,12 @@ CutStatistics NBuffer::cut(const Tool& tool, std::span<const Pose> trajectory, c
       const bool behind = behind_is_cut(s, top);
       const double ball_reach = s.r * s.a.z();  // ball-end: within this of c0 and c1, the ball decides
       const detail::VerticalEntry fast(s);     // tilted flat-end / bull-nose: certified entries
-      double phi = std::nan("");               // bull-nose: the last rim angle (warm start)
+      detail::VerticalEntry::Warm warm;          // their warm starts along the walk
+      // Tilted flat-end / bull-nose continuing with the same axis from where the last sweep left
+      // it: where the bottom disc at c0 is the lowest part of the sweep (a . c0 <= a . c1), lines
+      // crossing it get that disc's height as their entry, which the last sweep (holding the tool
+      // at c0) already cut: they are skipped.
+      const bool skip_start_disc = tilted && s.rho > 0.0 && s.continues_axis && fast.lowest_at_start();
       for (int iv = tv * kTile; iv < v_end; ++iv) {
         const double y = origin0_.y() + iv * sp;
         double xa = 0.0, xb = 0.0;
@@ -411,12 +419,36 @@ CutStatistics NBuffer::cut(const Tool& tool, std::span<const Pose> trajectory, c
         if (!(xa <= xb)) continue;
         const int ia = std::max(tu * kTile, static_cast<int>(std::ceil((xa - origin0_.x()) / sp)));
         const int ib = std::min(u_end - 1, static_cast<int>(std::floor((xb - origin0_.x()) / sp)));
+        double* row = &h_[tile * kTile * kTile + static_cast<std::size_t>(kTile) * (iv - tv * kTile)];  // == index(iu, iv)
+        int skip_a = ib + 1, skip_b = ib;  // lines [skip_a, skip_b] skipped
+        double sx0 = 0.0, sx1 = 0.0;
+        if (skip_start_disc && fast.start_disc_row(y, slack, sx0, sx1)) {
+          skip_a = static_cast<int>(std::ceil((sx0 - origin0_.x()) / sp));
+          skip_b = static_cast<int>(std::floor((sx1 - origin0_.x()) / sp));
+        }
         for (int iu = ia; iu <= ib; ++iu) {
-          double& h = h_[index(iu, iv)];
+          if (iu >= skip_a && iu <= skip_b) {
+            iu = skip_b;
+            continue;
+          }
+          double& h = row[iu - tu * kTile];
           const double x = origin0_.x() + iu * sp;
-          const double d = detail::distance_2d(x, y, s.c0.x(), s.c0.y(), s.c1.x(), s.c1.y());
           double t0 = 0.0, t1 = 0.0;
-          if (level) {  // vertical tool, level move: the depth at the planar distance, closed form
+          if (tilted && s.rho > 0.0) {  // flat-end / bull-nose, tilted: VerticalEntry decides most lines
+            double z = 0.0;
+            const auto result = fast.entry(x, y, z0, z0 + h, iv, iu, warm, z);
+            if (result == detail::VerticalEntry::Result::above) continue;
+            if (result == detail::VerticalEntry::Result::exact) {
+              t0 = z - z0;  // entry exact (certified); t0 > 0, so the exit is above 0 too
+              t1 = s.hi.z() - z0;
+            } else {
+              const Eigen::Vector3d o(x, y, z0);
+              const bool hit = s.r > 0.0 ? detail::bull_interval(s, o, Eigen::Vector3d::UnitZ(), h, t0, t1)
+                                         : detail::line_interval(s, o, Eigen::Vector3d::UnitZ(), t0, t1);
+              if (!hit) continue;
+            }
+          } else if (level) {  // vertical tool, level move: the depth at the planar distance, closed form
+            const double d = detail::distance_2d(x, y, s.c0.x(), s.c0.y(), s.c1.x(), s.c1.y());
             const double e = std::max(0.0, d - s.rho);
             if (e > s.r) continue;
             t0 = s.c0.z() - std::sqrt((s.r - e) * (s.r + e)) - z0;
@@ -424,34 +456,24 @@ CutStatistics NBuffer::cut(const Tool& tool, std::span<const Pose> trajectory, c
           } else if (s.rho == 0.0 && s.c0.z() == s.c1.z() &&
                      std::max(std::hypot(x - s.c0.x(), y - s.c0.y()), std::hypot(x - s.c1.x(), y - s.c1.y())) <= ball_reach) {
             // Ball-end, level move, any axis: the ball's capsule gives the entry (behind_is_cut).
+            const double d = detail::distance_2d(x, y, s.c0.x(), s.c0.y(), s.c1.x(), s.c1.y());
             if (d > s.r) continue;
             t0 = s.c0.z() - std::sqrt((s.r - d) * (s.r + d)) - z0;
             if (t0 >= h) continue;
             t1 = s.hi.z() - z0;
             if (t1 <= 0.0 && !detail::line_interval(s, Eigen::Vector3d(x, y, z0), Eigen::Vector3d::UnitZ(), t0, t1)) continue;
-          } else if (tilted && s.hi.z() > z0 && detail::flat_bottom_entry(s, x, y, t0)) {
-            t0 -= z0;  // flat-end / bull-nose: the line crosses the lowest bottom disc
-            t1 = s.hi.z() - z0;
           } else {
+            const double d = detail::distance_2d(x, y, s.c0.x(), s.c0.y(), s.c1.x(), s.c1.y());
             double bound = detail::lowest_z_beyond(s, d);
             if (tilted) bound = std::max(bound, (s.amin - s.a.x() * x - s.a.y() * y) / s.a.z());
             if (bound - z0 >= h) continue;
             bool hit;
-            double z = 0.0;
-            if (tilted && s.rho > 0.0 &&
-                (s.r == 0.0 ? fast.flat_rim(x, y, z) : fast.bull_rim(x, y, bound, phi, z)) && z > z0) {
-              t0 = z - z0;  // entry exact (certified); t0 > 0, so the exit is above 0 too
-              t1 = s.hi.z() - z0;
-              hit = true;
-            } else if (s.vertical) {
+            if (s.vertical) {
               hit = detail::vertical_entry(s, x, y, t0, t1);
               t0 -= z0;
               t1 -= z0;
             } else {
-              phi = std::nan("");
-              const Eigen::Vector3d o(x, y, z0);
-              hit = s.rho > 0.0 && s.r > 0.0 ? detail::bull_interval(s, o, Eigen::Vector3d::UnitZ(), h, t0, t1)
-                                             : detail::line_interval(s, o, Eigen::Vector3d::UnitZ(), t0, t1);
+              hit = detail::line_interval(s, Eigen::Vector3d(x, y, z0), Eigen::Vector3d::UnitZ(), t0, t1);
             }
             if (!hit) continue;
           }

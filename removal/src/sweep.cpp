@@ -401,39 +401,193 @@ bool vertical_entry(const Sweep& s, double x, double y, double& z0, double& z1) 
   return true;
 }
 
-bool flat_bottom_entry(const Sweep& s, double x, double y, double& z) {
-  if (s.rho == 0.0 || !(s.a.z() > 0.0)) return false;
-  const double a0 = s.a.dot(s.c0), a1 = s.a.dot(s.c1);
-  const Eigen::Vector3d& c = a1 < a0 ? s.c1 : s.c0;
-  z = (s.amin - s.a.x() * x - s.a.y() * y) / s.a.z();
-  const Eigen::Vector3d p(x, y, z);
-  // Motion in the bottom's plane: the whole swept bottom (a stadium) lies in the lowest plane.
-  if (a0 == a1) return segment_distance(p, s.c0 - s.r * s.a, s.c1 - s.r * s.a) <= s.rho;
-  return (p - (c - s.r * s.a)).squaredNorm() <= s.rho * s.rho;
-}
-
 VerticalEntry::VerticalEntry(const Sweep& s) : s_(s) {
   e1_ = s.c1 - s.c0;
   eu_ = s.a.unitOrthogonal();
   ev_ = s.a.cross(eu_);
   ae_ = s.a.dot(e1_);
   dd_ = e1_.x() * e1_.x() + e1_.y() * e1_.y();
+  if (dd_ > 0.0) {
+    inv_dd_ = 1.0 / dd_;
+    slope_ = e1_.z() / (std::sqrt(dd_) * std::sqrt(dd_ + e1_.z() * e1_.z()));
+  }
+  // flat_rim: rho (cos phi U + sin phi V) + sigma D = q in the plane; the cross product with D
+  // removes sigma: rho (alpha cos phi + beta sin phi) = gamma, so with (alpha, beta) = m (cos b,
+  // sin b) the roots are phi = b +- acos(gamma / (rho m)), i.e. w = c U' +- sqrt(1 - c^2) V'.
+  const double alpha = eu_.x() * e1_.y() - eu_.y() * e1_.x(), beta = ev_.x() * e1_.y() - ev_.y() * e1_.x();
+  rim_m_ = std::sqrt(alpha * alpha + beta * beta);
+  if (rim_m_ > 0.0) {
+    rim_u_ = (alpha * eu_ + beta * ev_) / rim_m_;
+    rim_v_ = (alpha * ev_ - beta * eu_) / rim_m_;
+  }
+  // bottom: the plane a . p = amin, and the disc at the end where a . c is least.
+  const double a0 = s.a.dot(s.c0), a1 = s.a.dot(s.c1);
+  plane_motion_ = a0 == a1;
+  start_lowest_ = !(a1 < a0);
+  b0_ = s.c0 - s.r * s.a;
+  b1_ = s.c1 - s.r * s.a;
+  b_low_ = start_lowest_ ? b0_ : b1_;
+  // start_disc_row: |p - b0|^2 <= rho^2 with p on the disc's plane over (x, y), times a_z^2.
+  const double ax = s.a.x(), ay = s.a.y(), az = s.a.z();
+  usable_ = s.rho > 0.0 && az > 0.0;
+  if (s.r > 0.0) inv_r_ = 1.0 / s.r;
+  if (usable_) k0_ = s.amin / az, kx_ = ax / az, ky_ = ay / az;
+  qa_ = az * az + ax * ax;
+  qb_ = ax * ay;
+  qc_ = az * az + ay * ay;
 }
 
-bool VerticalEntry::flat_rim(double x, double y, double& z) const {
-  if (ae_ == 0.0 || dd_ == 0.0 || !(s_.a.z() > 0.0)) return false;
-  // rho (cos phi U + sin phi V) + sigma D = q in the plane; the cross product with D removes sigma.
+bool VerticalEntry::bottom(double x, double y, double& z) const {
+  if (s_.rho == 0.0 || !(s_.a.z() > 0.0)) return false;
+  z = k0_ - kx_ * x - ky_ * y;
+  return in_bottom(x, y, z);
+}
+
+bool VerticalEntry::in_stadium(double x, double y, double z) const {
+  return segment_distance(Eigen::Vector3d(x, y, z), b0_, b1_) <= s_.rho;
+}
+
+bool VerticalEntry::start_disc_row(double y, double margin, double& x0, double& x1) const {
+  if (s_.rho == 0.0 || !(s_.a.z() > 0.0)) return false;
+  const double Y = y - b0_.y(), az = s_.a.z();
+  const double b = qb_ * Y, c = qc_ * Y * Y - s_.rho * s_.rho * az * az;
+  const double disc = b * b - qa_ * c;
+  if (!(disc > 0.0)) return false;
+  const double root = std::sqrt(disc);
+  x0 = b0_.x() + (-b - root) / qa_ + margin;
+  x1 = b0_.x() + (-b + root) / qa_ - margin;
+  return x0 <= x1;
+}
+
+double VerticalEntry::support(const Eigen::Vector3d& n) const {
+  const double na = n.dot(s_.a), nn = n.squaredNorm();
+  return n.dot(s_.c0) + s_.rho * std::sqrt(std::max(0.0, nn - na * na)) + s_.ell * std::max(0.0, na) +
+         std::max(0.0, n.dot(e1_)) + s_.r * std::sqrt(nn);
+}
+
+void VerticalEntry::set_plane(const Eigen::Vector3d& n, Warm& warm) const { set_plane(n, support(n), warm); }
+
+void VerticalEntry::set_plane(const Eigen::Vector3d& n, double hn, Warm& warm) const {
+  // Only planes that are not too steep: the bound divides by -n_z.
+  if (!(n.z() < -1e-3 * n.norm())) return;
+  warm.plane = true;
+  warm.nx = n.x(), warm.ny = n.y(), warm.inv_nz = -1.0 / n.z(), warm.hn = hn;
+}
+
+VerticalEntry::Result VerticalEntry::entry_off_bottom(double x, double y, double zp, double floor, double top,
+                                                      int row, int col, Warm& warm, double& z) const {
+  constexpr double margin = kPlaneMargin;
+  auto capsule_bound = [&] {  // the tilted capsule's envelope by planar distance, and the bottom plane
+    return std::max(zp, lowest_z_beyond(s_, distance_2d(x, y, s_.c0.x(), s_.c0.y(), s_.c1.x(), s_.c1.y())));
+  };
+  Eigen::Vector3d n;
+  if (s_.r == 0.0) {
+    if (flat_rim(x, y, z, &n)) {
+      // n = sign (ae w - we a) with w . a = 0 and sign we >= 0: n . a <= 0, |n - (n . a) a| = |ae|
+      // and n . e1 = 0, so h(n) = n . c0 + rho |ae| (no square root).
+      set_plane(n, n.dot(s_.c0) + s_.rho * std::abs(ae_), warm);
+      return z > floor ? Result::exact : Result::undecided;
+    }
+    if (capsule_bound() >= top) return Result::above;
+    // Off the swept bottom: the flank, if anything. The flank of the tool at either end where
+    // the line enters it, if certified (delta = 0 exactly where its normal faces along the
+    // motion at c1, against it at c0: then that end's tool is the sweep's lowest on the line).
+    for (const Eigen::Vector3d* c : {&s_.c1, &s_.c0}) {
+      if (flank(x, y, *c, z, n) && support(n) - n.dot(Eigen::Vector3d(x, y, z)) <= -1e-11 * n.z()) {
+        set_plane(n, warm);
+        return z > floor ? Result::exact : Result::undecided;
+      }
+    }
+    // Else the flank's supporting plane along the radial direction of the line at the bottom's
+    // plane (midway along the motion) bounds the entry.
+    const Eigen::Vector3d bm = 0.5 * (b0_ + b1_);
+    const double z_mid = bm.z() - (s_.a.x() * (x - bm.x()) + s_.a.y() * (y - bm.y())) / s_.a.z();
+    const Eigen::Vector3d v(x - bm.x(), y - bm.y(), z_mid - bm.z());
+    const double len = v.norm();
+    if (len > 0.0) {
+      set_plane(v / len, warm);
+      if (warm.plane && (warm.nx * x + warm.ny * y - warm.hn) * warm.inv_nz >= top + margin) return Result::above;
+    }
+    return Result::undecided;
+  }
+  const double bound = capsule_bound();
+  if (bound >= top) return Result::above;
+  // Bull-nose: the rim direction extrapolated from the neighbours found before (unit complex
+  // numbers: a turn repeated is a ratio): along the row (two to the left), across the rows
+  // (left, up and up-left; or two up), else the nearest one, else the last one found.
+  auto slot = [](int r, int c) { return static_cast<unsigned>(r) % 3u * 16u + (static_cast<unsigned>(c) & 15u); };
+  auto at = [&](int r, int c) -> const Eigen::Vector2d* {
+    if (r < 0 || c < 0) return nullptr;
+    const Warm::Found& f = warm.found[slot(r, c)];
+    return f.row == r && f.col == c ? &f.dir : nullptr;
+  };
+  auto mul = [](const Eigen::Vector2d& p, const Eigen::Vector2d& q) {
+    return Eigen::Vector2d(p.x() * q.x() - p.y() * q.y(), p.x() * q.y() + p.y() * q.x());
+  };
+  auto div = [](const Eigen::Vector2d& p, const Eigen::Vector2d& q) {  // p / q for |q| = 1
+    return Eigen::Vector2d(p.x() * q.x() + p.y() * q.y(), p.y() * q.x() - p.x() * q.y());
+  };
+  Eigen::Vector2d dir = warm.last;
+  const Eigen::Vector2d* left = at(row, col - 1);
+  const Eigen::Vector2d* left2 = left ? at(row, col - 2) : nullptr;
+  if (left && left2) {
+    dir = div(mul(*left, *left), *left2).normalized();
+  } else {
+    const Eigen::Vector2d* up = at(row - 1, col);
+    const Eigen::Vector2d* up_left = left && up ? at(row - 1, col - 1) : nullptr;
+    const Eigen::Vector2d* up2 = up && !up_left ? at(row - 2, col) : nullptr;
+    if (up_left) {
+      dir = div(mul(*left, *up), *up_left).normalized();
+    } else if (up2) {
+      dir = div(mul(*up, *up), *up2).normalized();
+    } else if (left || up) {
+      dir = left ? *left : *up;
+    }
+  }
+  double hn = 0.0;
+  if (bull_rim(x, y, bound, dir, z, &n, &hn)) {
+    Warm::Found& f = warm.found[slot(row, col)];
+    f.dir = dir, f.row = row, f.col = col;
+    warm.last = dir;
+    set_plane(n, hn, warm);
+    return z > floor ? Result::exact : Result::undecided;
+  }
+  warm.last = Eigen::Vector2d::Constant(std::numeric_limits<double>::quiet_NaN());
+  return Result::undecided;
+}
+
+bool VerticalEntry::flank(double x, double y, const Eigen::Vector3d& c, double& z, Eigen::Vector3d& n) const {
+  // The cylinder |q - (q . a) a| = rho about the axis through c, q = (X, Y, zeta) relative to c:
+  // (1 - a_z^2) zeta^2 - 2 a_z (Q . a) zeta + |Q|^2 - (Q . a)^2 - rho^2 = 0, Q = (X, Y, 0). The
+  // lower root is the line's entry into the flank when it lies between the bottom and the top
+  // (0 <= q . a <= ell) and the flank faces down there.
+  const double ax = s_.a.x(), ay = s_.a.y(), az = s_.a.z();
+  const double A = ax * ax + ay * ay;
+  if (!(A > 0.0)) return false;
+  const double X = x - c.x(), Y = y - c.y(), qa = X * ax + Y * ay;
+  const double B = -az * qa, C = X * X + Y * Y - qa * qa - s_.rho * s_.rho;
+  const double disc = B * B - A * C;
+  if (!(disc >= 0.0)) return false;
+  const double zeta = (-B - std::sqrt(disc)) / A;
+  const double lambda = qa + zeta * az;
+  if (!(lambda >= 0.0 && lambda <= s_.ell)) return false;
+  const Eigen::Vector3d q(X, Y, zeta);
+  n = (q - lambda * s_.a) / s_.rho;
+  if (!(n.z() < -1e-3)) return false;
+  z = c.z() + zeta;
+  return true;
+}
+
+bool VerticalEntry::flat_rim(double x, double y, double& z, Eigen::Vector3d* n) const {
+  if (ae_ == 0.0 || dd_ == 0.0 || !(s_.a.z() > 0.0) || !(rim_m_ > 0.0)) return false;
   const double qx = x - s_.c0.x(), qy = y - s_.c0.y();
-  const double alpha = eu_.x() * e1_.y() - eu_.y() * e1_.x(), beta = ev_.x() * e1_.y() - ev_.y() * e1_.x();
   const double gamma = qx * e1_.y() - qy * e1_.x();
-  const double m = std::sqrt(alpha * alpha + beta * beta);
-  if (!(m > 0.0)) return false;
-  const double c = gamma / (s_.rho * m);
+  const double c = gamma / (s_.rho * rim_m_);
   if (!(std::abs(c) <= 1.0)) return false;
-  const double base = std::atan2(beta, alpha), half = std::acos(c);
+  const double sh = std::sqrt((1.0 - c) * (1.0 + c));
   bool found = false;
-  for (double phi : {base - half, base + half}) {
-    const Eigen::Vector3d w = std::cos(phi) * eu_ + std::sin(phi) * ev_;
+  for (double sign_root : {-1.0, 1.0}) {
+    const Eigen::Vector3d w = c * rim_u_ + sign_root * sh * rim_v_;
     const double sigma = ((qx - s_.rho * w.x()) * e1_.x() + (qy - s_.rho * w.y()) * e1_.y()) / dd_;
     if (!(sigma > 0.0 && sigma < 1.0)) continue;
     // The normal (a.e1) w - (w.e1) a, turned into the rim's normal cone, must point down.
@@ -442,7 +596,10 @@ bool VerticalEntry::flat_rim(double x, double y, double& z) const {
     const double nz = sign * (ae_ * w.z() - we * s_.a.z());
     if (!(nz < 0.0)) continue;
     const double zc = s_.c0.z() + s_.rho * w.z() + sigma * e1_.z();
-    z = found ? std::min(z, zc) : zc;
+    if (!found || zc < z) {
+      z = zc;
+      if (n) *n = sign * (ae_ * w - we * s_.a);
+    }
     found = true;
   }
   return found;
@@ -455,11 +612,11 @@ bool VerticalEntry::capsule_low(double x, double y, const Eigen::Vector3d& w, do
   const double r = s_.r;
   const double d0x = x - s_.c0.x() - s_.rho * w.x(), d0y = y - s_.c0.y() - s_.rho * w.y();
   const double cross = d0x * e1_.y() - d0y * e1_.x();
-  const double perp2 = cross * cross / dd_;
+  const double perp2 = cross * cross * inv_dd_;
   if (perp2 > r * r) return false;
   const double ez = e1_.z();
-  const double along = e1_.z() * std::sqrt((r * r - perp2) / (dd_ + ez * ez));
-  sigma = std::clamp((d0x * e1_.x() + d0y * e1_.y()) / dd_ - along / std::sqrt(dd_), 0.0, 1.0);
+  const double along = slope_ * std::sqrt(r * r - perp2);
+  sigma = std::clamp((d0x * e1_.x() + d0y * e1_.y()) * inv_dd_ - along, 0.0, 1.0);
   const double ex = d0x - sigma * e1_.x(), ey = d0y - sigma * e1_.y();
   const double q = r * r - ex * ex - ey * ey;
   if (q < 0.0) return false;
@@ -467,39 +624,62 @@ bool VerticalEntry::capsule_low(double x, double y, const Eigen::Vector3d& w, do
   return true;
 }
 
-bool VerticalEntry::bull_rim(double x, double y, double z_guess, double& phi, double& z) const {
+bool VerticalEntry::bull_rim(double x, double y, double z_guess, Eigen::Vector2d& dir, double& z,
+                             Eigen::Vector3d* n_out, double* support_out) const {
   if (dd_ == 0.0 || !(s_.a.z() > 0.0) || !(s_.r > 0.0)) return false;
-  if (!std::isfinite(phi)) {
+  if (!dir.allFinite()) {
     const Eigen::Vector3d v = Eigen::Vector3d(x, y, z_guess) - 0.5 * (s_.c0 + s_.c1);
-    phi = std::atan2(v.dot(ev_), v.dot(eu_));
+    dir = Eigen::Vector2d(v.dot(eu_), v.dot(ev_));
+    const double len = dir.norm();
+    dir = len > 0.0 ? Eigen::Vector2d(dir / len) : Eigen::Vector2d(1.0, 0.0);
   }
-  // f(phi): the angle from w(phi) to the contact's direction about the axis (0 at the optimum,
-  // where the contact normal has no tangential part).
-  auto eval = [&](double ph, double& f, bool& certified) {
-    const double cs = std::cos(ph), sn = std::sin(ph);
-    const Eigen::Vector3d w = cs * eu_ + sn * ev_, t = cs * ev_ - sn * eu_;
+  // Rim directions w = cs eu + sn ev, as turns of the start direction by the angle 2 atan(tau)
+  // (rational: no trigonometry, unit up to rounding). f(tau) = tan(half the angle from w to the
+  // contact's direction about the axis): 0 at the optimum, where the contact normal has no
+  // tangential part. The first step turns w onto that direction, then secant steps on tau.
+  auto rotate = [](const Eigen::Vector2d& d, double tau) {
+    const double q = 1.0 / (1.0 + tau * tau), c = (1.0 - tau * tau) * q, sn = 2.0 * tau * q;
+    return Eigen::Vector2d(c * d.x() - sn * d.y(), sn * d.x() + c * d.y());
+  };
+  const Eigen::Vector2d start = dir;
+  auto turn = [&](double tau) { return rotate(start, tau); };
+  // Once certified, `dir` returns turned onto the contact's direction (one more fixed-point
+  // step, free): a better warm start for the neighbours than the accepted direction.
+  auto eval = [&](const Eigen::Vector2d& d, double& f, bool& certified) {
+    const Eigen::Vector3d w = d.x() * eu_ + d.y() * ev_, t = d.x() * ev_ - d.y() * eu_;
     double sigma = 0.0;
     if (!capsule_low(x, y, w, z, sigma)) return false;
     const Eigen::Vector3d v = Eigen::Vector3d(x, y, z) - s_.c0 - sigma * e1_;
-    f = std::atan2(v.dot(t), v.dot(w));
-    const Eigen::Vector3d n = (v - s_.rho * w) / s_.r;
+    const double vw = v.dot(w), vt = v.dot(t), len = std::sqrt(vw * vw + vt * vt);
+    f = len + vw > 0.0 ? vt / (len + vw) : 1e300;  // tan(alpha / 2) of the angle alpha = atan2(vt, vw)
+    const Eigen::Vector3d n = (v - s_.rho * w) * inv_r_;
     const double na = n.dot(s_.a), ne = n.dot(e1_);
     const double n_perp = std::sqrt(std::max(0.0, n.squaredNorm() - na * na));
     const double gap = s_.rho * (n_perp - n.dot(w)) + s_.ell * std::max(0.0, na) + std::max(0.0, ne) - sigma * ne;
     certified = n.z() < -1e-3 && gap <= -1e-11 * n.z();
+    if (certified && n_out) *n_out = n;
+    if (certified && support_out) *support_out = gap + n.dot(Eigen::Vector3d(x, y, z));  // h(n) = gap + n . p
     return true;
   };
   double f0 = 0.0, f1 = 0.0;
   bool ok = false;
-  if (!eval(phi, f0, ok)) return false;
-  if (ok) return true;
-  double phi0 = phi;
-  phi = phi0 + f0;
+  if (!eval(dir, f0, ok)) return false;
+  if (ok) {
+    dir = rotate(dir, f0);
+    return true;
+  }
+  if (!(std::abs(f0) < 1e3)) return false;
+  double tau0 = 0.0, tau = f0;
   for (int k = 0; k < 10; ++k) {
-    if (!eval(phi, f1, ok)) return false;
-    if (ok) return true;
-    const double next = f1 != f0 ? phi - f1 * (phi - phi0) / (f1 - f0) : phi + f1;
-    phi0 = phi, f0 = f1, phi = next;
+    dir = turn(tau);
+    if (!eval(dir, f1, ok)) return false;
+    if (ok) {
+      dir = rotate(dir, f1);
+      return true;
+    }
+    if (!(std::abs(f1) < 1e3)) return false;
+    const double next = f1 != f0 ? tau - f1 * (tau - tau0) / (f1 - f0) : tau + f1;
+    tau0 = tau, f0 = f1, tau = next;
   }
   return false;
 }

@@ -25,6 +25,9 @@ struct Sweep {
   /// The sweep before it in the same run (vertical, same tool) ended at c0: every line is
   /// already at or below the tool at c0, so lines behind c0 need no test (nbuffer.cpp).
   bool continues = false;
+  /// The sweep before it in the same run ended at c0 with the same axis and tool section (rho,
+  /// r): every line is already at or below the tool's bottom at c0.
+  bool continues_axis = false;
 };
 
 Sweep make_sweep(const Eigen::Vector3d& c0, const Eigen::Vector3d& c1, const Eigen::Vector3d& a,
@@ -54,43 +57,123 @@ double reach_below(const Sweep& s, double z);
 bool bull_interval(const Sweep& s, const Eigen::Vector3d& o, const Eigen::Vector3d& u, double h, double& t0,
                    double& t1);
 
-/// Vertical line (x, y) and a sweep with a flat bottom (rho > 0, a_z > 0): the bottom is the
-/// disc of radius rho about c - r a, normal a, and no point of the sweep lies below its plane
-/// at the end of the motion where a . c is least. When the line crosses that disc there (or,
-/// for a motion in the bottom's plane, the swept bottom), the crossing is the entry: true with
-/// its z; false when the general computation is needed.
-bool flat_bottom_entry(const Sweep& s, double x, double y, double& z);
-
 /// Vertical lines against one constant-axis flat-end or bull-nose sweep (rho > 0) whose axis
-/// points up (a_z > 0): fast entries that certify themselves. The sweep is Core (+) Ball(r) with
-/// Core = c0 + Disc(rho) (+) Segment(0, ell a) (+) Segment(0, c1 - c0), a convex set. A point p
-/// of the sweep on the line at distance r from a Core point K, with n = (p - K) / r, is the
-/// line's lowest point of the sweep when the sweep lies in the half-space n . x <= n . p and
-/// n_z < 0. The gap delta = h_Core(n) - n . K (h the support function, known in closed form)
-/// widens that half-space to n . x <= n . p + delta, so the true entry is at most
-/// delta / |n_z| below p: the entry is accepted only when that bound is under 1e-11 m.
-/// A false return means "not decided here": the caller takes the general computation.
+/// points up (a_z > 0): fast entries that certify themselves, built once per sweep (and tile).
+/// The sweep is Core (+) Ball(r) with Core = c0 + Disc(rho) (+) Segment(0, ell a) (+)
+/// Segment(0, c1 - c0), a convex set with the support function
+///   h(n) = n . c0 + rho |n - (n . a) a| + ell max(0, n . a) + max(0, n . (c1 - c0)) + r |n|.
+/// Two facts decide every line cheaply:
+///  - Lower bound: every point p of the sweep has n . p <= h(n), so on the line (x, y), for any
+///    n with n_z < 0, the entry is at least (n_x x + n_y y - h(n)) / (-n_z) (a supporting
+///    plane; exact at the line whose lowest point has the normal n).
+///  - Certificate: a point p of the sweep on the line at distance r from a Core point K (for
+///    r = 0, a point of the Core on its boundary), with n = (p - K) / r (or an outer normal of
+///    the Core at p), is at most delta / |n_z| above the line's entry, delta = h(n) - n . p;
+///    an entry is accepted only when that is under 1e-11 m (or delta = 0 in closed form).
+/// A result `undecided` means "not decided here": the caller takes the general computation.
 class VerticalEntry {
  public:
   explicit VerticalEntry(const Sweep& s);
+
+  /// What the last lines along one caller's walk left for the next (one per thread; a walk is
+  /// the rows of a tile for one sweep): a supporting plane (the last contact normal) and the
+  /// last bull-nose rim directions. Any state gives certified results; it only saves work.
+  struct Warm {
+    bool plane = false;
+    double nx = 0.0, ny = 0.0, inv_nz = 0.0, hn = 0.0;  // z >= (nx x + ny y - hn) * inv_nz
+    // Bull-nose rim directions found (cos, sin of the rim angle) in the last three rows, by
+    // row modulo 3 and column modulo 16 (a walk spans at most 16 columns), with their row and
+    // column (both >= 0).
+    struct Found {
+      Eigen::Vector2d dir = Eigen::Vector2d::Zero();
+      int row = -10, col = -10;
+    };
+    Found found[3 * 16];
+    Eigen::Vector2d last = Eigen::Vector2d::Constant(std::numeric_limits<double>::quiet_NaN());
+  };
+  enum class Result { above, exact, undecided };
+
+  /// The entry of the vertical line (x, y) whose material reaches from `floor` up to `top`
+  /// (z, m): `above` when the entry is certainly at or above `top` (nothing to cut), `exact`
+  /// with z the entry when it is certified and above `floor`, else `undecided`. `row`, `col`
+  /// number the lines of the walk (neighbours differ by 1; used for warm starts only).
+  Result entry(double x, double y, double floor, double top, int row, int col, Warm& warm, double& z) const {
+    if (!usable_) return Result::undecided;
+    // The lowest bottom's plane over the line: the entry where the line crosses that bottom,
+    // else a lower bound (no point of the sweep lies below it). The cheap decisions are inline:
+    // most lines end here.
+    const double zp = k0_ - kx_ * x - ky_ * y;
+    if (in_bottom(x, y, zp)) {
+      z = zp;
+      return z > floor ? Result::exact : Result::undecided;
+    }
+    if (warm.plane && (warm.nx * x + warm.ny * y - warm.hn) * warm.inv_nz >= top + kPlaneMargin) return Result::above;
+    if (zp >= top) return Result::above;
+    return entry_off_bottom(x, y, zp, floor, top, row, col, warm, z);
+  }
+
+  /// The bottom disc (radius rho about c - r a, normal a) at the end of the motion where a . c
+  /// is least: no point of the sweep lies below its plane, so where the line crosses it (or,
+  /// for a motion in the bottom's plane, the swept bottom) the crossing is the entry: true with
+  /// its z.
+  bool bottom(double x, double y, double& z) const;
+  /// True when that lowest bottom disc is the one at the start c0 (a . c0 <= a . c1).
+  bool lowest_at_start() const { return start_lowest_; }
+  /// The x-interval of the row y whose lines cross the bottom disc at the start c0 shrunk by
+  /// `margin` [m] at each end; false when empty.
+  bool start_disc_row(double y, double margin, double& x0, double& x1) const;
+
   /// Flat-end (r = 0): the line's crossing with the swept bottom rim c0 + rho w(phi) + sigma
   /// (c1 - c0), 0 < sigma < 1 (the roots of a quadratic in closed form), where the normal
   /// n = (a.e1) w - (w.e1) a (normal to the motion, in the rim's normal cone) has n_z < 0:
-  /// delta = 0, exact.
-  bool flat_rim(double x, double y, double& z) const;
+  /// delta = 0, exact. `n` gets that normal.
+  bool flat_rim(double x, double y, double& z, Eigen::Vector3d* n = nullptr) const;
   /// Bull-nose (r > 0): the lowest point on the line of the rim tube, min over the rim angle
   /// phi of the capsule (rim point swept) (+) Ball(r), closed form per phi; phi by secant
-  /// steps from `phi` (a warm start; NaN: from the line's azimuth about the axis at z_guess),
-  /// on return the angle found. Accepted with the bound above.
-  bool bull_rim(double x, double y, double z_guess, double& phi, double& z) const;
+  /// steps (without trigonometry) from `dir` = (cos phi, sin phi) in the frame (eu, ev) normal
+  /// to the axis (a warm start; NaN: from the line's azimuth about the axis at z_guess), on
+  /// return the direction found. Accepted with the bound above; `n` gets the contact normal and
+  /// `support_n` its support value h(n).
+  bool bull_rim(double x, double y, double z_guess, Eigen::Vector2d& dir, double& z, Eigen::Vector3d* n = nullptr,
+                double* support_n = nullptr) const;
+  /// The support function h(n) above.
+  double support(const Eigen::Vector3d& n) const;
 
  private:
   bool capsule_low(double x, double y, const Eigen::Vector3d& w, double& z, double& sigma) const;
+  // (x, y, z) on the lowest plane: in the lowest bottom disc (or the swept bottom, a stadium,
+  // for a motion in the bottom's plane)?
+  bool in_bottom(double x, double y, double z) const {
+    if (plane_motion_) return in_stadium(x, y, z);
+    const double dx = x - b_low_.x(), dy = y - b_low_.y(), dz = z - b_low_.z();
+    return dx * dx + dy * dy + dz * dz <= s_.rho * s_.rho;
+  }
+  bool in_stadium(double x, double y, double z) const;
+  Result entry_off_bottom(double x, double y, double zp, double floor, double top, int row, int col, Warm& warm,
+                          double& z) const;
+  // The plane bounds are computed in doubles (values ~ |c0|, divided by at most 1e3): a margin
+  // far above their rounding and far below any accuracy that matters [m].
+  static constexpr double kPlaneMargin = 1e-12;
+  /// Flat-end: the line's entry into the flank (cylinder wall) of the tool at core point c, where
+  /// the flank faces down, with its outer normal n.
+  bool flank(double x, double y, const Eigen::Vector3d& c, double& z, Eigen::Vector3d& n) const;
+  void set_plane(const Eigen::Vector3d& n, Warm& warm) const;
+  void set_plane(const Eigen::Vector3d& n, double support_n, Warm& warm) const;  // h(n) known
   const Sweep& s_;
   Eigen::Vector3d e1_, eu_, ev_;
   double ae_ = 0.0;   // a . e1
   double dd_ = 0.0;   // |e1_xy|^2
-  double slope_ = 0.0;  // for the capsule's lowest point: e1_z / sqrt(|e1_xy|^2 + e1_z^2)
+  // capsule_low: 1 / |e1_xy|^2, e1_z / (|e1_xy| sqrt(|e1_xy|^2 + e1_z^2)); bull_rim: 1 / r
+  double inv_dd_ = 0.0, slope_ = 0.0, inv_r_ = 0.0;
+  // flat_rim: the rim angle's cosine and sine axes (the roots are w = c U +- sqrt(1 - c^2) V)
+  Eigen::Vector3d rim_u_, rim_v_;
+  double rim_m_ = 0.0;
+  // bottom: the plane a . p = amin as z = k0 - kx x - ky y, and the lowest disc's centre
+  double k0_ = 0.0, kx_ = 0.0, ky_ = 0.0;
+  Eigen::Vector3d b_low_, b0_, b1_;
+  // start_disc_row: the quadratic form of the start disc's projection
+  double qa_ = 0.0, qb_ = 0.0, qc_ = 0.0;
+  bool plane_motion_ = false, start_lowest_ = true, usable_ = false;
 };
 
 /// Line through a flat-end sweep (r = 0, rho > 0), any line direction: closed form (the

@@ -296,6 +296,37 @@ TEST(NBuffer, SameResultForOneAndTwoThreadsAndAnyBatch) {
   EXPECT_EQ(one.lengths(), two.lengths());
 }
 
+TEST(NBuffer, TiltedFlatAndBullSameResultForOneAndTwoThreadsAndAnyBatch) {
+  // Tilted zig-zags (the fast path's warm starts and the skip of the start disc for sweeps
+  // continuing with the same axis), constant and turning axis.
+  for (const double turn : {0.0, 0.01}) {
+    std::vector<Pose> path;
+    double phase = 0.0;
+    for (int k = 0; k < 6; ++k) {
+      for (int s = 0; s <= 12; ++s) {
+        phase += turn;
+        const Eigen::Vector3d axis(0.17 * std::cos(phase), 0.17 * std::sin(phase), 1.0);
+        path.push_back(pose_mm(-1.5 + 0.25 * (k % 2 == 0 ? s : 12 - s), -1.0 + 0.4 * k, 9.8, axis));
+      }
+    }
+    for (ToolType type : {ToolType::flat, ToolType::bull}) {
+      const Tool tool = make_tool(type, 4, 1, 8);
+      NBuffer one = NBuffer::zmap(box_mm(-4, -4, 0, 4, 4, 10), 0.02 * mm);
+      NBuffer two = one;
+      CutOptions o1;
+      o1.threads = 1;
+      o1.batch_segments = 7;
+      CutOptions o2;
+      o2.threads = 2;
+      o1.orientation_tolerance_m = o2.orientation_tolerance_m = 1 * um;
+      const CutStatistics stats = one.cut(tool, path, o1);
+      two.cut(tool, path, o2);
+      EXPECT_GT(stats.lines_lowered, 10000u);
+      EXPECT_EQ(one.lengths(), two.lengths()) << static_cast<int>(type) << " turn " << turn;
+    }
+  }
+}
+
 TEST(NBuffer, PlantedDeviationLeavesItsMarkInTheDifference) {
   // Zig-zag finishing with a ball D10 at 0.2 mm stepover; the production run's tip dips 20 um
   // over 2 mm of one pass (x = 1 .. 3 mm on y = 0), with 0.1 mm ramps in and out.

@@ -90,6 +90,101 @@ TEST(NBufferPaths, BullZmapEqualsGeneralLines) {
   expect_same_as_general_lines(bull, passes(0.2, 0.01, true), 1e-11, 0.15);
 }
 
+// VerticalEntry (the Z-map's fast path for tilted flat-end and bull-nose sweeps) against the
+// general line_interval on random tilted sweeps: level moves, ramps, moves in the bottom's plane
+// and pure plunges; rows of lines 10 um apart (warm starts) with random material tops, and lines
+// grazing the bottom disc's edge. `above` must mean the entry is at or above the top, `exact` the
+// entry within 1e-11 m; the start-disc rows the Z-map skips must be decided by the tool at c0.
+TEST(NBufferPaths, VerticalEntryAgreesWithLineInterval) {
+  std::mt19937 rng(5);
+  std::uniform_real_distribution<double> c(-1.0, 1.0), tilt(-0.35, 0.35), unit(0.0, 1.0);
+  int exact = 0, above = 0, skipped = 0, grazing = 0, edge = 0;
+  for (int k = 0; k < 240; ++k) {
+    const bool bull = k % 2 == 1;
+    const double rho = bull ? 1.5 * mm : 2 * mm, r = bull ? 0.5 * mm : 0.0;
+    const Eigen::Vector3d a = Eigen::Vector3d(tilt(rng), tilt(rng), 1.0).normalized();
+    const Eigen::Vector3d c0 = Eigen::Vector3d(c(rng), c(rng), c(rng)) * mm;
+    Eigen::Vector3d move = Eigen::Vector3d(c(rng), c(rng), 0.2 * c(rng)) * 0.3 * mm;
+    if (k % 8 == 2) move -= move.dot(a) * a;  // in the bottom's plane
+    if (k % 8 == 4) move.z() = 0.0;           // level
+    if (k % 8 == 6) move = Eigen::Vector3d(0.0, 0.0, -0.2 * mm);  // plunge
+    const detail::Sweep s = detail::make_sweep(c0, c0 + move, a, rho, r, 4 * mm);
+    const detail::Sweep start = detail::make_sweep(c0, c0, a, rho, r, 4 * mm);
+    const detail::VerticalEntry fast(s);
+    detail::VerticalEntry::Warm row_warm;
+    const double row_y = (k % 3 == 0 ? c0.y() + (rho + r) * c(rng) : 3 * c(rng) * mm);
+    const double floor = c0.z() - 3 * mm;  // the lines start below the sweep: line_interval's t0 is from there
+    // One line against line_interval; returns its entry (or +inf on a miss).
+    auto check = [&](double x, double y, double top, int walk, detail::VerticalEntry::Warm& warm) {
+      double t0 = 0.0, t1 = 0.0;
+      const bool hit = detail::line_interval(s, Eigen::Vector3d(x, y, floor), Eigen::Vector3d::UnitZ(), t0, t1);
+      t0 += floor;
+      double z = 0.0;
+      const auto result = fast.entry(x, y, floor, top, 0, walk, warm, z);
+      if (result == detail::VerticalEntry::Result::above) {
+        ++above;
+        if (hit) {
+          EXPECT_GE(t0, top - 1e-11) << k << " x " << x << " y " << y;
+        }
+      } else if (result == detail::VerticalEntry::Result::exact) {
+        ++exact;
+        // Both must be points of the sweep's boundary; apart by more than 1e-11 m only where the
+        // line runs along the boundary (grazing: rounding decides which end is found), i.e. with
+        // no interior point between them.
+        EXPECT_LT(std::abs(detail::signed_distance(s, Eigen::Vector3d(x, y, z))), 1e-11) << k << " x " << x;
+        if (!hit || std::abs(z - t0) > 1e-11) {
+          if (hit) {
+            EXPECT_GT(detail::signed_distance(s, Eigen::Vector3d(x, y, 0.5 * (z + t0))), -1e-11) << k << " x " << x;
+          }
+          ++grazing;
+        }
+        EXPECT_GT(z, floor);
+      }
+      return hit ? t0 : detail::kInf;
+    };
+    int walk = 0;
+    for (double x = -3.5 * mm; x < 3.5 * mm; x += 0.01 * mm, ++walk) {
+      // Tops near the entry (the culling's hard case), above it and below it.
+      double t0 = 0.0, t1 = 0.0;
+      const bool hit = detail::line_interval(s, Eigen::Vector3d(x, row_y, floor), Eigen::Vector3d::UnitZ(), t0, t1);
+      const double top = hit && k % 4 != 0 ? floor + t0 + (unit(rng) - 0.5) * (walk % 7 == 0 ? 1e-3 : 0.05) * mm
+                                           : c0.z() + c(rng) * mm;
+      check(x, row_y, top, walk, row_warm);
+    }
+    // Lines on the edge of the bottom disc at c0 and just inside and outside it (grazing the rim).
+    for (double yy = c0.y() - 2.5 * mm; yy < c0.y() + 2.5 * mm; yy += 0.1 * mm) {
+      double x0 = 0.0, x1 = 0.0;
+      if (!fast.start_disc_row(yy, 0.0, x0, x1)) continue;
+      for (double x : {x0, x1, std::nextafter(x0, -1.0), std::nextafter(x1, 1.0), x0 + 1e-9, x1 - 1e-9, x0 - 1e-9, x1 + 1e-9}) {
+        detail::VerticalEntry::Warm cold;
+        ++edge;
+        const double entry = check(x, yy, c0.z() + mm, 0, cold);
+        if (std::isfinite(entry)) check(x, yy, entry + 1e-9 * unit(rng), 0, cold);
+      }
+    }
+    // Lines the Z-map skips for a sweep continuing with the same axis: the entry is the tool's
+    // at c0 (which the sweep before held).
+    if (fast.lowest_at_start()) {
+      for (double yy = c0.y() - 2.5 * mm; yy < c0.y() + 2.5 * mm; yy += 0.05 * mm) {
+        double x0 = 0.0, x1 = 0.0;
+        if (!fast.start_disc_row(yy, 1e-9, x0, x1)) continue;
+        for (double x = x0; x <= x1; x += std::max(1e-6, 0.1 * (x1 - x0))) {
+          double t0 = 0.0, t1 = 0.0, s0 = 0.0, s1 = 0.0;
+          const Eigen::Vector3d o(x, yy, c0.z() - 3 * mm);
+          ASSERT_TRUE(detail::line_interval(s, o, Eigen::Vector3d::UnitZ(), t0, t1));
+          ASSERT_TRUE(detail::line_interval(start, o, Eigen::Vector3d::UnitZ(), s0, s1));
+          ASSERT_NEAR(t0, s0, 1e-11) << k;
+          ++skipped;
+        }
+      }
+    }
+  }
+  EXPECT_GT(exact, 20000);
+  EXPECT_GT(above, 20000);
+  EXPECT_GT(skipped, 1000);
+  EXPECT_LT(grazing, edge / 10) << edge;  // the edge lines (and only a few of them) graze
+}
+
 TEST(NBufferPaths, ClosedFormIntervalsLieOnTheSignedDistanceZero) {
   std::mt19937 rng(3);
   std::uniform_real_distribution<double> c(-1.0, 1.0), tilt(-0.6, 0.6);

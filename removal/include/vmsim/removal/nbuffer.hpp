@@ -39,8 +39,11 @@
 // distance, exact for vertical tools and a tilted capsule's for tilted ones, and the plane of
 // the tool's bottom); a sweep that continues the previous one from the same point skips the
 // lines behind its start, which the previous one already cut at least as low (vertical tools
-// moving level or up; ball-ends within r cos(tilt) of the move). Each remaining line gets the
-// exact cut (ball and flat bottoms in closed form). General buffers test every line of the
+// moving level or up; ball-ends within r cos(tilt) of the move; tilted flat-end and bull-nose
+// mills, same axis, over their bottom disc at the start). Each remaining line gets the exact cut
+// (ball and flat bottoms in closed form; tilted flat-end and bull-nose mills on a Z-map first
+// through a supporting-plane bound from the neighbouring line's contact, then certified closed
+// forms or a warm-started rim search, removal/README.md "Accuracy"). General buffers test every line of the
 // tiles whose box the sweep meets. Parallel with TBB over tiles, with segments in batches; a
 // cut is a min and every culling decision depends only on the tile's own lines and the sweep
 // order, so the result does not depend on the number of threads (bit for bit).
