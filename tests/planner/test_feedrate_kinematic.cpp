@@ -256,5 +256,35 @@ INSTANTIATE_TEST_SUITE_P(Grids, AccelerationOnly,
                          ::testing::Values(std::make_pair(std::size_t{10001}, 1e-3),
                                            std::make_pair(std::size_t{1001}, 1e-2)));
 
+// An axis whose third derivative is tiny but not zero (6e-121 here; a spline through points on a
+// line gave 7e-121 in sample part 1) must not limit the feed: its jerk limit sd (L / q_sss)^(1/3) is
+// astronomically large. (The root bracket of the sd_lim search once spanned 1 + L / q_sss, so
+// wide that the bisection stopped at sd = 0.)
+TEST(StraightLineJerk, AVanishingThirdDerivativeDoesNotLimitTheFeed) {
+  const auto machine = line_machine(0.5, 2.5, 20.0);
+  const auto plain = straight_line(0.3, 2001);
+  const auto tilted = sample_path(5, 0.3, 2001, [](double s, Eigen::VectorXd& q, Eigen::VectorXd& q_s,
+                                                    Eigen::VectorXd& q_ss, Eigen::VectorXd& q_sss) {
+    q.setZero();
+    q_s.setZero();
+    q_ss.setZero();
+    q_sss.setZero();
+    q(0) = s;
+    q_s(0) = 1.0;
+    q(1) = 1e-121 * s * s * s;
+    q_s(1) = 3e-121 * s * s;
+    q_ss(1) = 6e-121 * s;
+    q_sss(1) = 6e-121;
+  });
+  FeedrateOptions options;
+  options.max_grid_step_m = 1.0;
+  const FeedratePlan a = plan_feedrate(machine, plain, options);
+  const FeedratePlan b = plan_feedrate(machine, tilted, options);
+  EXPECT_NEAR(b.duration_s, a.duration_s, 1e-6 * a.duration_s);
+  EXPECT_NEAR(b.lower_bound_s, a.lower_bound_s, 1e-9 * a.lower_bound_s);
+  const auto& jerk_limited = b.profile.sd_lim_by_kind[static_cast<int>(ConstraintKind::jerk)];
+  for (std::size_t i = 1; i + 1 < jerk_limited.size(); ++i) ASSERT_GT(jerk_limited[i], 1e6) << "point " << i;
+}
+
 }  // namespace
 }  // namespace vmsim::planner
