@@ -171,11 +171,10 @@ TEST(Path1Dynamic, TorqueOnTheSetPointsStaysWithinTheActuatorLimits) {
   EXPECT_GE(plan.duration_s, plan.lower_bound_s * 0.999);
 }
 
-// Known gap (disabled, run with --gtest_also_run_disabled_tests): third order on path 1 plans
-// but the set-point check keeps finding jerk / torque-rate excesses between the grid points
-// (the quintic q(s)'s own third derivative differs from the fitted q_sss the rows use), and
-// each slow-down round re-solves the programmes: minutes.
-TEST(Path1Dynamic, DISABLED_TorqueRateOnTheSetPointsWithGravityAndFriction) {
+// Third order on path 1 (torque rate with gravity and friction). Once disabled: the rows used
+// the fitted q_sss while the set points followed a quintic whose own third derivative differed,
+// and the slow-down rounds took minutes; the rows now use the spline's own derivatives.
+TEST(Path1Dynamic, TorqueRateOnTheSetPointsWithGravityAndFriction) {
   // Third order in dynamic mode (torque and torque rate, every effect): the joint velocities
   // cross zero on this path (dry friction steps). Torque recomputed from the set points through
   // the dynamic model, 0.1 % as above, and none at the reversals: there the dry friction is
@@ -195,8 +194,8 @@ TEST(Path1Dynamic, DISABLED_TorqueRateOnTheSetPointsWithGravityAndFriction) {
   EXPECT_GE(plan.duration_s, second.duration_s * 0.999);
 }
 
-// Known gap (disabled): as above, in kinematic mode.
-TEST(Path1Kinematic, DISABLED_ThirdOrderPlans) {
+// As above, in kinematic mode (jerk).
+TEST(Path1Kinematic, ThirdOrderPlans) {
   const auto& s = path1();
   FeedrateOptions options;
   const FeedratePlan plan = plan_feedrate(s.machine, s.path, options);

@@ -96,8 +96,10 @@ TEST(DensePath, SecondOrderNeverOvershoots) {
 
 // Third order on the same path: the jerk rows, not the second-order profile, force the slow-downs
 // at the curvature jumps and the reversals of Y. Known gap (disabled, run with
-// --gtest_also_run_disabled_tests): not yet verified within the time of a test run (a cold
-// simplex start per slow-down round on 12 000 points takes seconds).
+// --gtest_also_run_disabled_tests): passed in 7.5 minutes (measured once): at each curvature jump
+// of Y the spline's q_sss is about 80 / h and the plan nearly stops there; the set points between
+// such near stops need many slow-down rounds (the time law of a grid segment whose x nearly
+// vanishes inside is not followed closely by the quintic s(t) of the set points).
 TEST(DensePath, DISABLED_ThirdOrderNeverOvershoots) {
   const auto machine = limited_machine();
   const auto path = sample_path(5, 0.12, 12001, dense);
@@ -136,8 +138,8 @@ TEST(Path2Blade, SingularZoneSecondOrder) {
   EXPECT_TRUE(std::isfinite(plan.duration_s));
 }
 
-// Known gap (disabled): as DensePath.DISABLED_ThirdOrderNeverOvershoots, not yet verified in time.
-TEST(Path2Blade, DISABLED_SingularZoneThirdOrder) {
+// Third order through the singular zone (about 7 s: slow-down rounds where C swings).
+TEST(Path2Blade, SingularZoneThirdOrder) {
   // The table-table machine's singular zone (the C axis swings fast where the tool axis passes
   // the A axis): the path velocity nearly vanishes there; jerk limits on every axis.
   const auto machine = kinematics::load_machine(std::string(VMSIM_SOURCE_DIR) + "/samples/machines/mikron_ucp710.yaml");
