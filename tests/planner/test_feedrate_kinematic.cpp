@@ -263,19 +263,14 @@ INSTANTIATE_TEST_SUITE_P(Grids, AccelerationOnly,
 TEST(StraightLineJerk, AVanishingThirdDerivativeDoesNotLimitTheFeed) {
   const auto machine = line_machine(0.5, 2.5, 20.0);
   const auto plain = straight_line(0.3, 2001);
-  const auto tilted = sample_path(5, 0.3, 2001, [](double s, Eigen::VectorXd& q, Eigen::VectorXd& q_s,
-                                                    Eigen::VectorXd& q_ss, Eigen::VectorXd& q_sss) {
-    q.setZero();
-    q_s.setZero();
-    q_ss.setZero();
-    q_sss.setZero();
-    q(0) = s;
-    q_s(0) = 1.0;
-    q(1) = 1e-121 * s * s * s;
-    q_s(1) = 3e-121 * s * s;
-    q_ss(1) = 6e-121 * s;
-    q_sss(1) = 6e-121;
-  });
+  auto tilted = plain;
+  for (Eigen::Index i = 0; i < tilted.q.cols(); ++i) {
+    const double s = tilted.s_m[static_cast<std::size_t>(i)];
+    tilted.q(1, i) = 1e-121 * s * s * s;
+    tilted.q_s(1, i) = 3e-121 * s * s;
+    tilted.q_ss(1, i) = 6e-121 * s;
+    tilted.q_sss(1, i) = 6e-121;
+  }
   FeedrateOptions options;
   options.max_grid_step_m = 1.0;
   const FeedratePlan a = plan_feedrate(machine, plain, options);
