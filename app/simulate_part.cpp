@@ -37,7 +37,9 @@ double seconds_since(Clock::time_point start) {
   return std::chrono::duration<double>(Clock::now() - start).count();
 }
 
-double round_to(double value, double step) { return std::round(value / step) * step; }
+// Rounded to a multiple of step (a power of ten): divided by 1 / step, so that 18.9 prints as
+// 18.9 and not as 189 * 0.1 = 18.900000000000002.
+double round_to(double value, double step) { return std::round(value / step) / std::round(1.0 / step); }
 
 // Everything one run (one feed) produces.
 struct Run {
