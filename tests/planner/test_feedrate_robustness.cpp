@@ -43,6 +43,36 @@ TEST(PathSpline, ReproducesAQuinticAndItsDerivatives) {
   }
 }
 
+// Paths with fitted derivatives (from solve_path_kinematics) get the clamped cubic spline through
+// the points: it reproduces a cubic exactly from its values and end slopes alone (the fitted
+// q_ss, q_sss in between are ignored: wrong values are given here on purpose), on uneven spacing.
+TEST(PathSpline, FittedPathsAreTheClampedCubicThroughThePoints) {
+  auto f = [](double s) { return 1 + 2 * s - s * s + 3 * s * s * s; };
+  auto f_s = [](double s) { return 2 - 2 * s + 9 * s * s; };
+  const std::vector<double> s_points{0.0, 0.07, 0.2, 0.26, 0.5, 0.61, 0.8, 0.93, 1.0};
+  kinematics::PathKinematics path;
+  path.s_m = s_points;
+  const auto n = static_cast<Eigen::Index>(s_points.size());
+  path.q.resize(1, n);
+  path.q_s = Eigen::MatrixXd::Constant(1, n, 123.0);
+  path.q_ss = Eigen::MatrixXd::Constant(1, n, -45.0);
+  path.q_sss = Eigen::MatrixXd::Constant(1, n, 6.0e3);
+  for (Eigen::Index i = 0; i < n; ++i) path.q(0, i) = f(s_points[static_cast<std::size_t>(i)]);
+  path.q_s(0, 0) = f_s(0.0);
+  path.q_s(0, n - 1) = f_s(1.0);
+  path.derivatives_fitted = true;
+  const PathSpline spline(path);
+  Eigen::VectorXd a, b, c, d;
+  for (double s = 0.0; s <= 1.0; s += 0.0137) {
+    const auto seg = spline.segment_of(s);
+    spline.evaluate(seg, s - spline.s_m()[seg], &a, &b, &c, &d);
+    EXPECT_NEAR(a(0), f(s), 1e-12);
+    EXPECT_NEAR(b(0), f_s(s), 1e-11);
+    EXPECT_NEAR(c(0), -2 + 18 * s, 1e-10);
+    EXPECT_NEAR(d(0), 18.0, 1e-8);
+  }
+}
+
 /// Dense path (12 000 points over 0.12 m), only velocity-continuous: Y is piecewise quadratic in
 /// s (its q_ss jumps every 10 mm), it reverses several times, and X nearly stops (q_s of X
 /// down to 1e-3), so that the path velocity limit from X is large there while Y limits it.
