@@ -23,7 +23,7 @@ constexpr double kBlockShare = 0.25;
 constexpr double kRowTolerance = 1e-9;
 constexpr int kMaxOuterIterations = 40;
 constexpr int kMaxLazyRounds = 60;
-/// Outer iterations stop when the objective improves by less than this (relative).
+/// Outer iterations stop when the time T improves by less than this (relative).
 constexpr double kConvergence = 1e-7;
 /// Nodes (grid points with columns) per time scale of the acceleration (limit / third-order
 /// limit) along the second-order profile, and the longest node span in grid segments.
@@ -468,26 +468,26 @@ class ThirdOrderLp {
     // Maximise sum w x over the grid points with w the time's sensitivity at the second-order
     // profile, ds / x^(3/2) (bounded where x is tiny), normalised; x at the grid points is a
     // form in the node columns.
-    weights_.assign(points_, 0.0);
+    std::vector<double> weights(points_, 0.0);
     double total = 0.0;
     for (std::size_t i = 0; i < points_; ++i) {
       if (x_upper_[i] <= 0.0) continue;
       const double ds = 0.5 * (p_.s[std::min(i + 1, points_ - 1)] - p_.s[i > 0 ? i - 1 : 0]);
       const double x_ref = std::max(weight_x_[i], 1e-4 * max_upper());
-      weights_[i] = ds / (x_ref * std::sqrt(x_ref));
-      total += weights_[i];
+      weights[i] = ds / (x_ref * std::sqrt(x_ref));
+      total += weights[i];
     }
     Form fx, fu;
     for (std::size_t i = 0; i < points_; ++i) {
-      weights_[i] /= total;
-      if (weights_[i] == 0.0) continue;
+      weights[i] /= total;
+      if (weights[i] == 0.0) continue;
       if (node_of_point_[i] >= 0) {
-        objective[static_cast<std::size_t>(node_of_point_[i])] += weights_[i];
+        objective[static_cast<std::size_t>(node_of_point_[i])] += weights[i];
         continue;
       }
       const std::size_t c = node_of_segment_[i];
       forms_at(c, p_.s[i] - p_.s[nodes_[c]], fx, fu);
-      for (int t = 0; t < fx.n; ++t) objective[static_cast<std::size_t>(fx.col[t])] += weights_[i] * fx.coef[t];
+      for (int t = 0; t < fx.n; ++t) objective[static_cast<std::size_t>(fx.col[t])] += weights[i] * fx.coef[t];
     }
     for (std::size_t b = 0; b < blocks_.size(); ++b) {
       col_lo[2 * nodes + b] = 0.0;
@@ -675,7 +675,7 @@ class ThirdOrderLp {
   std::vector<std::size_t> node_of_segment_;   // node segment of each grid segment
   std::vector<long> node_of_point_;            // node index of a grid point, -1 if none
   std::vector<double> xn_, un_, z_;            // the programme's solution
-  std::vector<double> x_, u_, lin_, weights_, weight_x_;  // at the grid points
+  std::vector<double> x_, u_, lin_, weight_x_;  // at the grid points (weight_x_: where the objective's weights are taken)
   std::vector<char> active_;
   std::vector<std::size_t> row_keys_;  // per model row
   std::vector<unsigned char> column_status_, row_status_;

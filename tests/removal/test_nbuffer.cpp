@@ -279,20 +279,29 @@ TEST(NBuffer, RemovalNeverAddsMaterialRandomised) {
   }
 }
 
+// Cuts `path` into `one` on one thread in batches of 7 segments and into `two` (a copy of `one`
+// before the cut) on two threads with the default batch; returns the one-thread statistics.
+CutStatistics cut_on_one_and_two_threads(const Tool& tool, const std::vector<Pose>& path,
+                                         double orientation_tolerance_m, NBuffer& one, NBuffer& two) {
+  two = one;
+  CutOptions o1;
+  o1.threads = 1;
+  o1.batch_segments = 7;
+  CutOptions o2;
+  o2.threads = 2;
+  o1.orientation_tolerance_m = o2.orientation_tolerance_m = orientation_tolerance_m;
+  const CutStatistics stats = one.cut(tool, path, o1);
+  two.cut(tool, path, o2);
+  return stats;
+}
+
 TEST(NBuffer, SameResultForOneAndTwoThreadsAndAnyBatch) {
   std::mt19937 rng(11);
   const std::vector<Pose> path = random_path(rng, 200, true);
   const Tool tool = make_tool(ToolType::ball, 3, 0, 6);
   NBuffer one = NBuffer::zmap(box_mm(-5, -5, 0, 5, 5, 10), 0.05 * mm);
   NBuffer two = one;
-  CutOptions o1;
-  o1.threads = 1;
-  o1.batch_segments = 7;
-  CutOptions o2;
-  o2.threads = 2;
-  o1.orientation_tolerance_m = o2.orientation_tolerance_m = 5 * um;  // keep the sub-steps few
-  one.cut(tool, path, o1);
-  two.cut(tool, path, o2);
+  cut_on_one_and_two_threads(tool, path, 5 * um, one, two);  // 5 um: keep the sub-steps few
   EXPECT_EQ(one.lengths(), two.lengths());
 }
 
@@ -313,14 +322,7 @@ TEST(NBuffer, TiltedFlatAndBullSameResultForOneAndTwoThreadsAndAnyBatch) {
       const Tool tool = make_tool(type, 4, 1, 8);
       NBuffer one = NBuffer::zmap(box_mm(-4, -4, 0, 4, 4, 10), 0.02 * mm);
       NBuffer two = one;
-      CutOptions o1;
-      o1.threads = 1;
-      o1.batch_segments = 7;
-      CutOptions o2;
-      o2.threads = 2;
-      o1.orientation_tolerance_m = o2.orientation_tolerance_m = 1 * um;
-      const CutStatistics stats = one.cut(tool, path, o1);
-      two.cut(tool, path, o2);
+      const CutStatistics stats = cut_on_one_and_two_threads(tool, path, 1 * um, one, two);
       EXPECT_GT(stats.lines_lowered, 10000u);
       EXPECT_EQ(one.lengths(), two.lengths()) << static_cast<int>(type) << " turn " << turn;
     }

@@ -25,17 +25,20 @@
 //    backward (controllable sets, exact 2-variable feasibility by Newton on a concave piecewise
 //    linear function) and forward (greatest feasible sdd) passes. No LP solver.
 //  - with third-order limits (jerk / torque rate): a sequence of linear programmes (CLP, dual
-//    simplex) per stretch in x_i and u_i at the grid points, u piecewise linear in s (x
-//    piecewise quadratic, x_i+1 = x_i + h (u_i + u_i+1)), under x <= the second-order profile
+//    simplex) per stretch in x and u at nodes (a subset of the grid points: spans of at most 32
+//    grid segments, 1/8 of the acceleration's time scale a / j, and a 1 % change of the
+//    second-order speed), u linear in s between nodes (x quadratic, x_c+1 = x_c + h (u_c +
+//    u_c+1)), every row still imposed at every grid point, under x <= the second-order profile
 //    (an upper bound). Rows at both ends of each grid segment (and second-order rows at its
 //    middle): velocity as column bounds; acceleration / torque linear in (x, u), the viscous
 //    d sqrt(x) bounded conservatively (tangent above, chord below); the third-order rows divided
 //    by sd, |P u' + R u + S x + W| <= L / sqrt(x), whose convex right side is replaced by its
 //    tangent at the previous iterate (a lower bound, exact there): each programme is an inner
-//    approximation, the previous iterate stays feasible, the objective (sum of x weighted by
-//    the time's sensitivity at the second-order profile) increases monotonically
-//    (convex-concave procedure, first linearisation at the second-order profile; stops when the
-//    objective gains < 1e-7). In torque-rate rows the viscous terms d_s sd + d u / sd are taken
+//    approximation and the previous iterate stays feasible. Each programme maximises the
+//    first-order gain in T (sum of x weighted by ds / x^(3/2) at the current iterate, at the
+//    second-order profile first), followed by a line search on T between the two iterates
+//    (their segment is feasible: the programme's set is convex), so T decreases monotonically
+//    (convex-concave procedure; stops when T gains < 1e-7). In torque-rate rows the viscous terms d_s sd + d u / sd are taken
 //    at the previous iterate (not conservative; the set-point check below covers them). Rows are
 //    generated lazily (the jerk row of the dominant axis first, then every violated one, warm
 //    re-solves). Near the stops the motion is the exact constant-jerk start s = j t^3 / 6 (and
@@ -45,10 +48,10 @@
 //    (A piecewise linear u cannot start from rest: x ~ s^2 would take an infinite time.)
 //    The programme is feasible whenever the second-order problem is (x = u = 0), so this never
 //    fails where the second order does not.
-//    Known gaps: speed (a cold simplex start on a 10 000-point stretch takes seconds; overlapping
-//    windows would make it linear) and optimality within the profile class (u piecewise linear
-//    in s; the objective is a proxy for the time: 0.17 % above the seven-phase optimum on one
-//    straight-line case, see the tests).
+//    Known gaps: speed (about 0.6 s for 10 000 points, bench_planner); optimality within the
+//    profile class (u piecewise linear in s: 0.17 % above the seven-phase optimum where the jerk
+//    ramps cover only ~20 grid segments, see the tests); jerk between the ends of a grid segment
+//    is not bounded (rows at the ends only: sample part 1 stays 0.045 % over mid-rapid).
 // Every result is then checked on the written set points (below); where a limit is exceeded
 // the admissible feedrate is lowered around that place and the plan is redone, so that a
 // returned plan never exceeds a limit on its set points by more than the check's allowance
