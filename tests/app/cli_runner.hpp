@@ -7,6 +7,8 @@
 #include <filesystem>
 #include <string>
 
+#include "../temp_folder.hpp"
+
 namespace vmsim::test {
 
 struct RunResult {
@@ -29,12 +31,7 @@ inline RunResult run_vmsim_with_env(const std::string& prefix, const std::string
 
 inline RunResult run_vmsim(const std::string& arguments) { return run_vmsim_with_env("", arguments); }
 
-/// A fresh empty folder under the system's temporary folder.
-inline std::filesystem::path fresh_folder(const std::string& name) {
-  const std::filesystem::path folder = std::filesystem::temp_directory_path() / ("vmsim_test_" + name);
-  std::filesystem::remove_all(folder);
-  std::filesystem::create_directories(folder);
-  return folder;
-}
+/// A fresh empty folder under the system's temporary folder, private to this process.
+inline std::filesystem::path fresh_folder(const std::string& name) { return fresh_temp_folder(name); }
 
 }  // namespace vmsim::test

@@ -7,6 +7,7 @@
 
 #include "vmsim/common/errors.hpp"
 #include "vmsim/common/trace.hpp"
+#include "../temp_folder.hpp"
 
 namespace vmsim {
 namespace {
@@ -44,7 +45,7 @@ TEST(Trace, RoundTripIsExact) {
   trace.metadata = {{"source", "test"}};
   trace.add_column("t", {0.0, 0.004, 0.008});
   trace.add_column("A.cmd", {0.1, 1.0 / 3.0, -2.5e-7});
-  const std::string path = std::filesystem::temp_directory_path() / "vmsim_trace_roundtrip.csv";
+  const std::string path = test::fresh_temp_folder("trace_roundtrip") / "trace.csv";
   write_trace(path, trace);
   const Trace back = read_trace(path);
   std::remove(path.c_str());

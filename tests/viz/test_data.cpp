@@ -19,15 +19,13 @@
 #include "vmsim/common/files.hpp"
 #include "vmsim/viz/plot.hpp"
 #include "vmsim/viz/surface.hpp"
+#include "../temp_folder.hpp"
 
 namespace vmsim::viz {
 namespace {
 
 std::filesystem::path fresh_folder(const std::string& name) {
-  const auto folder = std::filesystem::temp_directory_path() / ("vmsim_test_viz_" + name);
-  std::filesystem::remove_all(folder);
-  std::filesystem::create_directories(folder);
-  return folder;
+  return test::fresh_temp_folder("viz_" + name);
 }
 
 TEST(Histogram, KnownValuesFallInTheirBins) {

@@ -14,6 +14,7 @@
 #include "vmsim/viz/image_compare.hpp"
 #include "vmsim/viz/plot.hpp"
 #include "vmsim/viz/surface.hpp"
+#include "../temp_folder.hpp"
 
 namespace vmsim::viz {
 namespace {
@@ -28,8 +29,7 @@ const std::filesystem::path kBaselines = std::filesystem::path(VMSIM_SOURCE_DIR)
 constexpr double kTolerance = 10.0;
 
 std::filesystem::path output_folder() {
-  const auto folder = std::filesystem::temp_directory_path() / "vmsim_test_viz_images";
-  std::filesystem::create_directories(folder);
+  static const auto folder = test::fresh_temp_folder("viz_images");
   return folder;
 }
 
