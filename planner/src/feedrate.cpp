@@ -5,6 +5,7 @@
 #include <cmath>
 #include <limits>
 #include <memory>
+#include <numbers>
 #include <optional>
 #include <string>
 
@@ -291,6 +292,68 @@ double detail::gauss_time(double delta, double x0, double u0, double up) {
 
 namespace {
 
+/// sinh(y) / y with y^2 = b tau^2 (sin(y) / y for b < 0), by its series where y is small.
+double sinhc(double b, double tau) {
+  const double y2 = b * tau * tau;
+  if (std::abs(y2) < 1e-3) {
+    return 1.0 + y2 / 6.0 * (1.0 + y2 / 20.0 * (1.0 + y2 / 42.0 * (1.0 + y2 / 72.0)));
+  }
+  const double y = std::sqrt(std::abs(y2));
+  return (y2 > 0.0 ? std::sinh(y) : std::sin(y)) / y;
+}
+
+}  // namespace
+
+// With k^2 = b: sigma = u0 (cosh k tau - 1) / b + v0 sinh(k tau) / k; cosh - 1 = 2 sinh^2(k tau / 2)
+// keeps it free of cancellation.
+double detail::LinearAccelerationLaw::position(double tau) const {
+  const double h = sinhc(b, 0.5 * tau);
+  return u0 * 0.5 * tau * tau * h * h + v0 * tau * sinhc(b, tau);
+}
+
+double detail::LinearAccelerationLaw::speed(double tau) const {
+  const double h = sinhc(b, 0.5 * tau);
+  return u0 * tau * sinhc(b, tau) + v0 * (1.0 + b * 0.5 * tau * tau * h * h);
+}
+
+std::optional<double> detail::LinearAccelerationLaw::duration(double delta, double estimate) const {
+  // x(sigma) = v0^2 + 2 u0 sigma + b sigma^2 must stay positive on [0, delta] (up to rounding:
+  // near stops end segments with x ~ 1e-11).
+  const double x0 = v0 * v0;
+  const double x1 = x0 + delta * (2.0 * u0 + b * delta);
+  const double rounding = 1e-9 * std::max({x0, std::abs(x1), std::abs(u0) * delta, std::abs(b) * delta * delta});
+  if (!(x1 >= -rounding) || (x0 <= 0.0 && u0 <= 0.0)) return std::nullopt;
+  if (b > 0.0 && u0 < 0.0 && -u0 / b < delta && x0 - u0 * u0 / b < -rounding) return std::nullopt;
+  // Until the end is reached the motion goes forward; with b < 0 it is periodic, and the speed
+  // vanishes within the first half period pi / sqrt(-b).
+  const double half_period = b < 0.0 ? std::numbers::pi / std::sqrt(-b) : kInf;
+  auto reached = [&](double tau) { return position(tau) >= delta || speed(tau) <= 0.0; };
+  const double sd_sum = std::sqrt(x0) + std::sqrt(std::max(x1, 0.0));
+  double lo = 0.0;
+  double hi = std::min(sd_sum > 0.0 ? 2.0 * delta / sd_sum : std::max(estimate, 1e-300), half_period);
+  for (int i = 0; !reached(hi); ++i) {
+    if (i == 200 || !std::isfinite(hi)) return std::nullopt;
+    lo = hi;
+    hi = std::min(2.0 * hi, half_period);
+  }
+  // Safeguarded Newton on sigma(tau) = delta within [lo, hi].
+  double tau = std::clamp(estimate, lo, hi);
+  if (!(tau > lo && tau < hi)) tau = 0.5 * (lo + hi);
+  for (int i = 0; i < 200; ++i) {
+    const double f = position(tau) - delta;
+    const double v = speed(tau);
+    if (std::abs(f) <= 1e-15 * delta && v > 0.0) return tau;
+    (reached(tau) ? hi : lo) = tau;
+    if (hi - lo <= 4.0 * std::numeric_limits<double>::epsilon() * hi) break;
+    double next = v > 0.0 ? tau - f / v : 0.5 * (lo + hi);
+    if (!(next > lo && next < hi)) next = 0.5 * (lo + hi);
+    tau = next;
+  }
+  return hi;
+}
+
+namespace {
+
 /// Quintic Hermite in t through (0, v0, a0) and (d, v1, a1) over duration h, evaluated at t.
 double quintic(double d, double v0, double a0, double v1, double a1, double h, double t) {
   const double c3 = (20.0 * d - (8.0 * v1 + 12.0 * v0) * h - (3.0 * a0 - a1) * h * h) / (2.0 * h * h * h);
@@ -303,6 +366,7 @@ double quintic(double d, double v0, double a0, double v1, double a1, double h, d
 struct Executed {
   std::vector<double> x;              // at points
   std::vector<double> sdd_l, sdd_r;   // per segment, at its ends
+  std::vector<char> linear_law;       // per segment: sdd linear in s (else the quintic in t)
   std::vector<double> dt;             // per segment
   std::vector<double> t;              // at points
 };
@@ -720,6 +784,7 @@ FeedratePlan plan_feedrate(const kinematics::MachineModel& machine,
     ex.sdd_l.assign(segments, 0.0);
     ex.sdd_r.assign(segments, 0.0);
     ex.dt.assign(segments, 0.0);
+    ex.linear_law.assign(segments, 0);
     for (const auto& [k0, k1] : stretches) {
       const auto failed = second.solve(k0, k1, x2, u2, controllable);
       if (failed) {
@@ -768,10 +833,17 @@ FeedratePlan plan_feedrate(const kinematics::MachineModel& machine,
           ex.sdd_l[k] = third.u[k];
           ex.sdd_r[k] = third.u[k + 1];
           const double delta = p.delta(k);
-          ex.dt[k] = third.dt[k] >= 0.0
-                         ? third.dt[k]
-                         : detail::gauss_time(delta, third.x[k], third.u[k],
-                                              (third.u[k + 1] - third.u[k]) / delta);
+          if (third.dt[k] >= 0.0) {  // constant jerk from or to a stop: the quintic is exact
+            ex.dt[k] = third.dt[k];
+            continue;
+          }
+          const double slope = (third.u[k + 1] - third.u[k]) / delta;
+          ex.dt[k] = detail::gauss_time(delta, third.x[k], third.u[k], slope);
+          const detail::LinearAccelerationLaw law{std::sqrt(third.x[k]), third.u[k], slope};
+          if (const auto exact = law.duration(delta, ex.dt[k])) {
+            ex.dt[k] = *exact;
+            ex.linear_law[k] = 1;
+          }
         }
         ex.x[segments] = 0.0;
       }
@@ -811,9 +883,12 @@ FeedratePlan plan_feedrate(const kinematics::MachineModel& machine,
       } else {
         const double tau = std::clamp(t - ex.t[k], 0.0, ex.dt[k]);
         const double delta = p.delta(k);
-        sigma = std::clamp(quintic(delta, std::sqrt(ex.x[k]), ex.sdd_l[k], std::sqrt(ex.x[k + 1]),
-                                   ex.sdd_r[k], ex.dt[k], tau),
-                           0.0, delta);
+        const double v0 = std::sqrt(ex.x[k]);
+        const double position =
+            ex.linear_law[k]
+                ? detail::LinearAccelerationLaw{v0, ex.sdd_l[k], (ex.sdd_r[k] - ex.sdd_l[k]) / delta}.position(tau)
+                : quintic(delta, v0, ex.sdd_l[k], std::sqrt(ex.x[k + 1]), ex.sdd_r[k], ex.dt[k], tau);
+        sigma = std::clamp(position, 0.0, delta);
         s = p.s[k] + sigma;
       }
       sp.s_m[n] = s;

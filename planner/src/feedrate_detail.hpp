@@ -5,6 +5,7 @@
 #include <cmath>
 #include <cstddef>
 #include <limits>
+#include <optional>
 #include <utility>
 #include <vector>
 
@@ -61,6 +62,20 @@ double first_exit(double p0, double p1, double p2, double p3, double L);
 
 /// Duration [s] of a grid segment of length delta on which x = x0 + 2 u0 s + up s^2.
 double gauss_time(double delta, double x0, double u0, double up);
+
+/// The motion along a grid segment on which the path acceleration is linear in the arc length,
+/// sdd = u0 + b sigma (the third-order programme's law between its points): sigma'' = u0 + b
+/// sigma from sigma = 0 at speed v0, in closed form (cosh / sinh for b > 0, cos / sin for b < 0,
+/// their series near b = 0). The set points follow it, so that what is written is what the rows
+/// of the programme constrain.
+struct LinearAccelerationLaw {
+  double v0 = 0.0, u0 = 0.0, b = 0.0;
+  double position(double tau) const;  ///< sigma(tau) [m]
+  double speed(double tau) const;     ///< sigma'(tau) [m/s]
+  /// The time at which sigma reaches delta: std::nullopt when the speed vanishes before it
+  /// (x = v0^2 + 2 u0 sigma + b sigma^2 reaches 0 inside the segment).
+  std::optional<double> duration(double delta, double estimate) const;
+};
 
 /// The third-order profile of every stretch (rest to rest between stops) on the grid.
 struct ThirdOrderProfile {

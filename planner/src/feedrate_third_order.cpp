@@ -89,7 +89,11 @@ class ThirdOrderLp {
  public:
   ThirdOrderLp(const Problem& p, const std::vector<std::pair<std::size_t, std::size_t>>& stretches,
                const std::vector<double>& x_upper)
-      : p_(p), x_upper_(x_upper), points_(p.s.size()), per_(6 * p.n2 + 4 * p.n3 + 2) {
+      : p_(p),
+        x_upper_(x_upper),
+        points_(p.s.size()),
+        per_end_(6 * p.n2 + 4 * p.n3 + 2),
+        per_(per_end_ + 2 + 4 * p.n3) {
     regular_.assign(p.segments(), 1);
     for (const auto& [k0, k1] : stretches) {
       const std::size_t n = k1 - k0;
@@ -322,91 +326,145 @@ class ThirdOrderLp {
 
   /// Half-row `slot` of regular grid segment k under the current linearisation. Slot order:
   /// 2nd-order ends, 2nd-order middle, 3rd-order ends (two sides each), then 0 <= x <= x_upper
-  /// at the right end when it is not a node.
+  /// at the right end when it is not a node; then the rows for the inside of the segment (see
+  /// interior_half_row).
   void half_row(std::size_t k, std::size_t slot, HalfRow& h) const {
     h = HalfRow{};
     const int side = static_cast<int>(slot % 2);  // 0: upper bound, 1: lower bound
     const std::size_t n2 = p_.n2;
-    const std::size_t c = node_of_segment_[k];
-    const double base = p_.s[nodes_[c]];
-    Form fx, fu;
-    auto add = [&](const Form& f, double scale) {
-      for (int i = 0; i < f.n; ++i) h.add(f.col[i], scale * f.coef[i]);
-    };
-    // sqrt(x) bounded linearly: above by its tangent at q, below by its chord on [0, x_max].
-    auto sqrt_bound = [](bool above, double q, double x_max, double& slope, double& intercept) {
-      if (above) {
-        const double r = std::sqrt(std::max(q, 1e-300));
-        slope = 0.5 / r;
-        intercept = 0.5 * r;
-      } else {
-        slope = x_max > 0.0 ? 1.0 / std::sqrt(x_max) : 0.0;
-        intercept = 0.0;
-      }
-    };
+    if (slot >= per_end_) {
+      interior_half_row(k, slot - per_end_, h);
+      return;
+    }
     if (slot < 6 * n2) {
       const bool middle = slot >= 4 * n2;
       const std::size_t r = middle ? (slot - 4 * n2) / 2 : (slot / 2) % n2;
       const int end = middle ? 0 : static_cast<int>(slot / (2 * n2));
       const Row2& row = middle ? p_.rows2mid(k)[r] : p_.rows2(k, end)[r];
       const std::size_t i = k + static_cast<std::size_t>(end);
-      double q = lin_[i], x_max = x_upper_[i];
-      double s_at = p_.s[i];
       if (middle) {
-        q = 0.5 * (lin_[k] + lin_[k + 1]);
-        x_max = 1.5 * std::max(x_upper_[k], x_upper_[k + 1]);
-        s_at = 0.5 * (p_.s[k] + p_.s[k + 1]);
+        second_order_half_row(row, side, k, 0.5 * p_.delta(k), 0.5 * (lin_[k] + lin_[k + 1]),
+                              1.5 * std::max(x_upper_[k], x_upper_[k + 1]), h);
+      } else {
+        second_order_half_row(row, side, k, p_.s[i] - p_.s[k], lin_[i], x_upper_[i], h);
       }
-      double slope = 0.0, intercept = 0.0;
-      if (row.D != 0.0) sqrt_bound((row.D > 0.0) == (side == 0), q, x_max, slope, intercept);
-      forms_at(c, s_at - base, fx, fu);
-      add(fx, (row.B + row.D * slope) / row.L);
-      add(fu, row.A / row.L);
-      const double constant = (row.C + row.E + row.D * intercept) / row.L;
-      if (side == 0) h.hi = 1.0 - constant; else h.lo = -1.0 - constant;
       return;
     }
     if (slot >= 6 * n2 + 4 * p_.n3) {  // the x range at the right end
       const std::size_t i = k + 1;
       if (node_of_point_[i] >= 0) return;  // a column bound there
-      forms_at(c, p_.s[i] - base, fx, fu);
-      const double scale = std::max(x_upper_[i], 1e-300);
-      add(fx, 1.0 / scale);
-      if (side == 0) h.hi = x_upper_[i] / scale; else h.lo = 0.0;
+      x_range_half_row(side, k, p_.delta(k), x_upper_[i], h);
       return;
     }
     const std::size_t rest = slot - 6 * n2;
     const int end = static_cast<int>(rest / (2 * p_.n3));
     const std::size_t r = (rest / 2) % p_.n3;
-    const Row3& row = p_.rows3(k, end)[r];
     const std::size_t i = k + static_cast<std::size_t>(end);
-    // Divided by sd: |P u' + R u + S x + W + V sd + Z u / sd| <= L / sd. The right side is
-    // convex in x: its tangent at q is a lower bound (the row is tightened, exact at q). The
-    // viscous terms V sd + Z u / sd are taken at the current iterate.
-    const double q = lin_[i];
+    third_order_half_row(p_.rows3(k, end)[r], side, k, p_.s[i] - p_.s[k], lin_[i], u_[i], h);
+  }
+
+  /// Rows for the inside of grid segment k. u is linear there, so x is quadratic in sigma and
+  /// can peak between the ends (where u crosses zero downwards): rows at the ends alone let the
+  /// speed limit and the jerk (|P u'| <= L / sd on a straight move) be exceeded in between.
+  /// In Bernstein form x has the coefficients x0, c1 = x0 + u0 delta, x1 and lies below their
+  /// maximum, and c1 exceeds both ends only where x peaks inside; so the rows are imposed once
+  /// more at the virtual point x = c1: c1 <= the mean of x_upper at the ends (x - the chord of
+  /// x_upper is quadratic too, with middle coefficient c1 - that mean), and every third-order
+  /// row of either end with x = c1 and that end's u. Exact for a move whose coefficients are
+  /// constant along the segment (a straight line), conservative by at most the segment's
+  /// bulge.
+  void interior_half_row(std::size_t k, std::size_t slot, HalfRow& h) const {
+    const int side = static_cast<int>(slot % 2);
+    if (slot < 2 && side == 1) return;  // c1 may be negative
+    const double delta = p_.delta(k);
+    const double c1_now = x_[k] + delta * u_[k];
+    // Where c1 is well below the ends the ends' rows cover the inside (and the tangent of
+    // L / sqrt(x) needs c1 > 0).
+    if (slot >= 2 && !(c1_now > 0.5 * std::max(x_[k], x_[k + 1]))) return;
+    Form fx, fu;
+    forms_in_segment(k, 0.0, fx, fu);
+    Form c1 = fx;  // x0 + delta u0: u0's columns are among x0's
+    for (int i = 0; i < fu.n; ++i) {
+      for (int t = 0; t < c1.n; ++t) {
+        if (c1.col[t] == fu.col[i]) c1.coef[t] += delta * fu.coef[i];
+      }
+    }
+    if (slot < 2) {
+      const double x_mean = 0.5 * (x_upper_[k] + x_upper_[k + 1]);
+      const double scale = std::max(x_mean, 1e-300);
+      add_form(h, c1, 1.0 / scale);
+      h.hi = x_mean / scale;
+      return;
+    }
+    const std::size_t r = ((slot - 2) / 2) % p_.n3;
+    const int end = static_cast<int>((slot - 2) / (2 * p_.n3));
+    const std::size_t i = k + static_cast<std::size_t>(end);
+    third_order_half_row(p_.rows3(k, end)[r], side, k, p_.s[i] - p_.s[k], c1_now, u_[i], h, &c1);
+  }
+
+  void add_form(HalfRow& h, const Form& f, double scale) const {
+    for (int i = 0; i < f.n; ++i) h.add(f.col[i], scale * f.coef[i]);
+  }
+
+  /// Forms of x and u at sigma from the start of grid segment k.
+  void forms_in_segment(std::size_t k, double sigma, Form& fx, Form& fu) const {
+    const std::size_t c = node_of_segment_[k];
+    forms_at(c, p_.s[k] + sigma - p_.s[nodes_[c]], fx, fu);
+  }
+
+  /// 0 <= x <= x_max at sigma in grid segment k (normalised by x_max).
+  void x_range_half_row(int side, std::size_t k, double sigma, double x_max, HalfRow& h) const {
+    Form fx, fu;
+    forms_in_segment(k, sigma, fx, fu);
+    const double scale = std::max(x_max, 1e-300);
+    add_form(h, fx, 1.0 / scale);
+    if (side == 0) h.hi = x_max / scale; else h.lo = 0.0;
+  }
+
+  /// A second-order row A u + B x + C + D sqrt(x) + E within +-L at sigma in grid segment k,
+  /// sqrt(x) bounded linearly: above by its tangent at q, below by its chord on [0, x_max].
+  void second_order_half_row(const Row2& row, int side, std::size_t k, double sigma, double q,
+                             double x_max, HalfRow& h) const {
+    double slope = 0.0, intercept = 0.0;
+    if (row.D != 0.0) {
+      if ((row.D > 0.0) == (side == 0)) {
+        const double r = std::sqrt(std::max(q, 1e-300));
+        slope = 0.5 / r;
+        intercept = 0.5 * r;
+      } else {
+        slope = x_max > 0.0 ? 1.0 / std::sqrt(x_max) : 0.0;
+      }
+    }
+    Form fx, fu;
+    forms_in_segment(k, sigma, fx, fu);
+    add_form(h, fx, (row.B + row.D * slope) / row.L);
+    add_form(h, fu, row.A / row.L);
+    const double constant = (row.C + row.E + row.D * intercept) / row.L;
+    if (side == 0) h.hi = 1.0 - constant; else h.lo = -1.0 - constant;
+  }
+
+  /// A third-order row at sigma in grid segment k, divided by sd:
+  /// |P u' + R u + S x + W + V sd + Z u / sd| <= L / sd. The right side is convex in x: its
+  /// tangent at q is a lower bound (the row is tightened, exact at q). The viscous terms
+  /// V sd + Z u / sd are taken at the current iterate (x = q, u = u_now). `x_form`: x as
+  /// another form than at sigma (the virtual point of interior_half_row).
+  void third_order_half_row(const Row3& row, int side, std::size_t k, double sigma, double q,
+                            double u_now, HalfRow& h, const Form* x_form = nullptr) const {
+    const std::size_t c = node_of_segment_[k];
     const double rq = std::sqrt(q);
     const double scale = row.L / rq;  // the limit at q
-    const double viscous = row.V * rq + row.Z * u_[i] / rq;
-    const double span = p_.s[nodes_[c + 1]] - base;
+    const double viscous = row.V * rq + row.Z * u_now / rq;
+    const double span = p_.s[nodes_[c + 1]] - p_.s[nodes_[c]];
     h.add(col_u(c + 1), row.P / span / scale);
     h.add(col_u(c), -row.P / span / scale);
-    forms_at(c, p_.s[i] - base, fx, fu);
-    add(fu, row.R / scale);
+    Form fx, fu;
+    forms_in_segment(k, sigma, fx, fu);
+    add_form(h, fu, row.R / scale);
     const double constant = (row.W + viscous) / scale;
     // Tangent of L / sqrt(x) at q, over the scale: 1.5 - 0.5 x / q.
-    if (side == 0) {
-      add(fx, row.S / scale);
-      h.add(fx.col[0], 0.5 / q * fx.coef[0]);
-      h.add(fx.col[1], 0.5 / q * fx.coef[1]);
-      h.add(fx.col[2], 0.5 / q * fx.coef[2]);
-      h.hi = 1.5 - constant;
-    } else {
-      add(fx, row.S / scale);
-      h.add(fx.col[0], -0.5 / q * fx.coef[0]);
-      h.add(fx.col[1], -0.5 / q * fx.coef[1]);
-      h.add(fx.col[2], -0.5 / q * fx.coef[2]);
-      h.lo = -1.5 - constant;
-    }
+    const double sign = side == 0 ? 1.0 : -1.0;
+    add_form(h, x_form != nullptr ? *x_form : fx, row.S / scale + sign * 0.5 / q);
+    if (side == 0) h.hi = 1.5 - constant; else h.lo = -1.5 - constant;
   }
 
   double activity(const HalfRow& h) const {
@@ -668,7 +726,8 @@ class ThirdOrderLp {
   const Problem& p_;
   const std::vector<double>& x_upper_;
   std::size_t points_;
-  std::size_t per_;  // half-row slots per regular grid segment
+  std::size_t per_end_;  // half-row slots per regular grid segment at its ends and middle
+  std::size_t per_;      // half-row slots per regular grid segment (ends, middle, inside)
   std::vector<char> regular_;
   std::vector<Block> blocks_;
   std::vector<std::size_t> nodes_;             // grid points that carry columns

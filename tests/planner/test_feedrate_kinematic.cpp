@@ -281,5 +281,29 @@ TEST(StraightLineJerk, AVanishingThirdDerivativeDoesNotLimitTheFeed) {
   for (std::size_t i = 1; i + 1 < jerk_limited.size(); ++i) ASSERT_GT(jerk_limited[i], 1e6) << "point " << i;
 }
 
+// A straight line on a coarse grid (10 to 50 segments of 6-30 mm): the path acceleration is
+// linear in s inside each segment, so x = sd^2 can peak between two grid points where the
+// profile joins the cruise or turns into the deceleration; rows at the grid points alone let the
+// speed limit be exceeded there by 0.2 %. The first plan (no slow-down round allowed) must hold
+// every limit on the set points.
+TEST(StraightLineJerk, CoarseGridHoldsTheLimitsBetweenGridPoints) {
+  const auto machine = line_machine(0.5, 2.5, 20.0);
+  const double reference = seven_phase_duration(0.3, 0.5, 2.5, 20.0);
+  for (const std::size_t points : {11u, 21u, 51u}) {
+    const auto path = straight_line(0.3, points);
+    FeedrateOptions options;
+    options.max_grid_step_m = 1.0;  // the path segments are the grid
+    options.max_verification_rounds = 1;
+    const FeedratePlan plan = plan_feedrate(machine, path, options);
+    EXPECT_GE(plan.duration_s, reference * (1.0 - 1e-9)) << points << " points";
+    EXPECT_LE(plan.duration_s, reference * 1.15) << points << " points";
+    // Set points at the period from the closed-form motion: rounding only (see above).
+    const auto r = finite_difference_ratios(plan.setpoints, plan.limits);
+    EXPECT_LE(r.velocity, 1.0 + 1e-6) << points << " points";
+    EXPECT_LE(r.acceleration, 1.0 + 1e-6) << points << " points";
+    EXPECT_LE(r.jerk, 1.0 + 1e-6) << points << " points";
+  }
+}
+
 }  // namespace
 }  // namespace vmsim::planner

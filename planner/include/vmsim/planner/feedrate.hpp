@@ -34,7 +34,13 @@
 //    d sqrt(x) bounded conservatively (tangent above, chord below); the third-order rows divided
 //    by sd, |P u' + R u + S x + W| <= L / sqrt(x), whose convex right side is replaced by its
 //    tangent at the previous iterate (a lower bound, exact there): each programme is an inner
-//    approximation and the previous iterate stays feasible. Each programme maximises the
+//    approximation and the previous iterate stays feasible. Inside a grid segment x is
+//    quadratic and peaks between the ends where u crosses zero downwards: there the rows are
+//    imposed once more at the middle Bernstein coefficient of x, c1 = x0 + h u0
+//    (x <= max(x0, c1, x1)): c1 <= the mean of the upper bound at the ends, and the third-order
+//    rows of both ends with x = c1 (exact on a straight move; without them a line on 10-50 grid
+//    segments exceeded its speed limit by 0.2 % between grid points, and part 1's rapids their
+//    jerk). Each programme maximises the
 //    first-order gain in T (sum of x weighted by ds / x^(3/2) at the current iterate, at the
 //    second-order profile first), followed by a line search on T between the two iterates
 //    (their segment is feasible: the programme's set is convex), so T decreases monotonically
@@ -50,8 +56,9 @@
 //    fails where the second order does not.
 //    Known gaps: speed (about 0.6 s for 10 000 points, bench_planner); optimality within the
 //    profile class (u piecewise linear in s: 0.17 % above the seven-phase optimum where the jerk
-//    ramps cover only ~20 grid segments, see the tests); jerk between the ends of a grid segment
-//    is not bounded (rows at the ends only: sample part 1 stays 0.045 % over mid-rapid).
+//    ramps cover only ~20 grid segments, see the tests; coarse grids cost more: a 0.3 m line on
+//    10 segments takes 14 % longer than the seven-phase optimum); on curved paths the rows
+//    inside a segment use the coefficients of its ends.
 // Every result is then checked on the written set points (below); where a limit is exceeded
 // the admissible feedrate is lowered around that place and the plan is redone, so that a
 // returned plan never exceeds a limit on its set points by more than the check's allowance
@@ -68,8 +75,10 @@
 // path is cut there and every stretch runs from rest to rest). Corner blending is done on the
 // tool path before planning (corner_blend.hpp).
 //
-// Set points: s(t) on each grid segment is the quintic Hermite interpolant in t of (s, sd, sdd)
-// at its ends (exact for the constant-sdd and constant-sddd segments), and q(s) the PathSpline
+// Set points: s(t) on each grid segment follows the planned law in closed form: sdd linear in
+// s on the third-order programme's segments (LinearAccelerationLaw: cosh / sinh or cos / sin),
+// else the quintic Hermite interpolant in t of (s, sd, sdd) at its ends (exact for the
+// constant-sdd and the constant-jerk segments); q(s) is the PathSpline
 // (below). The planner's rows use q, q_s, q_ss and q_sss of that same spline, so that they
 // bound what the set points do (with the fitted q_sss of solve_path_kinematics instead, the
 // spline's own third derivative between the points went unseen: on sample part 1 the set points

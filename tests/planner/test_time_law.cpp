@@ -1,0 +1,70 @@
+// The closed-form motion the set points follow between grid points of the third-order profile
+// (sdd linear in s) against an independent numerical integration of sigma'' = u0 + b sigma.
+#include <gtest/gtest.h>
+
+#include <cmath>
+
+#include "../../planner/src/feedrate_detail.hpp"
+
+namespace vmsim::planner::detail {
+namespace {
+
+struct State {
+  double sigma, speed;
+};
+
+/// Classical Runge-Kutta with a fixed step up to time `t`.
+State integrate(const LinearAccelerationLaw& law, double t, int steps) {
+  auto accel = [&](double sigma) { return law.u0 + law.b * sigma; };
+  State y{0.0, law.v0};
+  const double h = t / steps;
+  for (int i = 0; i < steps; ++i) {
+    const double k1s = y.speed, k1v = accel(y.sigma);
+    const double k2s = y.speed + 0.5 * h * k1v, k2v = accel(y.sigma + 0.5 * h * k1s);
+    const double k3s = y.speed + 0.5 * h * k2v, k3v = accel(y.sigma + 0.5 * h * k2s);
+    const double k4s = y.speed + h * k3v, k4v = accel(y.sigma + h * k3s);
+    y.sigma += h / 6.0 * (k1s + 2.0 * k2s + 2.0 * k3s + k4s);
+    y.speed += h / 6.0 * (k1v + 2.0 * k2v + 2.0 * k3v + k4v);
+  }
+  return y;
+}
+
+TEST(LinearAccelerationLaw, MatchesANumericalIntegrationForEverySignOfTheSlope) {
+  // b > 0 (cosh / sinh), b < 0 (cos / sin), b tiny (the series) and b = 0 (a parabola).
+  for (const double b : {40.0, 3.0, 1e-3, 1e-9, 0.0, -1e-9, -1e-3, -3.0, -40.0}) {
+    const LinearAccelerationLaw law{0.4, 1.5, b};
+    for (const double t : {1e-4, 0.01, 0.05, 0.2}) {
+      const State y = integrate(law, t, 4000);
+      EXPECT_NEAR(law.position(t), y.sigma, 1e-13 + 1e-12 * y.sigma) << "b " << b << " t " << t;
+      EXPECT_NEAR(law.speed(t), y.speed, 1e-12 * y.speed) << "b " << b << " t " << t;
+    }
+  }
+  const LinearAccelerationLaw parabola{0.4, 1.5, 0.0};
+  EXPECT_DOUBLE_EQ(parabola.position(0.2), 0.4 * 0.2 + 0.75 * 0.04);
+}
+
+TEST(LinearAccelerationLaw, DurationReachesTheSegmentEndAndAgreesWithTheQuadrature) {
+  // x = v0^2 + 2 u0 sigma + b sigma^2; the duration is the integral of 1 / sqrt(x).
+  const double delta = 0.03;
+  for (const double b : {30.0, 1e-6, 0.0, -2.0, -30.0}) {
+    const LinearAccelerationLaw law{0.5, 2.0, b};
+    const auto t = law.duration(delta, 0.01);
+    ASSERT_TRUE(t.has_value()) << "b " << b;
+    EXPECT_NEAR(law.position(*t), delta, 1e-15);
+    EXPECT_NEAR(*t, gauss_time(delta, 0.25, 2.0, b), 1e-9 * *t) << "b " << b;
+    const double x1 = 0.25 + delta * (4.0 + b * delta);
+    EXPECT_NEAR(law.speed(*t), std::sqrt(x1), 1e-12) << "b " << b;
+  }
+}
+
+TEST(LinearAccelerationLaw, NoDurationWhereTheSpeedVanishesInsideTheSegment) {
+  // Decelerating at 5 m/s^2 from 0.5 m/s stops after 25 mm: a 30 mm segment is never reached.
+  EXPECT_FALSE(LinearAccelerationLaw({0.5, -5.0, 0.0}).duration(0.03, 0.1).has_value());
+  // x = 0.25 - 6 sigma + b sigma^2 dips to 0.25 - 9 / b at sigma = 3 / b: above 0 with b = 40
+  // (reached), below with b = 32 (at 94 mm, inside the 100 mm segment).
+  EXPECT_TRUE(LinearAccelerationLaw({0.5, -3.0, 40.0}).duration(0.1, 0.2).has_value());
+  EXPECT_FALSE(LinearAccelerationLaw({0.5, -3.0, 32.0}).duration(0.1, 0.2).has_value());
+}
+
+}  // namespace
+}  // namespace vmsim::planner::detail
