@@ -1,7 +1,8 @@
-// Feedrate interpolation, single thread, 10 000 path points on the 5-axis table-table sample:
-// velocity + acceleration; torque with gravity and friction (second order); jerk (third order).
-// Each figure includes the set points at the interpolation period and their check.
-//   <build>/bench/bench_planner
+// Feedrate interpolation, single thread, 10 000 and 100 000 path points (the argument) on the
+// 5-axis table-table sample: velocity + acceleration; torque with gravity and friction (second
+// order); jerk and torque rate (third order). Each figure includes the set points at the
+// interpolation period and their check.
+//   <build>/bench/bench_planner [--benchmark_filter='/10000$']
 #include <benchmark/benchmark.h>
 
 #include <cmath>
@@ -16,7 +17,7 @@ namespace {
 using vmsim::kinematics::MachineModel;
 using vmsim::kinematics::PathKinematics;
 
-/// A smooth 5-axis path: all axes move (X, Y, Z sinusoids, A and C slow swings), 10 000 points.
+/// A smooth 5-axis path: all axes move (X, Y, Z sinusoids, A and C slow swings).
 PathKinematics path(std::size_t points) {
   PathKinematics p;
   const double length = 0.3;
@@ -46,8 +47,8 @@ void run(benchmark::State& state, vmsim::planner::FeedrateOptions options) {
     axis.drive.torque_max_N_m = 65.0;
     axis.drive.torque_rate_max_N_m_per_s = 1000.0;
   }
-  const PathKinematics p = path(10000);
-  options.max_grid_step_m = 1.0;  // the 10 000 points are the grid
+  const PathKinematics p = path(static_cast<std::size_t>(state.range(0)));
+  options.max_grid_step_m = 1.0;  // the path points are the grid
   double duration = 0.0, rounds = 0.0;
   for (auto _ : state) {
     try {
@@ -87,9 +88,9 @@ void TorqueRate(benchmark::State& state) {
   run(state, o);
 }
 
-BENCHMARK(VelocityAcceleration)->Unit(benchmark::kMillisecond);
-BENCHMARK(TorqueGravityFriction)->Unit(benchmark::kMillisecond);
-BENCHMARK(Jerk)->Unit(benchmark::kMillisecond);
-BENCHMARK(TorqueRate)->Unit(benchmark::kMillisecond);
+BENCHMARK(VelocityAcceleration)->Arg(10000)->Arg(100000)->Unit(benchmark::kMillisecond);
+BENCHMARK(TorqueGravityFriction)->Arg(10000)->Arg(100000)->Unit(benchmark::kMillisecond);
+BENCHMARK(Jerk)->Arg(10000)->Arg(100000)->Unit(benchmark::kMillisecond);
+BENCHMARK(TorqueRate)->Arg(10000)->Arg(100000)->Unit(benchmark::kMillisecond);
 
 }  // namespace

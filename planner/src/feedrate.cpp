@@ -44,7 +44,8 @@ struct Interval {
       if (c < lo_r - tol || c > hi_r + tol) bad_constant = true;
       return;
     }
-    double a = (lo_r - c) / beta, b = (hi_r - c) / beta;
+    const double inverse = 1.0 / beta;
+    double a = (lo_r - c) * inverse, b = (hi_r - c) * inverse;
     if (beta < 0) std::swap(a, b);
     lo = std::max(lo, a);
     hi = std::min(hi, b);
@@ -142,8 +143,9 @@ class SecondOrder {
           }
           return;
         }
-        double a = (lo_r - alpha * x - gamma) / beta, b = (hi_r - alpha * x - gamma) / beta;
-        const double slope = -alpha / beta;
+        const double inverse = 1.0 / beta, rest = alpha * x + gamma;
+        double a = (lo_r - rest) * inverse, b = (hi_r - rest) * inverse;
+        const double slope = -alpha * inverse;
         if (beta < 0) std::swap(a, b);
         if (a > lo) { lo = a; dlo = slope; }
         if (b < hi) { hi = b; dhi = slope; }
@@ -160,6 +162,10 @@ class SecondOrder {
           }
           // Right end: sd there lies in [0, sqrt(k_next)]; take the worse value for each bound.
           const double beta = row.A + 2.0 * delta * row.B;
+          if (row.D == 0.0) {  // no sqrt(x) term: one row for both bounds
+            add(row.B, beta, row.C + row.E, -row.L, row.L);
+            continue;
+          }
           const double up = row.D > 0 ? sd_next : 0.0, down = row.D > 0 ? 0.0 : sd_next;
           add(row.B, beta, row.C + row.E + row.D * up, -kInf, row.L);
           add(row.B, beta, row.C + row.E + row.D * down, -row.L, kInf);
@@ -170,6 +176,10 @@ class SecondOrder {
       for (std::size_t r = 0; r < p_.n2; ++r) {
         const Row2& row = mid[r];
         const double beta = row.A + delta * row.B;
+        if (row.D == 0.0) {
+          add(row.B, beta, row.C + row.E, -row.L, row.L);
+          continue;
+        }
         const double up = row.D > 0 ? std::max(sd, sd_next) : 0.0;
         const double down = row.D > 0 ? 0.0 : std::max(sd, sd_next);
         add(row.B, beta, row.C + row.E + row.D * up, -kInf, row.L);
@@ -617,6 +627,7 @@ FeedratePlan plan_feedrate(const kinematics::MachineModel& machine,
   p.r2.resize(2 * segments * p.n2);
   p.r2mid.resize(segments * p.n2);
   p.r3.resize(2 * segments * p.n3);
+  p.r3mid.resize(segments * p.n3);
   p.cap_end.assign(2 * segments, kInf);
   auto feed_of_segment = [&](std::size_t k) {
     if (options.feed_m_per_s > 0.0) return options.feed_m_per_s;
@@ -629,6 +640,16 @@ FeedratePlan plan_feedrate(const kinematics::MachineModel& machine,
   for (auto& v : plan.profile.sd_lim_by_kind) v.assign(points, kInf);
   for (auto& v : plan.profile.axis_by_kind) v.assign(points, -1);
   EndData e;
+  // The third-order row of axis j where the spline's derivatives are e (and, dynamic, the path
+  // torque coefficients c).
+  auto row3 = [&](const kinematics::PathTorqueCoefficients& c, const EndData& d, const AxisLimitValues& limit,
+                  Index j) {
+    if (dynamic) {
+      return Row3{c.a(j), c.a_s(j) + 2.0 * c.b(j), c.b_s(j), c.c_s(j), c.d_s(j), c.d(j),
+                  limit.torque_rate_N_m_per_s, static_cast<int>(j)};
+    }
+    return Row3{d.q_s(j), 3.0 * d.q_ss(j), d.q_sss(j), 0, 0, 0, limit.jerk, static_cast<int>(j)};
+  };
   for (std::size_t k = 0; k < segments; ++k) {
     {
       const double sigma = p.sigma0[k] + 0.5 * p.delta(k);
@@ -644,6 +665,8 @@ FeedratePlan plan_feedrate(const kinematics::MachineModel& machine,
         rows[r] = dynamic ? Row2{c.a(j), c.b(j), c.c(j), c.d(j), c.e(j), L[axes2[r]].torque_N_m, static_cast<int>(j)}
                           : Row2{e.q_s(j), e.q_ss(j), 0, 0, 0, L[axes2[r]].acceleration, static_cast<int>(j)};
       }
+      Row3* rows3 = p.r3mid.data() + k * p.n3;
+      for (std::size_t r = 0; r < p.n3; ++r) rows3[r] = row3(c, e, L[axes3[r]], idx(axes3[r]));
     }
     for (int end = 0; end < 2; ++end) {
       const double sigma = p.sigma0[k] + (end == 0 ? 0.0 : p.delta(k));
@@ -667,17 +690,7 @@ FeedratePlan plan_feedrate(const kinematics::MachineModel& machine,
           row = {e.q_s(j), e.q_ss(j), 0, 0, 0, L[axes2[r]].acceleration, row.axis};
         }
       }
-      for (std::size_t r = 0; r < p.n3; ++r) {
-        const Index j = idx(axes3[r]);
-        Row3& row = rows3[r];
-        row.axis = static_cast<int>(j);
-        if (dynamic) {
-          row = {c.a(j), c.a_s(j) + 2.0 * c.b(j), c.b_s(j), c.c_s(j), c.d_s(j), c.d(j),
-                 L[axes3[r]].torque_rate_N_m_per_s, row.axis};
-        } else {
-          row = {e.q_s(j), 3.0 * e.q_ss(j), e.q_sss(j), 0, 0, 0, L[axes3[r]].jerk, row.axis};
-        }
-      }
+      for (std::size_t r = 0; r < p.n3; ++r) rows3[r] = row3(c, e, L[axes3[r]], idx(axes3[r]));
       double cap = kInf;
       const double feed = feed_of_segment(k);
       cap = std::min(cap, feed * feed);

@@ -43,6 +43,7 @@ struct Problem {
   std::vector<Row2> r2;          // ((2 k + end) * n2 + r)
   std::vector<Row2> r2mid;       // (k * n2 + r): at the middle of each segment (second order)
   std::vector<Row3> r3;
+  std::vector<Row3> r3mid;       // (k * n3 + r): at the middle of each segment
   std::vector<double> cap_end;   // x cap at (2 k + end): velocity and feed
   std::vector<double> cap_pt;    // x cap at the points (min over the ends there; 0 at stops)
   std::size_t segments() const { return s.size() - 1; }
@@ -51,6 +52,7 @@ struct Problem {
   const Row2* rows2(std::size_t k, int end) const {
     return r2.data() + (2 * k + static_cast<std::size_t>(end)) * n2;
   }
+  const Row3* rows3mid(std::size_t k) const { return r3mid.data() + k * n3; }
   const Row3* rows3(std::size_t k, int end) const {
     return r3.data() + (2 * k + static_cast<std::size_t>(end)) * n3;
   }

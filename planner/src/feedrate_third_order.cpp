@@ -93,7 +93,8 @@ class ThirdOrderLp {
         x_upper_(x_upper),
         points_(p.s.size()),
         per_end_(6 * p.n2 + 4 * p.n3 + 2),
-        per_(per_end_ + 2 + 4 * p.n3) {
+        per_inside_(2 + 4 * p.n3),
+        per_(per_end_ + per_inside_ + 2 * p.n3) {
     regular_.assign(p.segments(), 1);
     for (const auto& [k0, k1] : stretches) {
       const std::size_t n = k1 - k0;
@@ -327,11 +328,19 @@ class ThirdOrderLp {
   /// Half-row `slot` of regular grid segment k under the current linearisation. Slot order:
   /// 2nd-order ends, 2nd-order middle, 3rd-order ends (two sides each), then 0 <= x <= x_upper
   /// at the right end when it is not a node; then the rows for the inside of the segment (see
-  /// interior_half_row).
+  /// interior_half_row); then the third-order rows at the middle (the spline's q_sss is a
+  /// quadratic on each path segment whose coefficients carry the rounding of q over h^3: on
+  /// 30 um segments it bulges between the ends by ~1e-4 of the jerk).
   void half_row(std::size_t k, std::size_t slot, HalfRow& h) const {
     h = HalfRow{};
     const int side = static_cast<int>(slot % 2);  // 0: upper bound, 1: lower bound
     const std::size_t n2 = p_.n2;
+    if (slot >= per_end_ + per_inside_) {  // third-order rows at the middle
+      const std::size_t r = (slot - per_end_ - per_inside_) / 2;
+      third_order_half_row(p_.rows3mid(k)[r], side, k, 0.5 * p_.delta(k), 0.5 * (lin_[k] + lin_[k + 1]),
+                           0.5 * (u_[k] + u_[k + 1]), h);
+      return;
+    }
     if (slot >= per_end_) {
       interior_half_row(k, slot - per_end_, h);
       return;
@@ -376,11 +385,12 @@ class ThirdOrderLp {
   void interior_half_row(std::size_t k, std::size_t slot, HalfRow& h) const {
     const int side = static_cast<int>(slot % 2);
     if (slot < 2 && side == 1) return;  // c1 may be negative
+    // The third-order rows only where the iterate peaks inside (u crossing zero downwards):
+    // elsewhere the ends' rows cover the inside, and rows at c1 with the ends' coefficients
+    // would only add rows (twice as many in torque-rate mode) that constrain nothing real.
+    if (slot >= 2 && !(u_[k] > 0.0 && u_[k + 1] < 0.0)) return;
     const double delta = p_.delta(k);
     const double c1_now = x_[k] + delta * u_[k];
-    // Where c1 is well below the ends the ends' rows cover the inside (and the tangent of
-    // L / sqrt(x) needs c1 > 0).
-    if (slot >= 2 && !(c1_now > 0.5 * std::max(x_[k], x_[k + 1]))) return;
     Form fx, fu;
     forms_in_segment(k, 0.0, fx, fu);
     Form c1 = fx;  // x0 + delta u0: u0's columns are among x0's
@@ -727,7 +737,8 @@ class ThirdOrderLp {
   const std::vector<double>& x_upper_;
   std::size_t points_;
   std::size_t per_end_;  // half-row slots per regular grid segment at its ends and middle
-  std::size_t per_;      // half-row slots per regular grid segment (ends, middle, inside)
+  std::size_t per_inside_;  // half-row slots of interior_half_row
+  std::size_t per_;         // half-row slots per regular grid segment (ends, middle, inside)
   std::vector<char> regular_;
   std::vector<Block> blocks_;
   std::vector<std::size_t> nodes_;             // grid points that carry columns
@@ -762,6 +773,7 @@ bool plan_third_order(const Problem& p, const std::vector<std::pair<std::size_t,
     local.r2.assign(p.r2.begin() + from(2 * k0 * p.n2), p.r2.begin() + from(2 * k1 * p.n2));
     local.r2mid.assign(p.r2mid.begin() + from(k0 * p.n2), p.r2mid.begin() + from(k1 * p.n2));
     local.r3.assign(p.r3.begin() + from(2 * k0 * p.n3), p.r3.begin() + from(2 * k1 * p.n3));
+    local.r3mid.assign(p.r3mid.begin() + from(k0 * p.n3), p.r3mid.begin() + from(k1 * p.n3));
     const std::vector<double> upper(x_upper.begin() + from(k0), x_upper.begin() + from(k1) + 1);
     ThirdOrderProfile part;
     ThirdOrderLp lp(local, {{0, k1 - k0}}, upper);
