@@ -470,12 +470,21 @@ void actuator_torque_on_path(const DynamicsModel& model, DynamicsData& data, con
 
 void path_torque_coefficients(const DynamicsModel& model, DynamicsData& data, const RefV& q,
                               const RefV& q_s, const RefV& q_ss, const RefV& q_sss,
-                              EffectSet effects) {
+                              EffectSet effects, bool with_s_derivatives) {
   // "Time" here is s: the configuration moves at dq/ds = q_s.
   update_transforms(model, data, q);
   PathTorqueCoefficients& k = data.coefficients;
   const VectorXd& z = data.zero;
-  if (effects == EffectSet::all()) {
+  const Eigen::Index n = model.axis_count();
+  if (effects == EffectSet::all() && !with_s_derivatives) {
+    // The same three recursions without their derivative parts.
+    recursion<false, false>(model, data, q_s, z, z, q_s, q_ss, false, k.a, data.tmp_Qd);
+    recursion<true, false>(model, data, q_s, q_s, q_ss, q_ss, q_sss, false, k.b, data.tmp_Qd);
+    recursion<false, false>(model, data, q_s, z, z, z, z, true, k.c, data.tmp_Qd);
+    k.a_s.setZero(n);
+    k.b_s.setZero(n);
+    k.c_s.setZero(n);
+  } else if (effects == EffectSet::all()) {
     // a = ID(q, 0, q_s) without gravity; b = ID(q, q_s, q_ss) without gravity; c = G(q).
     recursion<false, true>(model, data, q_s, z, z, q_s, q_ss, false, k.a, k.a_s);
     recursion<true, true>(model, data, q_s, q_s, q_ss, q_ss, q_sss, false, k.b, k.b_s);
@@ -503,7 +512,6 @@ void path_torque_coefficients(const DynamicsModel& model, DynamicsData& data, co
   }
   const bool inertia = effects.contains(Effect::inertia);
   const bool friction = effects.contains(Effect::friction);
-  const Eigen::Index n = model.axis_count();
   for (Eigen::Index i = 0; i < n; ++i) {
     const double r = model.ratio[i];
     const double J_r = inertia ? model.rotor_inertia[i] / r : 0.0;
@@ -517,6 +525,7 @@ void path_torque_coefficients(const DynamicsModel& model, DynamicsData& data, co
     k.d[i] = fv * q_s[i];
     k.d_s[i] = fv * q_ss[i];
     k.e[i] = friction ? model.friction_dry_N_m[i] * sign(q_s[i]) : 0.0;
+    if (!with_s_derivatives) k.a_s[i] = k.b_s[i] = k.c_s[i] = k.d_s[i] = 0.0;
   }
 }
 

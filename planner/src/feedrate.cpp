@@ -55,6 +55,28 @@ struct Interval {
 
 }  // namespace
 
+namespace {
+
+/// Smallest root s > 0 of c2 s^2 + c1 s + c0 (c2 may be 0), +inf when none.
+double smallest_positive_root(double c2, double c1, double c0) {
+  if (c2 == 0.0) {
+    if (c1 == 0.0) return kInf;
+    const double root = -c0 / c1;
+    return root > 0.0 ? root : kInf;
+  }
+  const double disc = c1 * c1 - 4.0 * c2 * c0;
+  if (disc < 0.0) return kInf;
+  // Without cancellation: q = -(c1 + sign(c1) sqrt(disc)) / 2, roots q / c2 and c0 / q.
+  const double q = -0.5 * (c1 + std::copysign(std::sqrt(disc), c1));
+  double best = kInf;
+  for (const double root : {q / c2, q != 0.0 ? c0 / q : kInf}) {
+    if (root > 0.0) best = std::min(best, root);
+  }
+  return best;
+}
+
+}  // namespace
+
 double detail::first_exit(double p0, double p1, double p2, double p3, double L) {
   if (std::abs(p0) > L) return 0.0;
   const double p[4] = {p0, p1, p2, p3};
@@ -62,33 +84,44 @@ double detail::first_exit(double p0, double p1, double p2, double p3, double L) 
   while (degree > 0 && p[degree] == 0.0) --degree;
   if (degree == 0) return kInf;
   auto f = [&](double s) { return p0 + s * (p1 + s * (p2 + s * p3)); };
+  if (std::abs(p0) == L && (p0 * p1 > 0.0 || (p1 == 0.0 && p0 * p2 > 0.0))) return 0.0;  // leaving at once
+  if (degree <= 2) {
+    // Closed form: the first s > 0 where f reaches +L or -L, stepped back until |f| <= L so
+    // that the result is on the admissible side, as the bisection's is.
+    double s = std::min(smallest_positive_root(p2, p1, p0 - L), smallest_positive_root(p2, p1, p0 + L));
+    if (!std::isfinite(s)) return kInf;
+    for (int step = 0; step < 64 && s > 0.0 && std::abs(f(s)) > L; ++step) s = std::nextafter(s, 0.0);
+    if (std::abs(f(s)) <= L) return s;
+  }
   // Fujiwara's bound on the roots of f -+ L: 2 max (|p_i| / |p_degree|)^(1 / (degree - i)), with
   // |p0| + L for i = 0. (1 + max |p_i| / |p_degree| is far too wide for a tiny leading
   // coefficient: the bisection below would not reach the root.)
   double bound = 0.0;
   for (int i = 0; i < degree; ++i) {
-    const double coefficient = std::abs(p[i]) + (i == 0 ? L : 0.0);
-    bound = std::max(bound, std::pow(coefficient / std::abs(p[degree]), 1.0 / (degree - i)));
+    const double ratio = (std::abs(p[i]) + (i == 0 ? L : 0.0)) / std::abs(p[degree]);
+    const int order = degree - i;
+    bound = std::max(bound, order == 1 ? ratio : (order == 2 ? std::sqrt(ratio) : std::cbrt(ratio)));
   }
   bound *= 2.0;
   // Monotone pieces between the critical points.
-  std::vector<double> breaks{0.0};
+  double breaks[4] = {0.0, 0.0, 0.0, 0.0};
+  int count = 1;
   const double c1 = p1, c2 = 2.0 * p2, c3 = 3.0 * p3;
   if (c3 != 0.0) {
     const double disc = c2 * c2 - 4.0 * c3 * c1;
     if (disc >= 0.0) {
       const double r = std::sqrt(disc);
       for (double root : {(-c2 - r) / (2.0 * c3), (-c2 + r) / (2.0 * c3)}) {
-        if (root > 0.0 && root < bound) breaks.push_back(root);
+        if (root > 0.0 && root < bound) breaks[count++] = root;
       }
     }
   } else if (c2 != 0.0) {
     const double root = -c1 / c2;
-    if (root > 0.0 && root < bound) breaks.push_back(root);
+    if (root > 0.0 && root < bound) breaks[count++] = root;
   }
-  std::sort(breaks.begin(), breaks.end());
-  breaks.push_back(bound);
-  for (std::size_t i = 0; i + 1 < breaks.size(); ++i) {
+  std::sort(breaks, breaks + count);
+  breaks[count++] = bound;
+  for (int i = 0; i + 1 < count; ++i) {
     const double a = breaks[i], b = breaks[i + 1];
     const double fb = f(b);
     if (std::abs(fb) < L) continue;
@@ -639,7 +672,8 @@ FeedratePlan plan_feedrate(const kinematics::MachineModel& machine,
   };
   for (auto& v : plan.profile.sd_lim_by_kind) v.assign(points, kInf);
   for (auto& v : plan.profile.axis_by_kind) v.assign(points, -1);
-  EndData e;
+  EndData e, e_right;  // e_right: at the previous segment's right end
+  kinematics::PathTorqueCoefficients c_right;
   // The third-order row of axis j where the spline's derivatives are e (and, dynamic, the path
   // torque coefficients c).
   auto row3 = [&](const kinematics::PathTorqueCoefficients& c, const EndData& d, const AxisLimitValues& limit,
@@ -656,7 +690,7 @@ FeedratePlan plan_feedrate(const kinematics::MachineModel& machine,
       spline.evaluate(p.seg[k], sigma, &e.q, &e.q_s, &e.q_ss, &e.q_sss);
       if (dynamic) {
         kinematics::path_torque_coefficients(*dyn_model, *dyn_data, e.q, e.q_s, e.q_ss, e.q_sss,
-                                             options.effects);
+                                             options.effects, options.third_order);
       }
       const auto& c = dyn_data ? dyn_data->coefficients : kinematics::PathTorqueCoefficients{};
       Row2* rows = p.r2mid.data() + k * p.n2;
@@ -671,11 +705,23 @@ FeedratePlan plan_feedrate(const kinematics::MachineModel& machine,
     for (int end = 0; end < 2; ++end) {
       const double sigma = p.sigma0[k] + (end == 0 ? 0.0 : p.delta(k));
       // The spline's own derivatives, q_sss included: the rows then bound what the set points
-      // (on the same spline) really do; see PathSpline.
-      spline.evaluate(p.seg[k], sigma, &e.q, &e.q_s, &e.q_ss, &e.q_sss);
-      if (dynamic) {
-        kinematics::path_torque_coefficients(*dyn_model, *dyn_data, e.q, e.q_s, e.q_ss, e.q_sss,
-                                             options.effects);
+      // (on the same spline) really do; see PathSpline. The left end is the previous segment's
+      // right end where both lie on one polynomial of the spline (or, in second order, where
+      // q_sss does not matter and the spline is C2 there: not at a corner).
+      const bool shared = end == 0 && k > 0 && !p.stop[k] && (p.seg[k] == p.seg[k - 1] || !options.third_order);
+      if (shared) {
+        e = e_right;
+        if (dynamic) dyn_data->coefficients = c_right;
+      } else {
+        spline.evaluate(p.seg[k], sigma, &e.q, &e.q_s, &e.q_ss, &e.q_sss);
+        if (dynamic) {
+          kinematics::path_torque_coefficients(*dyn_model, *dyn_data, e.q, e.q_s, e.q_ss, e.q_sss,
+                                               options.effects, options.third_order);
+        }
+      }
+      if (end == 1) {
+        e_right = e;
+        if (dynamic) c_right = dyn_data->coefficients;
       }
       const auto& c = dynamic ? dyn_data->coefficients : kinematics::PathTorqueCoefficients{};
       Row2* rows2 = p.r2.data() + (2 * k + static_cast<std::size_t>(end)) * p.n2;

@@ -523,6 +523,10 @@ TEST(Dynamics, PathCoefficientsReproduceTorqueAndRate) {
         const VectorXd tau_dot_k = data.coefficients.torque_rate(sd, sdd, sddd);
         EXPECT_LT((tau - tau_k).norm(), 1e-11 * (1.0 + tau.norm()));
         EXPECT_LT((tau_dot - tau_dot_k).norm(), 1e-11 * (1.0 + tau_dot.norm()));
+        // Without the s-derivatives (second-order planning): the same torque.
+        path_torque_coefficients(model, data, q, q_s, q_ss, q_sss, effects, false);
+        EXPECT_LT((tau - data.coefficients.torque(sd, sdd)).norm(), 1e-11 * (1.0 + tau.norm()));
+        EXPECT_EQ(data.coefficients.b_s.norm(), 0.0);
       }
     }
   }

@@ -275,13 +275,15 @@ void actuator_torque_on_path(const DynamicsModel& model, DynamicsData& data,
                              const PathMotion& motion, EffectSet effects = EffectSet::all());
 
 /// data.coefficients at one path point (see PathTorqueCoefficients), for the effects switched
-/// on. Three recursions for the full model, up to 4n + 3 otherwise.
+/// on. Three recursions for the full model, up to 4n + 3 otherwise. `with_s_derivatives` =
+/// false: a_s, b_s, c_s, d_s are not computed (set to 0; the torque alone needs none of them,
+/// and the full model's recursions then skip their derivative parts).
 void path_torque_coefficients(const DynamicsModel& model, DynamicsData& data,
                               const Eigen::Ref<const Eigen::VectorXd>& q,
                               const Eigen::Ref<const Eigen::VectorXd>& q_s,
                               const Eigen::Ref<const Eigen::VectorXd>& q_ss,
                               const Eigen::Ref<const Eigen::VectorXd>& q_sss,
-                              EffectSet effects = EffectSet::all());
+                              EffectSet effects = EffectSet::all(), bool with_s_derivatives = true);
 
 /// Per point, per axis, per effect: torques and torque rates along a path at a constant feed
 /// (sd = feed, sdd = sddd = 0): the first paper's Eq. 7-8 term by term.

@@ -1,8 +1,11 @@
-// The closed-form motion the set points follow between grid points of the third-order profile
-// (sdd linear in s) against an independent numerical integration of sigma'' = u0 + b sigma.
+// Internals of the feedrate planner against independent references: the closed-form motion the
+// set points follow between grid points of the third-order profile (sdd linear in s) against a
+// numerical integration of sigma'' = u0 + b sigma; first_exit (where a row's polynomial in sd
+// first leaves +-L) against a fine scan.
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <random>
 
 #include "../../planner/src/feedrate_detail.hpp"
 
@@ -64,6 +67,40 @@ TEST(LinearAccelerationLaw, NoDurationWhereTheSpeedVanishesInsideTheSegment) {
   // (reached), below with b = 32 (at 94 mm, inside the 100 mm segment).
   EXPECT_TRUE(LinearAccelerationLaw({0.5, -3.0, 40.0}).duration(0.1, 0.2).has_value());
   EXPECT_FALSE(LinearAccelerationLaw({0.5, -3.0, 32.0}).duration(0.1, 0.2).has_value());
+}
+
+TEST(FirstExit, IsTheFirstLeavingOfTheBandForRandomPolynomials) {
+  std::mt19937 random(7);
+  std::uniform_real_distribution<double> coefficient(-3.0, 3.0);
+  for (int n = 0; n < 3000; ++n) {
+    const double L = 1.0;
+    double p[4] = {0.9 * coefficient(random) / 3.0, coefficient(random), coefficient(random), coefficient(random)};
+    if (n % 3 == 0) p[3] = 0.0;      // quadratics
+    if (n % 9 == 0) p[2] = 0.0;      // and lines
+    if (n % 27 == 0) p[1] = 0.0;
+    auto f = [&](double s) { return p[0] + s * (p[1] + s * (p[2] + s * p[3])); };
+    const double exit = first_exit(p[0], p[1], p[2], p[3], L);
+    // Scan up to the exit (or far out): |f| <= L before it, and just after it |f| > L.
+    const double end = std::isfinite(exit) ? exit : 100.0;
+    for (int i = 0; i <= 2000; ++i) {
+      const double s = end * i / 2000.0;
+      ASSERT_LE(std::abs(f(s)), L * (1.0 + 1e-12)) << "n " << n << " s " << s << " exit " << exit;
+    }
+    if (std::isfinite(exit)) {
+      const double after = exit * (1.0 + 1e-6) + 1e-12;
+      EXPECT_GT(std::abs(f(after)), L * (1.0 - 1e-9)) << "n " << n << " exit " << exit;
+    }
+  }
+}
+
+TEST(FirstExit, AtTheBoundAndLeavingAtOnceIsZero) {
+  EXPECT_EQ(first_exit(1.0, 0.5, 0.0, 0.0, 1.0), 0.0);
+  EXPECT_EQ(first_exit(-1.0, 0.0, -2.0, 0.0, 1.0), 0.0);
+  EXPECT_EQ(first_exit(1.5, 0.0, 0.0, 0.0, 1.0), 0.0);
+  // At the bound but going back inside: leaves at the other side, f = 1 - 2 s + s^2 / 2 = -1 at
+  // s = 2 (a double root: touching -1 counts as leaving).
+  EXPECT_NEAR(first_exit(1.0, -2.0, 0.5, 0.0, 1.0), 2.0, 1e-7);
+  EXPECT_EQ(first_exit(0.5, 0.0, 0.0, 0.0, 1.0), kInf);
 }
 
 }  // namespace
