@@ -672,6 +672,7 @@ FeedratePlan plan_feedrate(const kinematics::MachineModel& machine,
   };
   for (auto& v : plan.profile.sd_lim_by_kind) v.assign(points, kInf);
   for (auto& v : plan.profile.axis_by_kind) v.assign(points, -1);
+  const kinematics::PathTorqueCoefficients no_coefficients;  // kinematic mode (a reference, not a copy per row)
   EndData e, e_right;  // e_right: at the previous segment's right end
   kinematics::PathTorqueCoefficients c_right;
   // The third-order row of axis j where the spline's derivatives are e (and, dynamic, the path
@@ -692,7 +693,7 @@ FeedratePlan plan_feedrate(const kinematics::MachineModel& machine,
         kinematics::path_torque_coefficients(*dyn_model, *dyn_data, e.q, e.q_s, e.q_ss, e.q_sss,
                                              options.effects, options.third_order);
       }
-      const auto& c = dyn_data ? dyn_data->coefficients : kinematics::PathTorqueCoefficients{};
+      const auto& c = dyn_data ? dyn_data->coefficients : no_coefficients;
       Row2* rows = p.r2mid.data() + k * p.n2;
       for (std::size_t r = 0; r < p.n2; ++r) {
         const Index j = idx(axes2[r]);
@@ -723,7 +724,7 @@ FeedratePlan plan_feedrate(const kinematics::MachineModel& machine,
         e_right = e;
         if (dynamic) c_right = dyn_data->coefficients;
       }
-      const auto& c = dynamic ? dyn_data->coefficients : kinematics::PathTorqueCoefficients{};
+      const auto& c = dynamic ? dyn_data->coefficients : no_coefficients;
       Row2* rows2 = p.r2.data() + (2 * k + static_cast<std::size_t>(end)) * p.n2;
       Row3* rows3 = p.r3.data() + (2 * k + static_cast<std::size_t>(end)) * p.n3;
       for (std::size_t r = 0; r < p.n2; ++r) {
