@@ -85,6 +85,12 @@ double detail::first_exit(double p0, double p1, double p2, double p3, double L) 
   if (degree == 0) return kInf;
   auto f = [&](double s) { return p0 + s * (p1 + s * (p2 + s * p3)); };
   if (std::abs(p0) == L && (p0 * p1 > 0.0 || (p1 == 0.0 && p0 * p2 > 0.0))) return 0.0;  // leaving at once
+  if (p1 == 0.0 && p2 == 0.0) {
+    // p0 + p3 s^3 (the jerk rows' sd^3 q_sss term alone): monotone, leaves at s^3 p3 = +-L - p0.
+    double s = std::cbrt(((p3 > 0.0 ? L : -L) - p0) / p3);
+    for (int step = 0; step < 64 && s > 0.0 && std::abs(f(s)) > L; ++step) s = std::nextafter(s, 0.0);
+    if (std::abs(f(s)) <= L) return s;
+  }
   if (degree <= 2) {
     // Closed form: the first s > 0 where f reaches +L or -L, stepped back until |f| <= L so
     // that the result is on the admissible side, as the bisection's is.

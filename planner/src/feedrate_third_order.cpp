@@ -334,42 +334,95 @@ class ThirdOrderLp {
   void half_row(std::size_t k, std::size_t slot, HalfRow& h) const {
     h = HalfRow{};
     const int side = static_cast<int>(slot % 2);  // 0: upper bound, 1: lower bound
-    const std::size_t n2 = p_.n2;
-    if (slot >= per_end_ + per_inside_) {  // third-order rows at the middle
-      const std::size_t r = (slot - per_end_ - per_inside_) / 2;
-      third_order_half_row(p_.rows3mid(k)[r], side, k, 0.5 * p_.delta(k), 0.5 * (lin_[k] + lin_[k + 1]),
-                           0.5 * (u_[k] + u_[k + 1]), h);
+    RowTerms t;
+    if (slot_terms(k, slot, t)) {
+      terms_half_row(t, k, nullptr, h);
       return;
     }
     if (slot >= per_end_) {
       interior_half_row(k, slot - per_end_, h);
       return;
     }
+    // The x range at the right end.
+    const std::size_t i = k + 1;
+    if (node_of_point_[i] >= 0) return;  // a column bound there
+    x_range_half_row(side, k, p_.delta(k), x_upper_[i], h);
+  }
+
+  /// A row of the second or third order at sigma in grid segment k as
+  /// lo <= cx x(sigma) + cu u(sigma) + cup u' <= hi (one side bounded), u' the slope of u over
+  /// the node span.
+  struct RowTerms {
+    double sigma = 0.0;
+    double cx = 0.0, cu = 0.0, cup = 0.0;
+    double lo = -COIN_DBL_MAX, hi = COIN_DBL_MAX;
+  };
+
+  /// The terms of slot `slot` of grid segment k for the rows at its ends and middle; false
+  /// for the x range and the inside rows.
+  bool slot_terms(std::size_t k, std::size_t slot, RowTerms& t) const {
+    const int side = static_cast<int>(slot % 2);
+    const std::size_t n2 = p_.n2;
+    const double middle_sigma = 0.5 * p_.delta(k), middle_q = 0.5 * (lin_[k] + lin_[k + 1]);
+    if (slot >= per_end_ + per_inside_) {  // third-order rows at the middle
+      const std::size_t r = (slot - per_end_ - per_inside_) / 2;
+      third_order_terms(p_.rows3mid(k)[r], side, middle_q, 0.5 * (u_[k] + u_[k + 1]), t);
+      t.sigma = middle_sigma;
+      return true;
+    }
+    if (slot >= per_end_ || (slot >= 6 * n2 + 4 * p_.n3)) return false;
     if (slot < 6 * n2) {
       const bool middle = slot >= 4 * n2;
       const std::size_t r = middle ? (slot - 4 * n2) / 2 : (slot / 2) % n2;
       const int end = middle ? 0 : static_cast<int>(slot / (2 * n2));
-      const Row2& row = middle ? p_.rows2mid(k)[r] : p_.rows2(k, end)[r];
       const std::size_t i = k + static_cast<std::size_t>(end);
       if (middle) {
-        second_order_half_row(row, side, k, 0.5 * p_.delta(k), 0.5 * (lin_[k] + lin_[k + 1]),
-                              1.5 * std::max(x_upper_[k], x_upper_[k + 1]), h);
+        second_order_terms(p_.rows2mid(k)[r], side, middle_q, 1.5 * std::max(x_upper_[k], x_upper_[k + 1]), t);
+        t.sigma = middle_sigma;
       } else {
-        second_order_half_row(row, side, k, p_.s[i] - p_.s[k], lin_[i], x_upper_[i], h);
+        second_order_terms(p_.rows2(k, end)[r], side, lin_[i], x_upper_[i], t);
+        t.sigma = p_.s[i] - p_.s[k];
       }
-      return;
-    }
-    if (slot >= 6 * n2 + 4 * p_.n3) {  // the x range at the right end
-      const std::size_t i = k + 1;
-      if (node_of_point_[i] >= 0) return;  // a column bound there
-      x_range_half_row(side, k, p_.delta(k), x_upper_[i], h);
-      return;
+      return true;
     }
     const std::size_t rest = slot - 6 * n2;
     const int end = static_cast<int>(rest / (2 * p_.n3));
     const std::size_t r = (rest / 2) % p_.n3;
     const std::size_t i = k + static_cast<std::size_t>(end);
-    third_order_half_row(p_.rows3(k, end)[r], side, k, p_.s[i] - p_.s[k], lin_[i], u_[i], h);
+    third_order_terms(p_.rows3(k, end)[r], side, lin_[i], u_[i], t);
+    t.sigma = p_.s[i] - p_.s[k];
+    return true;
+  }
+
+  /// The half-row of `t` in the node columns (x as `x_form` instead of x(sigma) if given).
+  void terms_half_row(const RowTerms& t, std::size_t k, const Form* x_form, HalfRow& h) const {
+    const std::size_t c = node_of_segment_[k];
+    if (t.cup != 0.0) {
+      const double span = p_.s[nodes_[c + 1]] - p_.s[nodes_[c]];
+      h.add(col_u(c + 1), t.cup / span);
+      h.add(col_u(c), -t.cup / span);
+    }
+    Form fx, fu;
+    forms_in_segment(k, t.sigma, fx, fu);
+    add_form(h, fu, t.cu);
+    add_form(h, x_form != nullptr ? *x_form : fx, t.cx);
+    h.lo = t.lo;
+    h.hi = t.hi;
+  }
+
+  /// The activity of `t` at the current solution, from x and u at the grid points (u is linear
+  /// on the segment, x quadratic with x' = 2 u): no forms needed.
+  double terms_activity(const RowTerms& t, std::size_t k) const {
+    const double delta = p_.delta(k);
+    const double b = (u_[k + 1] - u_[k]) / delta;
+    const double x = x_[k] + t.sigma * (2.0 * u_[k] + b * t.sigma);
+    const double u = u_[k] + b * t.sigma;
+    double activity = t.cx * x + t.cu * u;
+    if (t.cup != 0.0) {
+      const std::size_t c = node_of_segment_[k];
+      activity += t.cup * (un_[c + 1] - un_[c]) / (p_.s[nodes_[c + 1]] - p_.s[nodes_[c]]);
+    }
+    return activity;
   }
 
   /// Rows for the inside of grid segment k. u is linear there, so x is quadratic in sigma and
@@ -409,7 +462,10 @@ class ThirdOrderLp {
     const std::size_t r = ((slot - 2) / 2) % p_.n3;
     const int end = static_cast<int>((slot - 2) / (2 * p_.n3));
     const std::size_t i = k + static_cast<std::size_t>(end);
-    third_order_half_row(p_.rows3(k, end)[r], side, k, p_.s[i] - p_.s[k], c1_now, u_[i], h, &c1);
+    RowTerms t;
+    third_order_terms(p_.rows3(k, end)[r], side, c1_now, u_[i], t);
+    t.sigma = p_.s[i] - p_.s[k];  // u there; x is c1
+    terms_half_row(t, k, &c1, h);
   }
 
   void add_form(HalfRow& h, const Form& f, double scale) const {
@@ -431,10 +487,9 @@ class ThirdOrderLp {
     if (side == 0) h.hi = x_max / scale; else h.lo = 0.0;
   }
 
-  /// A second-order row A u + B x + C + D sqrt(x) + E within +-L at sigma in grid segment k,
-  /// sqrt(x) bounded linearly: above by its tangent at q, below by its chord on [0, x_max].
-  void second_order_half_row(const Row2& row, int side, std::size_t k, double sigma, double q,
-                             double x_max, HalfRow& h) const {
+  /// A second-order row A u + B x + C + D sqrt(x) + E within +-L, sqrt(x) bounded linearly:
+  /// above by its tangent at q, below by its chord on [0, x_max].
+  void second_order_terms(const Row2& row, int side, double q, double x_max, RowTerms& t) const {
     double slope = 0.0, intercept = 0.0;
     if (row.D != 0.0) {
       if ((row.D > 0.0) == (side == 0)) {
@@ -445,36 +500,27 @@ class ThirdOrderLp {
         slope = x_max > 0.0 ? 1.0 / std::sqrt(x_max) : 0.0;
       }
     }
-    Form fx, fu;
-    forms_in_segment(k, sigma, fx, fu);
-    add_form(h, fx, (row.B + row.D * slope) / row.L);
-    add_form(h, fu, row.A / row.L);
+    t.cx = (row.B + row.D * slope) / row.L;
+    t.cu = row.A / row.L;
     const double constant = (row.C + row.E + row.D * intercept) / row.L;
-    if (side == 0) h.hi = 1.0 - constant; else h.lo = -1.0 - constant;
+    if (side == 0) t.hi = 1.0 - constant; else t.lo = -1.0 - constant;
   }
 
-  /// A third-order row at sigma in grid segment k, divided by sd:
-  /// |P u' + R u + S x + W + V sd + Z u / sd| <= L / sd. The right side is convex in x: its
-  /// tangent at q is a lower bound (the row is tightened, exact at q). The viscous terms
-  /// V sd + Z u / sd are taken at the current iterate (x = q, u = u_now). `x_form`: x as
-  /// another form than at sigma (the virtual point of interior_half_row).
-  void third_order_half_row(const Row3& row, int side, std::size_t k, double sigma, double q,
-                            double u_now, HalfRow& h, const Form* x_form = nullptr) const {
-    const std::size_t c = node_of_segment_[k];
+  /// A third-order row divided by sd: |P u' + R u + S x + W + V sd + Z u / sd| <= L / sd. The
+  /// right side is convex in x: its tangent at q is a lower bound (the row is tightened, exact
+  /// at q). The viscous terms V sd + Z u / sd are taken at the current iterate (x = q,
+  /// u = u_now).
+  void third_order_terms(const Row3& row, int side, double q, double u_now, RowTerms& t) const {
     const double rq = std::sqrt(q);
-    const double scale = row.L / rq;  // the limit at q
-    const double viscous = row.V * rq + row.Z * u_now / rq;
-    const double span = p_.s[nodes_[c + 1]] - p_.s[nodes_[c]];
-    h.add(col_u(c + 1), row.P / span / scale);
-    h.add(col_u(c), -row.P / span / scale);
-    Form fx, fu;
-    forms_in_segment(k, sigma, fx, fu);
-    add_form(h, fu, row.R / scale);
-    const double constant = (row.W + viscous) / scale;
+    const double inverse_scale = rq / row.L;  // 1 / the limit at q
+    const double viscous = row.V * rq + (row.Z != 0.0 ? row.Z * u_now / rq : 0.0);
+    t.cup = row.P * inverse_scale;
+    t.cu = row.R * inverse_scale;
+    const double constant = (row.W + viscous) * inverse_scale;
     // Tangent of L / sqrt(x) at q, over the scale: 1.5 - 0.5 x / q.
     const double sign = side == 0 ? 1.0 : -1.0;
-    add_form(h, x_form != nullptr ? *x_form : fx, row.S / scale + sign * 0.5 / q);
-    if (side == 0) h.hi = 1.5 - constant; else h.lo = -1.5 - constant;
+    t.cx = row.S * inverse_scale + sign * 0.5 / q;
+    if (side == 0) t.hi = 1.5 - constant; else t.lo = -1.5 - constant;
   }
 
   double activity(const HalfRow& h) const {
@@ -694,6 +740,11 @@ class ThirdOrderLp {
       for (std::size_t slot = 0; slot < per_; ++slot) {
         const std::size_t key = k * per_ + slot;
         if (active_[key]) continue;
+        RowTerms t;
+        if (slot_terms(k, slot, t)) {  // most slots: checked without building the row
+          const double a = terms_activity(t, k);
+          if (a <= t.hi + kRowTolerance && a >= t.lo - kRowTolerance) continue;
+        }
         half_row(k, slot, h);
         if (h.n == 0) continue;
         const double a = activity(h);
