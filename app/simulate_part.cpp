@@ -205,8 +205,9 @@ Run simulate_run(const Context& context, const std::string& name, double feed_m_
     try {
       run.plan = planner::plan_feedrate(machine, context.path, plan_options);
       if (!plan_options.third_order) {
-        run.plan.notes.push_back("jerk / torque-rate limits not applied (simulate-part's default; "
-                                 "--third-order applies them, at a much longer planning time)");
+        run.plan.notes.push_back("jerk / torque-rate limits not applied (simulate-part's default, as an "
+                                 "NC in its acceleration-only mode, e.g. BRISK on a Siemens 840D; "
+                                 "--third-order applies the axis jerk / torque-rate limits)");
       }
     } catch (const InfeasibleError& error) {
       if (!plan_options.third_order) throw;
