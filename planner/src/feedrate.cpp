@@ -663,7 +663,13 @@ FeedratePlan plan_feedrate(const kinematics::MachineModel& machine,
   }
   p.n2 = axes2.size();
   p.n3 = axes3.size();
-  p.r2.resize(2 * segments * p.n2);
+  p.r2.resize(points * p.n2);
+  p.incoming.assign(points, -1);
+  std::size_t stops_with_incoming = 0;
+  for (std::size_t i = 1; i < points; ++i) {
+    if (p.stop[i]) p.incoming[i] = static_cast<long>(stops_with_incoming++);
+  }
+  p.r2_in.resize(stops_with_incoming * p.n2);
   p.r2mid.resize(segments * p.n2);
   p.r3.resize(2 * segments * p.n3);
   p.r3mid.resize(segments * p.n3);
@@ -731,7 +737,10 @@ FeedratePlan plan_feedrate(const kinematics::MachineModel& machine,
         if (dynamic) c_right = dyn_data->coefficients;
       }
       const auto& c = dynamic ? dyn_data->coefficients : no_coefficients;
-      Row2* rows2 = p.r2.data() + (2 * k + static_cast<std::size_t>(end)) * p.n2;
+      const std::size_t point = k + static_cast<std::size_t>(end);
+      Row2* rows2 = end == 1 && p.incoming[point] >= 0
+                        ? p.r2_in.data() + static_cast<std::size_t>(p.incoming[point]) * p.n2
+                        : p.r2.data() + point * p.n2;
       Row3* rows3 = p.r3.data() + (2 * k + static_cast<std::size_t>(end)) * p.n3;
       for (std::size_t r = 0; r < p.n2; ++r) {
         const Index j = idx(axes2[r]);
@@ -763,7 +772,6 @@ FeedratePlan plan_feedrate(const kinematics::MachineModel& machine,
 
       // sd_lim (Eq. 1-2, 7-9) at the point where this end is the left end (and the last point).
       if (end == 1 && k + 1 != segments) continue;
-      const std::size_t point = k + static_cast<std::size_t>(end);
       auto put = [&](ConstraintKind kind, double value, int axis) {
         auto& slot = plan.profile.sd_lim_by_kind[static_cast<std::size_t>(kind)][point];
         if (value < slot) {

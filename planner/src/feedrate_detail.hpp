@@ -40,7 +40,12 @@ struct Problem {
   std::vector<double> sigma0;    // its start within the spline segment
   std::vector<bool> stop;        // exact stop at the point
   std::size_t n2 = 0, n3 = 0;    // rows per segment end
-  std::vector<Row2> r2;          // ((2 k + end) * n2 + r)
+  // Second-order rows need q, q_s and q_ss only, which the spline has alike on both sides of a
+  // grid point except at a stop (a corner): one set per point, and the incoming side of stops
+  // apart (half the memory of a set per segment end: the passes stream it).
+  std::vector<Row2> r2;          // (i * n2 + r): at grid point i (at a stop: its outgoing side)
+  std::vector<Row2> r2_in;       // (j * n2 + r): the incoming side of the j-th stop
+  std::vector<long> incoming;    // per point: its j in r2_in, or -1
   std::vector<Row2> r2mid;       // (k * n2 + r): at the middle of each segment (second order)
   std::vector<Row3> r3;
   std::vector<Row3> r3mid;       // (k * n3 + r): at the middle of each segment
@@ -50,7 +55,9 @@ struct Problem {
   double delta(std::size_t k) const { return s[k + 1] - s[k]; }
   const Row2* rows2mid(std::size_t k) const { return r2mid.data() + k * n2; }
   const Row2* rows2(std::size_t k, int end) const {
-    return r2.data() + (2 * k + static_cast<std::size_t>(end)) * n2;
+    if (end == 0) return r2.data() + k * n2;
+    const long j = incoming[k + 1];
+    return j >= 0 ? r2_in.data() + static_cast<std::size_t>(j) * n2 : r2.data() + (k + 1) * n2;
   }
   const Row3* rows3mid(std::size_t k) const { return r3mid.data() + k * n3; }
   const Row3* rows3(std::size_t k, int end) const {

@@ -821,7 +821,12 @@ bool plan_third_order(const Problem& p, const std::vector<std::pair<std::size_t,
   for (const auto& [k0, k1] : stretches) {
     const auto from = [](std::size_t i) { return static_cast<std::ptrdiff_t>(i); };
     local.s.assign(p.s.begin() + from(k0), p.s.begin() + from(k1) + 1);
-    local.r2.assign(p.r2.begin() + from(2 * k0 * p.n2), p.r2.begin() + from(2 * k1 * p.n2));
+    local.r2.assign(p.r2.begin() + from(k0 * p.n2), p.r2.begin() + from((k1 + 1) * p.n2));
+    // Inside a stretch no point is a stop: only its last point has an incoming side.
+    const auto last_in = static_cast<std::size_t>(p.incoming[k1]);
+    local.r2_in.assign(p.r2_in.begin() + from(last_in * p.n2), p.r2_in.begin() + from((last_in + 1) * p.n2));
+    local.incoming.assign(k1 - k0 + 1, -1);
+    local.incoming.back() = 0;
     local.r2mid.assign(p.r2mid.begin() + from(k0 * p.n2), p.r2mid.begin() + from(k1 * p.n2));
     local.r3.assign(p.r3.begin() + from(2 * k0 * p.n3), p.r3.begin() + from(2 * k1 * p.n3));
     local.r3mid.assign(p.r3mid.begin() + from(k0 * p.n3), p.r3mid.begin() + from(k1 * p.n3));
