@@ -59,62 +59,81 @@ Eigen::Vector3d vector3(const std::string& file, const YAML::Node& map, const st
   return value;
 }
 
-std::vector<DesignPlane> design_planes(const std::string& file, const YAML::Node& design) {
-  std::vector<DesignPlane> planes;
-  if (!design) return planes;
+// x_range_mm, y_range_mm, z_range_mm of a patch, where given, into [min_W_m, max_W_m].
+void patch_ranges(const std::string& file, const YAML::Node& patch, const std::string& path,
+                  Eigen::Vector3d& min_W_m, Eigen::Vector3d& max_W_m) {
+  const char* range_keys[3] = {"x_range_mm", "y_range_mm", "z_range_mm"};
+  for (int axis = 0; axis < 3; ++axis) {
+    const YAML::Node range = patch[range_keys[axis]];
+    if (!range) continue;
+    if (!range.IsSequence() || range.size() != 2) {
+      fail(file, range, path + range_keys[axis] + ": expected [low, high] in mm");
+    }
+    try {
+      min_W_m[axis] = range[0].as<double>() * 1e-3;
+      max_W_m[axis] = range[1].as<double>() * 1e-3;
+    } catch (const YAML::Exception&) {
+      fail(file, range, path + range_keys[axis] + ": expected two numbers");
+    }
+    if (!(min_W_m[axis] < max_W_m[axis])) {
+      fail(file, range, path + range_keys[axis] + ": low must be below high, got [" + range[0].Scalar() + ", " +
+                            range[1].Scalar() + "]");
+    }
+  }
+}
+
+// A unit direction from a non-zero [x, y, z].
+Eigen::Vector3d direction(const std::string& file, const YAML::Node& patch, const std::string& key,
+                          const std::string& path) {
+  const Eigen::Vector3d value = vector3(file, patch, key, path, 1.0);
+  if (!(value.norm() > 1e-9)) {
+    fail(file, patch[key], path + key + ": must not be zero, got [" + format_double(value.x()) + ", " +
+                               format_double(value.y()) + ", " + format_double(value.z()) + "]");
+  }
+  return value.normalized();
+}
+
+// `material: inside | outside` of a sphere or cylinder: true for inside.
+bool material_inside(const std::string& file, const YAML::Node& patch, const std::string& path) {
+  const std::string material = text(file, patch, "material");
+  if (material != "inside" && material != "outside") {
+    fail(file, patch["material"], path + "material: '" + material + "' is not one of inside, outside");
+  }
+  return material == "inside";
+}
+
+// The plane, sphere and cylinder patches of `design.surfaces` (other types are skipped).
+void read_design(const std::string& file, const YAML::Node& design, PartDescription& part) {
+  if (!design) return;
   const YAML::Node surfaces = required(file, design, "surfaces", "design.");
   if (!surfaces.IsSequence()) fail(file, surfaces, "design.surfaces: expected a list of patches");
   for (std::size_t k = 0; k < surfaces.size(); ++k) {
     const YAML::Node patch = surfaces[k];
     const std::string path = "design.surfaces[" + std::to_string(k) + "].";
     if (!patch.IsMap()) fail(file, patch, path + ": expected a map");
-    if (text(file, patch, "type") != "plane") continue;  // spheres: design_spheres
-    DesignPlane plane;
-    plane.point_W_m = vector3(file, patch, "point_mm", path, 1e-3);
-    const Eigen::Vector3d normal = vector3(file, patch, "normal", path, 1.0);
-    if (!(normal.norm() > 1e-9)) fail(file, patch["normal"], path + "normal: must not be zero");
-    plane.normal_W = normal.normalized();
-    const char* range_keys[3] = {"x_range_mm", "y_range_mm", "z_range_mm"};
-    for (int axis = 0; axis < 3; ++axis) {
-      const YAML::Node range = patch[range_keys[axis]];
-      if (!range) continue;
-      if (!range.IsSequence() || range.size() != 2) {
-        fail(file, range, path + range_keys[axis] + ": expected [low, high] in mm");
-      }
-      try {
-        plane.min_W_m[axis] = range[0].as<double>() * 1e-3;
-        plane.max_W_m[axis] = range[1].as<double>() * 1e-3;
-      } catch (const YAML::Exception&) {
-        fail(file, range, path + range_keys[axis] + ": expected two numbers");
-      }
-      if (!(plane.min_W_m[axis] < plane.max_W_m[axis])) {
-        fail(file, range, path + range_keys[axis] + ": low must be below high");
-      }
+    const std::string type = text(file, patch, "type");
+    if (type == "plane") {
+      DesignPlane plane;
+      plane.point_W_m = vector3(file, patch, "point_mm", path, 1e-3);
+      plane.normal_W = direction(file, patch, "normal", path);
+      patch_ranges(file, patch, path, plane.min_W_m, plane.max_W_m);
+      part.design_planes.push_back(plane);
+    } else if (type == "sphere") {
+      DesignSphere sphere;
+      sphere.centre_W_m = vector3(file, patch, "center_mm", path, 1e-3);
+      sphere.radius_m = positive_number(file, patch, "radius_mm", path) * 1e-3;
+      sphere.material_inside = material_inside(file, patch, path);
+      part.design_spheres.push_back(sphere);
+    } else if (type == "cylinder") {
+      DesignCylinder cylinder;
+      cylinder.axis_point_W_m = vector3(file, patch, "axis_point_mm", path, 1e-3);
+      cylinder.axis_W = direction(file, patch, "axis_direction", path);
+      cylinder.radius_m = positive_number(file, patch, "radius_mm", path) * 1e-3;
+      cylinder.material_inside = material_inside(file, patch, path);
+      patch_ranges(file, patch, path, cylinder.min_W_m, cylinder.max_W_m);
+      part.design_cylinders.push_back(cylinder);
     }
-    planes.push_back(plane);
   }
-  return planes;
-}
-
-std::vector<DesignSphere> design_spheres(const std::string& file, const YAML::Node& design) {
-  std::vector<DesignSphere> spheres;
-  if (!design || !design["surfaces"] || !design["surfaces"].IsSequence()) return spheres;
-  const YAML::Node surfaces = design["surfaces"];
-  for (std::size_t k = 0; k < surfaces.size(); ++k) {
-    const YAML::Node patch = surfaces[k];
-    const std::string path = "design.surfaces[" + std::to_string(k) + "].";
-    if (text(file, patch, "type") != "sphere") continue;
-    DesignSphere sphere;
-    sphere.centre_W_m = vector3(file, patch, "center_mm", path, 1e-3);
-    sphere.radius_m = positive_number(file, patch, "radius_mm", path) * 1e-3;
-    const std::string material = text(file, patch, "material");
-    if (material != "inside" && material != "outside") {
-      fail(file, patch["material"], path + "material: '" + material + "' is not one of inside, outside");
-    }
-    sphere.material_inside = material == "inside";
-    spheres.push_back(sphere);
-  }
-  return spheres;
 }
 
 }  // namespace
@@ -190,8 +209,7 @@ PartDescription load_part(const std::string& path) {
       part.stock = stock;
     }
   }
-  part.design_planes = design_planes(path, root["design"]);
-  part.design_spheres = design_spheres(path, root["design"]);
+  read_design(path, root["design"], part);
   const YAML::Node feeds = required(path, root, "feeds", "");
   part.production_feed_m_per_s =
       positive_number(path, feeds, "production_mm_per_min", "feeds.") * 1e-3 / 60.0;

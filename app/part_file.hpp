@@ -30,9 +30,9 @@ struct StockBox {
   Eigen::Vector3d max_W_m = Eigen::Vector3d::Zero();
 };
 
-/// A plane patch of the design surface (`design.surfaces`, type plane) [m, W]. The other patch
-/// types (cylinder, sphere, height functions) are read by the sample tests only; simulate-part
-/// uses the planes to put N-buffer lines along the normals of walls a Z-map cannot see.
+/// A plane patch of the design surface (`design.surfaces`, type plane) [m, W]. Planes, spheres
+/// and cylinders are read here (simulate-part puts N-buffer lines along the normals of walls,
+/// spheres and cylinders); the height-function patches are read by the sample tests only.
 struct DesignPlane {
   Eigen::Vector3d point_W_m = Eigen::Vector3d::Zero();
   Eigen::Vector3d normal_W = Eigen::Vector3d::UnitZ();  ///< unit, out of the material
@@ -47,6 +47,19 @@ struct DesignSphere {
   Eigen::Vector3d centre_W_m = Eigen::Vector3d::Zero();
   double radius_m = 0.0;
   bool material_inside = true;  ///< a dome (`material: inside`); else a spherical pocket
+};
+
+/// A cylinder patch of the design surface (`design.surfaces`, type cylinder) [m, W]:
+/// simulate-part looks at it along its normals (lines through the axis, square to it).
+struct DesignCylinder {
+  Eigen::Vector3d axis_point_W_m = Eigen::Vector3d::Zero();  ///< `axis_point_mm`
+  Eigen::Vector3d axis_W = Eigen::Vector3d::UnitZ();         ///< `axis_direction`, made unit
+  double radius_m = 0.0;
+  /// A boss (`material: inside`); else a concave fillet or a bore (`outside`).
+  bool material_inside = true;
+  /// Bounds of the patch's points (x_range_mm, y_range_mm, z_range_mm); +-inf where not given.
+  Eigen::Vector3d min_W_m = Eigen::Vector3d::Constant(-std::numeric_limits<double>::infinity());
+  Eigen::Vector3d max_W_m = Eigen::Vector3d::Constant(std::numeric_limits<double>::infinity());
 };
 
 struct PartDescription {
@@ -64,6 +77,7 @@ struct PartDescription {
   std::string stock_stl_path;
   std::vector<DesignPlane> design_planes;  ///< the plane patches of `design.surfaces`
   std::vector<DesignSphere> design_spheres;  ///< the sphere patches of `design.surfaces`
+  std::vector<DesignCylinder> design_cylinders;  ///< the cylinder patches of `design.surfaces`
   double production_feed_m_per_s = 0.0;
   double reference_feed_m_per_s = 0.0;
 };

@@ -623,8 +623,8 @@ std::vector<std::uint8_t> mark_mask(const ViewComparison& comparison, const remo
   return mask;
 }
 
-// A production run against the reference on every view: deviations (steep lines excluded) and
-// marks.
+// A production run against the reference on every view: deviations (steep lines excluded, at
+// the view's own line spacing: sphere and cylinder views are coarser than the grid) and marks.
 std::vector<ViewComparison> compare_views(const Context& context, const Run& production,
                                           const Run& reference) {
   removal::MarkOptions mark_options;
@@ -636,7 +636,7 @@ std::vector<ViewComparison> compare_views(const Context& context, const Run& pro
     comparison.index = v;
     comparison.deviation_m = removal::difference(production.buffers[v], reference.buffers[v]);
     comparison.steep_lines_excluded =
-        exclude_steep_lines(reference.buffers[v], context.options.grid_m, comparison.deviation_m);
+        exclude_steep_lines(reference.buffers[v], context.views[v].spacing_m, comparison.deviation_m);
     comparison.marks = removal::find_marks(production.buffers[v], comparison.deviation_m, mark_options);
   }
   return comparisons;

@@ -4,9 +4,9 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdint>
 #include <limits>
 #include <numbers>
-#include <sstream>
 
 #include "vmsim/common/files.hpp"
 
@@ -20,28 +20,44 @@ constexpr double kDepthOutside_m = 1e-3;
 // A plane is a wall (gets its own view) when its normal is more than 45 deg from +z.
 constexpr double kWallMaxNormalZ = 0.7071;
 
+// The interval [lo, hi] of t over which point + t direction lies in the box (lo > hi: never).
+void box_interval(const Eigen::Vector3d& point, const Eigen::Vector3d& direction, const removal::Box& box,
+                  double& lo, double& hi) {
+  lo = -std::numeric_limits<double>::infinity();
+  hi = std::numeric_limits<double>::infinity();
+  for (int axis = 0; axis < 3; ++axis) {
+    if (std::abs(direction[axis]) <= 1e-15) {
+      if (point[axis] < box.min_W_m[axis] || point[axis] > box.max_W_m[axis]) lo = hi + 1.0;
+      continue;
+    }
+    const double a = (box.min_W_m[axis] - point[axis]) / direction[axis];
+    const double b = (box.max_W_m[axis] - point[axis]) / direction[axis];
+    lo = std::max(lo, std::min(a, b));
+    hi = std::min(hi, std::max(a, b));
+  }
+}
+
 // Largest t in [0, limit] for which point + t direction stays in the box (0 when the point is
 // outside it).
 double inside_box_length(const Eigen::Vector3d& point, const Eigen::Vector3d& direction,
                          const removal::Box& box, double limit) {
-  for (int axis = 0; axis < 3; ++axis) {
-    if (point[axis] < box.min_W_m[axis] || point[axis] > box.max_W_m[axis]) return 0.0;
-    if (direction[axis] > 1e-15) {
-      limit = std::min(limit, (box.max_W_m[axis] - point[axis]) / direction[axis]);
-    } else if (direction[axis] < -1e-15) {
-      limit = std::min(limit, (box.min_W_m[axis] - point[axis]) / direction[axis]);
-    }
-  }
-  return std::max(0.0, limit);
+  double lo = 0.0, hi = 0.0;
+  box_interval(point, direction, box, lo, hi);
+  if (lo > 0.0 || hi < 0.0) return 0.0;
+  return std::max(0.0, std::min(limit, hi));
+}
+
+// A value rounded to `digits` decimals, as text.
+std::string rounded(double value, int digits) {
+  const double scale = std::pow(10.0, digits);
+  return format_double(std::round(value * scale) / scale);
 }
 
 std::string millimetres(const Eigen::Vector3d& v, double scale) {
-  std::ostringstream out;
-  out << "(" << format_double(std::round(v.x() * scale * 1e3) / 1e3) << ", "
-      << format_double(std::round(v.y() * scale * 1e3) / 1e3) << ", "
-      << format_double(std::round(v.z() * scale * 1e3) / 1e3) << ")";
-  return out.str();
+  return "(" + rounded(v.x() * scale, 3) + ", " + rounded(v.y() * scale, 3) + ", " + rounded(v.z() * scale, 3) + ")";
 }
+
+constexpr double kDegreesPerRadian = 180.0 / std::numbers::pi;
 
 SurfaceView wall_view(const DesignPlane& plane, const removal::Box& stock, double spacing_m,
                       int number) {
@@ -105,17 +121,26 @@ double inside_zmap_length(const Eigen::Vector3d& origin, const Eigen::Vector3d& 
   return lo;
 }
 
-SurfaceView sphere_view(const DesignSphere& sphere, const std::vector<Eigen::Vector3d>& tips,
-                        double reach_m, double spacing_m, int number) {
+// What sphere and cylinder views share: no Z-map, lines along the normals from kDepthInside_m
+// inside the material, at least the kind's minimum spacing apart.
+SurfaceView curved_view(ViewShape shape, const std::string& id, double spacing_m, double radius_m,
+                        bool material_inside) {
   SurfaceView view;
   view.zmap = false;
-  view.sphere = true;
-  view.id = "sphere" + std::to_string(number);
-  view.spacing_m = std::max(spacing_m, kSphereViewMinSpacing_m);
-  view.centre_W_m = sphere.centre_W_m;
-  view.radius_m = sphere.radius_m;
-  view.outward = sphere.material_inside ? 1.0 : -1.0;
+  view.shape = shape;
+  view.id = id;
+  view.spacing_m = std::max(spacing_m, shape == ViewShape::sphere ? kSphereViewMinSpacing_m : kCylinderViewMinSpacing_m);
+  view.radius_m = radius_m;
+  view.outward = material_inside ? 1.0 : -1.0;
   view.depth_inside_m = kDepthInside_m;
+  return view;
+}
+
+SurfaceView sphere_view(const DesignSphere& sphere, const std::vector<Eigen::Vector3d>& tips,
+                        double reach_m, double spacing_m, int number) {
+  SurfaceView view = curved_view(ViewShape::sphere, "sphere" + std::to_string(number), spacing_m,
+                                 sphere.radius_m, sphere.material_inside);
+  view.centre_W_m = sphere.centre_W_m;
   double polar_min = std::numbers::pi, polar_max = 0.0;
   for (const Eigen::Vector3d& tip : tips) {
     const Eigen::Vector3d r = tip - sphere.centre_W_m;
@@ -137,20 +162,133 @@ SurfaceView sphere_view(const DesignSphere& sphere, const std::vector<Eigen::Vec
   view.nv = static_cast<int>(std::floor((polar_max - polar_min) / view.polar_step_rad)) + 1;
   view.title = "sphere " + std::to_string(number) + ": centre " + millimetres(sphere.centre_W_m, 1e3) +
                " mm, radius " + format_double(sphere.radius_m * 1e3) + " mm, seen along its normals; x: azimuth (" +
-               format_double(std::round(widest * view.azimuth_step_rad * 1e9) / 1e3) + " um per line), y: polar angle from " +
-               format_double(std::round(polar_min * 180.0 / std::numbers::pi * 100) / 100) + " deg (" +
-               format_double(std::round(view.spacing_m * 1e9) / 1e3) + " um per line) [mm of arc]";
+               rounded(widest * view.azimuth_step_rad * 1e6, 3) + " um per line), y: polar angle from " +
+               rounded(polar_min * kDegreesPerRadian, 2) + " deg (" + rounded(view.spacing_m * 1e6, 3) +
+               " um per line) [mm of arc]";
+  return view;
+}
+
+// Angle bins over a full turn in which a cylinder view's band of azimuths is found (0.1 deg:
+// 26 um of arc on part 1's R15 fillet, well below the views' line spacing).
+constexpr int kCylinderAzimuthBins = 3600;
+
+SurfaceView cylinder_view(const DesignCylinder& cylinder, const removal::Box& stock,
+                          const std::vector<Eigen::Vector3d>& tips, double reach_m, double spacing_m, int number) {
+  SurfaceView view = curved_view(ViewShape::cylinder, "cylinder" + std::to_string(number), spacing_m,
+                                 cylinder.radius_m, cylinder.material_inside);
+  const double radius = cylinder.radius_m;
+  view.centre_W_m = cylinder.axis_point_W_m;
+  view.axis_W = cylinder.axis_W;
+  // Azimuth 0 along the W axis most square to the cylinder's (x for a vertical or a y axis).
+  Eigen::Index least = 0;
+  cylinder.axis_W.cwiseAbs().minCoeff(&least);
+  const Eigen::Vector3d e = Eigen::Vector3d::Unit(least);
+  view.u_W = (e - e.dot(view.axis_W) * view.axis_W).normalized();
+  view.v_W = view.axis_W.cross(view.u_W);
+  removal::Box patch;  // the patch's bounds clipped to the stock
+  patch.min_W_m = cylinder.min_W_m.cwiseMax(stock.min_W_m);
+  patch.max_W_m = cylinder.max_W_m.cwiseMin(stock.max_W_m);
+  if (!(patch.min_W_m.array() <= patch.max_W_m.array()).all()) return view;
+
+  // Per bin (at its centre azimuth): the axial interval of the cylinder's line inside the patch.
+  constexpr int bins = kCylinderAzimuthBins;
+  const double bin_rad = 2.0 * std::numbers::pi / bins;
+  const auto normal_at = [&](double azimuth) { return std::cos(azimuth) * view.u_W + std::sin(azimuth) * view.v_W; };
+  std::vector<double> axial_lo(bins), axial_hi(bins);
+  double patch_lo = std::numeric_limits<double>::infinity(), patch_hi = -patch_lo;
+  for (int k = 0; k < bins; ++k) {
+    box_interval(view.centre_W_m + radius * normal_at((k + 0.5) * bin_rad), view.axis_W, patch, axial_lo[k], axial_hi[k]);
+    if (axial_lo[k] > axial_hi[k]) continue;
+    patch_lo = std::min(patch_lo, axial_lo[k]);
+    patch_hi = std::max(patch_hi, axial_hi[k]);
+  }
+  // The tips within reach: radially and along the axis from the patch.
+  std::vector<int> tips_in_bin(bins, 0);
+  double tips_lo = std::numeric_limits<double>::infinity(), tips_hi = -tips_lo;
+  for (const Eigen::Vector3d& tip : tips) {
+    const Eigen::Vector3d r = tip - view.centre_W_m;
+    const double axial = r.dot(view.axis_W);
+    const Eigen::Vector3d radial = r - axial * view.axis_W;
+    if (std::abs(radial.norm() - radius) > reach_m || axial < patch_lo - reach_m || axial > patch_hi + reach_m) continue;
+    double azimuth = std::atan2(radial.dot(view.v_W), radial.dot(view.u_W));
+    if (azimuth < 0.0) azimuth += 2.0 * std::numbers::pi;
+    ++tips_in_bin[std::min(bins - 1, static_cast<int>(azimuth / bin_rad))];
+    tips_lo = std::min(tips_lo, axial - reach_m);
+    tips_hi = std::max(tips_hi, axial + reach_m);
+  }
+  if (tips_lo > tips_hi) return view;  // no cutting near this cylinder: nu = nv = 0
+  // A bin is in the view where the patch is and a tip is within reach_m of arc (a running sum
+  // over the bins three times round: each bin sees its neighbours across azimuth 0).
+  const int half = static_cast<int>(std::min<double>(bins, std::ceil(reach_m / radius / bin_rad)));
+  std::vector<long> running(3 * bins + 1, 0);
+  for (int k = 0; k < 3 * bins; ++k) running[k + 1] = running[k] + tips_in_bin[k % bins];
+  std::vector<std::uint8_t> selected(bins, 0);
+  int selected_count = 0;
+  for (int k = 0; k < bins; ++k) {
+    const int lo = std::max(0, bins + k - half), hi = std::min(3 * bins - 1, bins + k + half);
+    const bool near = running[hi + 1] - running[lo] > 0;
+    selected[k] = near && std::max(axial_lo[k], tips_lo) <= std::min(axial_hi[k], tips_hi);
+    selected_count += selected[k];
+  }
+  if (selected_count == 0) return view;
+  // The band: all round, or from the end of the longest run of bins not in the view to its start.
+  int gap_length = 0, gap_end = 0;  // gap_end: the first selected bin after the longest gap
+  if (selected_count < bins) {
+    for (int k = 0, run = 0; k < 2 * bins; ++k) {
+      run = selected[k % bins] ? 0 : run + 1;
+      if (run > gap_length) {
+        gap_length = run;
+        gap_end = (k + 1) % bins;
+      }
+    }
+  }
+  const bool all_round = gap_length == 0;
+  double axial_first = std::numeric_limits<double>::infinity(), axial_last = -axial_first;
+  for (int k = 0; k < bins; ++k) {
+    if (!selected[k]) continue;
+    axial_first = std::min(axial_first, std::max(axial_lo[k], tips_lo));
+    axial_last = std::max(axial_last, std::min(axial_hi[k], tips_hi));
+  }
+  if (all_round) {
+    view.nu = std::max(2, static_cast<int>(std::ceil(2.0 * std::numbers::pi * radius / view.spacing_m)));
+    view.azimuth_step_rad = 2.0 * std::numbers::pi / view.nu;
+    view.azimuth_first_rad = 0.0;
+  } else {
+    // From the centre of the first bin in the view to the centre of the last one.
+    const double band_rad = (bins - gap_length - 1) * bin_rad;
+    view.azimuth_step_rad = view.spacing_m / radius;
+    view.azimuth_first_rad = (gap_end + 0.5) * bin_rad;
+    view.nu = static_cast<int>(std::floor(band_rad / view.azimuth_step_rad + 1e-9)) + 1;
+  }
+  view.axial_first_m = axial_first;
+  view.nv = static_cast<int>(std::floor((axial_last - axial_first) / view.spacing_m + 1e-9)) + 1;
+  view.title = "cylinder " + std::to_string(number) + ": axis through " + millimetres(cylinder.axis_point_W_m, 1e3) +
+               " mm along " + millimetres(view.axis_W, 1.0) + ", radius " + format_double(radius * 1e3) +
+               " mm, seen along its normals; x: azimuth from " + rounded(view.azimuth_first_rad * kDegreesPerRadian, 2) +
+               " deg about the axis, from " + millimetres(view.u_W, 1.0) + " towards " + millimetres(view.v_W, 1.0) +
+               (all_round ? ", all round" : "") + " (" + rounded(radius * view.azimuth_step_rad * 1e6, 3) +
+               " um per line), y: along the axis from " + rounded(axial_first * 1e3, 3) + " mm (" +
+               rounded(view.spacing_m * 1e6, 3) + " um per line) [mm of arc]";
   return view;
 }
 
 }  // namespace
 
 void SurfaceView::line(int iu, int iv, Eigen::Vector3d& origin_W_m, Eigen::Vector3d& direction_W) const {
-  if (sphere) {
-    const double azimuth = iu * azimuth_step_rad, polar = polar_first_rad + iv * polar_step_rad;
-    const Eigen::Vector3d n(std::sin(polar) * std::cos(azimuth), std::sin(polar) * std::sin(azimuth), std::cos(polar));
-    direction_W = outward * n;
-    origin_W_m = centre_W_m + radius_m * n - depth_inside_m * direction_W;
+  if (shape == ViewShape::sphere || shape == ViewShape::cylinder) {
+    const double azimuth = azimuth_first_rad + iu * azimuth_step_rad;
+    const Eigen::Vector3d radial = std::cos(azimuth) * u_W + std::sin(azimuth) * v_W;
+    Eigen::Vector3d normal, foot_W_m;  // the unit normal away from the centre or axis, its foot
+    if (shape == ViewShape::sphere) {
+      const double polar = polar_first_rad + iv * polar_step_rad;
+      normal = std::sin(polar) * radial + std::cos(polar) * axis_W;
+      foot_W_m = centre_W_m + radius_m * normal;
+    } else {
+      normal = radial;
+      foot_W_m = centre_W_m + (axial_first_m + iv * spacing_m) * axis_W + radius_m * normal;
+    }
+    direction_W = outward * normal;
+    origin_W_m = foot_W_m - depth_inside_m * direction_W;
     return;
   }
   direction_W = normal_W;
@@ -196,14 +334,22 @@ std::vector<SurfaceView> surface_views(const PartDescription& part, const remova
     SurfaceView view = wall_view(plane, stock, spacing_m, ++walls);
     if (view.nu >= 2 && view.nv >= 2) views.push_back(std::move(view));
   }
-  int spheres = 0;
-  for (const DesignSphere& sphere : part.design_spheres) {
-    SurfaceView view = sphere_view(sphere, cutting_tips_W_m, reach_m, spacing_m, spheres + 1);
-    if (view.nu >= 2 && view.nv >= 2) {
-      ++spheres;
+  // Sphere and cylinder views, numbered among their kind in the order of the file.
+  const auto add_curved = [&views](const auto& patches, const auto& make_view) {
+    int number = 0;
+    for (const auto& patch : patches) {
+      SurfaceView view = make_view(patch, number + 1);
+      if (view.nu < 2 || view.nv < 2) continue;
+      ++number;
       views.push_back(std::move(view));
     }
-  }
+  };
+  add_curved(part.design_spheres, [&](const DesignSphere& sphere, int number) {
+    return sphere_view(sphere, cutting_tips_W_m, reach_m, spacing_m, number);
+  });
+  add_curved(part.design_cylinders, [&](const DesignCylinder& cylinder, int number) {
+    return cylinder_view(cylinder, stock, cutting_tips_W_m, reach_m, spacing_m, number);
+  });
   return views;
 }
 

@@ -3,6 +3,9 @@
 //  - Each design sphere the tool path works on gets a buffer of lines along its normals over
 //    the band of polar angles the path covers (a dome's slopes are seen head-on, not through a
 //    Z-map's 1 / cos(slope)).
+//  - Each design cylinder the tool path works on gets a buffer of lines along its normals
+//    (square to the axis) over the band of angles about the axis and the axial range that both
+//    the path comes near and the patch covers (a flank-milled boss or bore, a fillet).
 //  - The Z-map (lines along +z over the stock box) sees every face that looks up.
 //  - Each steep plane of the design surface (a wall: normal more than 45 deg from +z) gets its
 //    own buffer of lines along its normal, on a grid over the patch, so that a wall's deviation
@@ -33,10 +36,14 @@ struct StockShape {
   const removal::TriangleMesh* mesh = nullptr;  ///< null: the box `bounds` is the stock
 };
 
+/// The design surface whose normals a view's lines follow (the Z-map's follow +z).
+enum class ViewShape { plane, sphere, cylinder };
+
 struct SurfaceView {
-  std::string id;     ///< "zmap", "wall1", ...: file names
+  std::string id;     ///< "zmap", "wall1", "sphere1", "cylinder1", ...: file names
   std::string title;  ///< for reports and renders
   bool zmap = true;
+  ViewShape shape = ViewShape::plane;  ///< when not the Z-map
   double spacing_m = 0.0;
   // Wall views: line (i, j) starts at corner + i s u + j s v - depth_inside n (inside the
   // material, s = spacing) and runs along n (out of the material).
@@ -45,14 +52,20 @@ struct SurfaceView {
   Eigen::Vector3d normal_W = Eigen::Vector3d::UnitZ();
   double depth_inside_m = 0.0;
   int nu = 0, nv = 0;
-  // Sphere views: line (i, j) runs along the sphere's normal at azimuth i * azimuth_step about
-  // +z and polar angle polar_first + j * polar_step from +z, from depth_inside_m inside the
-  // material (out of it: away from the centre for a dome, towards it for a pocket).
-  bool sphere = false;
+  // Sphere and cylinder views: line (i, j) runs along the surface's normal, from depth_inside_m
+  // inside the material (out of it: away from the centre or axis for a dome or a boss, towards
+  // it for a pocket, a bore or a fillet). The normal at azimuth a = azimuth_first +
+  // i * azimuth_step about axis_W, from u_W towards v_W (u_W, v_W, axis_W right-handed):
+  //  - sphere (axis_W = +z, u_W = +x): at polar angle polar_first + j * polar_step from the axis;
+  //  - cylinder: square to the axis, at axial position axial_first + j * spacing along axis_W
+  //    from centre_W_m (a point of the axis).
   Eigen::Vector3d centre_W_m = Eigen::Vector3d::Zero();
+  Eigen::Vector3d axis_W = Eigen::Vector3d::UnitZ();
   double radius_m = 0.0;
-  double outward = 1.0;  ///< +1: material inside the sphere (a dome), -1: outside
-  double azimuth_step_rad = 0.0, polar_first_rad = 0.0, polar_step_rad = 0.0;
+  double outward = 1.0;  ///< +1: material inside the sphere or cylinder (a dome, a boss), -1: outside
+  double azimuth_first_rad = 0.0, azimuth_step_rad = 0.0;
+  double polar_first_rad = 0.0, polar_step_rad = 0.0;  ///< sphere views
+  double axial_first_m = 0.0;                          ///< cylinder views
 
   /// Line (i, j): origin (inside the material) and unit direction (out of it) [m, W].
   void line(int iu, int iv, Eigen::Vector3d& origin_W_m, Eigen::Vector3d& direction_W) const;
@@ -66,8 +79,8 @@ struct SurfaceView {
   /// `mesh_report` (optional) receives how the mesh became Z-map lines.
   removal::NBuffer fresh_buffer(const StockShape& stock, removal::MeshZmapReport* mesh_report = nullptr,
                                 const removal::NBuffer* stock_zmap = nullptr) const;
-  /// Distance of line (iu, iv)'s surface point above the design plane [m] (wall views), or
-  /// the height in W (Z-map).
+  /// Distance of line (iu, iv)'s surface point out of the design surface along its normal [m]
+  /// (wall, sphere and cylinder views), or the height in W (Z-map).
   double surface_offset_m(const removal::NBuffer& buffer, int iu, int iv) const;
 };
 
@@ -75,9 +88,23 @@ struct SurfaceView {
 /// a sweep meets; the Z-map's 20 um would make part 3's sphere view 25 times slower).
 inline constexpr double kSphereViewMinSpacing_m = 50e-6;
 
+/// Line spacing of cylinder views: at least this. A flank or a fillet is cut over its whole
+/// band by every pass, and a general buffer tests each line of every 16 x 16 tile whose box
+/// meets the sweep's box (the tool's footprint, several mm): the work grows as
+/// 1 / spacing^2 (sample part 1's fillet at 50 um: 99 million line tests in the production
+/// run, 2.5 times the whole Z-map's removal time; at 200 um, 11 million). Heights along a line
+/// stay exact; the spacing decides only where the surface is sampled.
+inline constexpr double kCylinderViewMinSpacing_m = 200e-6;
+
 /// The Z-map, then one view per steep design plane of the part (in the order of the file), then
 /// one per design sphere that `cutting_tips_W_m` (the commanded tool tips of the cutting moves)
-/// come within `reach_m` of, over the band of polar angles they span widened by reach_m.
+/// come within `reach_m` of, over the band of polar angles they span widened by reach_m, then
+/// one per design cylinder the tips come within reach_m of (radially, and along the axis within
+/// reach_m of the patch): over the angles about the axis that the patch covers (within its
+/// ranges and the stock) and that are within reach_m of a tip (arc length on the cylinder), and
+/// over the patch's axial extent at those angles clipped to the tips' axial span widened by
+/// reach_m. A band all round the axis closes on itself between its last line and its first
+/// (the buffer does not wrap: a mark across that seam counts as two).
 std::vector<SurfaceView> surface_views(const PartDescription& part, const removal::Box& stock,
                                        double spacing_m,
                                        const std::vector<Eigen::Vector3d>& cutting_tips_W_m = {},
@@ -89,8 +116,9 @@ std::size_t exclude_steep_lines(const removal::NBuffer& reference, double spacin
                                 std::vector<double>& deviation_m);
 
 /// The view's surface as a height field for renders and .vtp files, every `stride`-th line:
-/// (x, y) are W's for the Z-map and the (u, v) coordinates of the wall's grid otherwise; the
-/// height is SurfaceView::surface_offset_m.
+/// (x, y) are W's for the Z-map and otherwise (i, j) times the view's spacing (the (u, v)
+/// coordinates of a wall's grid; on a sphere or cylinder, about the arc length on the surface);
+/// the height is SurfaceView::surface_offset_m.
 viz::HeightField view_height_field(const SurfaceView& view, const removal::NBuffer& buffer,
                                    const std::vector<double>* deviation_m, int stride);
 

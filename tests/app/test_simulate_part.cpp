@@ -17,6 +17,7 @@
 #include "effects_option.hpp"
 #include "part_file.hpp"
 #include "simulate_part.hpp"
+#include "surface_views.hpp"
 #include "vmsim/common/errors.hpp"
 #include "vmsim/common/files.hpp"
 #include "vmsim/removal/nbuffer.hpp"
@@ -398,6 +399,132 @@ TEST(SimulatePart, APlantedWallDeviationIsAMarkOnTheWallView) {
   EXPECT_NEAR(mark["deepest_point_mm"][1].get<double>(), 20.0 + 0.02, 1e-3);
   EXPECT_EQ(mark["responsible_axes"][0], "Y");
   // Undisturbed, the wall is where the tool flank put it: the other lines did not move.
+  EXPECT_LT(views[1]["deviation_max_um"].get<double>(), 0.2);
+}
+
+// A flat end mill D10 flank-milling a design cylinder of radius 10 mm (a boss, material inside)
+// or 15 mm (a bore, material outside) about the z axis, its tip at z = 20 mm: one arc of tip
+// radius `tip_radius_mm` from `first_deg` to `last_deg` (points every 0.5 deg), plunging at the
+// first point from 35 mm. The design patch is z from 20 to 30 mm (the stock's top).
+std::string cylinder_part(const std::filesystem::path& folder, double radius_mm, bool boss, double tip_radius_mm,
+                          double first_deg, double last_deg, double stock_half_width_mm) {
+  std::ostringstream apt;
+  const auto point = [&](double deg, double z) {
+    const double a = deg * std::numbers::pi / 180.0;
+    return format_double(tip_radius_mm * std::cos(a)) + "," + format_double(tip_radius_mm * std::sin(a)) + "," +
+           format_double(z);
+  };
+  apt << "PARTNO/flank milling a cylinder\nUNITS/MM\nCUTTER/10,0\nFEDRAT/MMPM,10000\nFROM/" << point(first_deg, 50)
+      << "\nRAPID\nGOTO/" << point(first_deg, 35) << "\n";
+  for (double deg = first_deg; deg <= last_deg + 1e-9; deg += 0.5) apt << "GOTO/" << point(deg, 20) << "\n";
+  apt << "RAPID\nGOTO/" << point(last_deg, 50) << "\nFINI\n";
+  std::ofstream(folder / "toolpath.apt") << apt.str();
+  const std::string w = format_double(stock_half_width_mm);
+  std::ofstream(folder / "part.yaml")
+      << "name: cylinder_flank\n"
+         "description: flank milling a design cylinder about z\n"
+         "machine: " << kRoot << "/samples/machines/mikron_ucp710.yaml\n"
+         "toolpath: toolpath.apt\n"
+         "tool: {type: flat, diameter_mm: 10, corner_radius_mm: 0, length_mm: 60}\n"
+         "stock: {box: {min_mm: [-" << w << ", -" << w << ", 10], max_mm: [" << w << ", " << w << ", 30]}}\n"
+         "design:\n"
+         "  surfaces:\n"
+         "    - {type: cylinder, axis_point_mm: [0, 0, 0], axis_direction: [0, 0, 1], radius_mm: "
+      << format_double(radius_mm) << ", material: " << (boss ? "inside" : "outside") << ", z_range_mm: [20, 30]}\n"
+         "    - {type: plane, point_mm: [0, 0, 20], normal: [0, 0, 1], role: floor}\n"
+         // Perfect drives: the reference feed only sets how many servo samples the run takes.
+         "feeds: {production_mm_per_min: 10000, reference_mm_per_min: 2000}\n";
+  return (folder / "part.yaml").string();
+}
+
+// Perfect drives and, in the production run, the tip moved by `shift_m` along the radius from the
+// z axis (+: away from it) while its azimuth is within `half_deg` of `centre_deg`.
+app::SimulatePartOptions cylinder_options(const std::filesystem::path& folder, const std::string& part,
+                                          double centre_deg, double half_deg, double shift_m) {
+  app::SimulatePartOptions options;
+  options.part_path = part;
+  options.out_dir = (folder / "out").string();
+  options.grid_m = 50e-6;
+  options.renders = false;
+  options.commanded_check = false;
+  options.perfect_drives = true;
+  const double c = centre_deg * std::numbers::pi / 180.0, half = half_deg * std::numbers::pi / 180.0;
+  options.production_disturbance = [c, half, shift_m](double, Eigen::VectorXd& q) {
+    const double a = std::atan2(q[1], q[0]);
+    if (std::abs(std::remainder(a - c, 2.0 * std::numbers::pi)) > half) return;
+    q[0] += shift_m * std::cos(a);
+    q[1] += shift_m * std::sin(a);
+  };
+  return options;
+}
+
+// The deepest mark of a view, and its azimuth about z and distance from the z axis [deg, mm].
+struct CylinderMark {
+  double depth_um = 0.0, azimuth_deg = 0.0, radius_mm = 0.0, z_mm = 0.0;
+  std::string kind;
+};
+CylinderMark deepest_on(const nlohmann::json& report, const std::string& view) {
+  CylinderMark deepest;
+  for (const auto& mark : report["marks"]) {
+    if (mark["view"] != view || mark["depth_um"].get<double>() <= deepest.depth_um) continue;
+    const auto& p = mark["deepest_point_mm"];
+    deepest.depth_um = mark["depth_um"].get<double>();
+    deepest.kind = mark["kind"].get<std::string>();
+    deepest.azimuth_deg = std::atan2(p[1].get<double>(), p[0].get<double>()) * 180.0 / std::numbers::pi;
+    deepest.radius_mm = std::hypot(p[0].get<double>(), p[1].get<double>());
+    deepest.z_mm = p[2].get<double>();
+  }
+  return deepest;
+}
+
+// A boss R10 flank-milled all round (tip circle R15), X and Y 20 um towards the axis while the
+// azimuth is 30 to 60 deg: the cylinder view (lines along the boss's normals) reads a 20 um gouge
+// there, on the boss 20 um inside R10. The Z-map sees the vertical wall as a step: not assessed.
+TEST(SimulatePart, APlantedDeviationOnABossIsItsDepthAlongTheNormalOnTheCylinderView) {
+  const auto folder = test::fresh_folder("simulate_boss");
+  const std::string part = cylinder_part(folder, 10.0, true, 15.0, 0.0, 360.0, 22.0);
+  const nlohmann::json report = app::simulate_part(cylinder_options(folder, part, 45.0, 15.0, -20e-6), kSilent);
+  const auto& views = report["surface"]["views"];
+  ASSERT_EQ(views.size(), 2u) << views.dump(2);
+  EXPECT_EQ(views[1]["id"], "cylinder1");
+  EXPECT_NE(views[1]["title"].get<std::string>().find("all round"), std::string::npos) << views[1]["title"];
+  const CylinderMark mark = deepest_on(report, "cylinder1");
+  EXPECT_EQ(mark.kind, "gouge");
+  EXPECT_NEAR(mark.depth_um, 20.0, 0.5) << report["marks"].dump(2);
+  EXPECT_GT(mark.azimuth_deg, 30.0 - 0.5);
+  EXPECT_LT(mark.azimuth_deg, 60.0 + 0.5);
+  EXPECT_NEAR(mark.radius_mm, 10.0 - 0.02, 1e-3);
+  EXPECT_GE(mark.z_mm, 20.0 - 1e-9);
+  EXPECT_LE(mark.z_mm, 30.0 + 1e-9);
+  EXPECT_GT(views[0]["steep_lines_not_assessed"].get<std::size_t>(), 0u);
+  EXPECT_LT(deepest_on(report, "zmap").depth_um, 0.5) << report["marks"].dump(2);
+  // Away from the planted stretch the boss is where the flank put it.
+  EXPECT_LT(views[1]["deviation_max_um"].get<double>(), 0.2);
+}
+
+// A bore R15 (material outside) milled over an arc of tip radius 10 from 120 to 240 deg, X and Y
+// 20 um away from the axis while the azimuth is within 10 deg of 180: the cylinder view, over
+// the arc's band only (across azimuth 180 deg), reads the 20 um gouge there, 20 um beyond R15.
+TEST(SimulatePart, APlantedDeviationInABoreIsItsDepthAlongTheNormalOnTheCylinderView) {
+  const auto folder = test::fresh_folder("simulate_bore");
+  const std::string part = cylinder_part(folder, 15.0, false, 10.0, 120.0, 240.0, 22.0);
+  const nlohmann::json report = app::simulate_part(cylinder_options(folder, part, 180.0, 10.0, 20e-6), kSilent);
+  const auto& views = report["surface"]["views"];
+  ASSERT_EQ(views.size(), 2u) << views.dump(2);
+  EXPECT_EQ(views[1]["id"], "cylinder1");
+  EXPECT_EQ(views[1]["title"].get<std::string>().find("all round"), std::string::npos) << views[1]["title"];
+  // The band: the arc widened by the tool diameter (10 mm of arc on R15, 38.2 deg) each side.
+  const double band_deg = 120.0 + 2 * 10.0 / 15.0 * 180.0 / std::numbers::pi;
+  const double spacing_mm = app::kCylinderViewMinSpacing_m * 1e3;
+  EXPECT_NEAR((views[1]["nu"].get<double>() - 1) * spacing_mm / 15.0 * 180.0 / std::numbers::pi, band_deg,
+              spacing_mm / 15.0 * 180.0 / std::numbers::pi + 0.2);
+  const CylinderMark mark = deepest_on(report, "cylinder1");
+  EXPECT_EQ(mark.kind, "gouge");
+  EXPECT_NEAR(mark.depth_um, 20.0, 0.5) << report["marks"].dump(2);
+  EXPECT_GT(std::abs(mark.azimuth_deg), 170.0 - 0.5);
+  EXPECT_NEAR(mark.radius_mm, 15.0 + 0.02, 1e-3);
+  EXPECT_GE(mark.z_mm, 20.0 - 1e-9);
+  EXPECT_LE(mark.z_mm, 30.0 + 1e-9);
   EXPECT_LT(views[1]["deviation_max_um"].get<double>(), 0.2);
 }
 
