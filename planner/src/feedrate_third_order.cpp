@@ -430,14 +430,13 @@ class ThirdOrderLp {
   /// speed limit and the jerk (|P u'| <= L / sd on a straight move) be exceeded in between.
   /// In Bernstein form x has the coefficients x0, c1 = x0 + u0 delta, x1 and lies below their
   /// maximum, and c1 exceeds both ends only where x peaks inside; so the rows are imposed once
-  /// more at the virtual point x = c1: c1 <= the mean of x_upper at the ends (x - the chord of
+  /// more at the virtual point x = c1: 0 <= c1 <= the mean of x_upper at the ends (x - the chord of
   /// x_upper is quadratic too, with middle coefficient c1 - that mean), and every third-order
   /// row of either end with x = c1 and that end's u. Exact for a move whose coefficients are
   /// constant along the segment (a straight line), conservative by at most the segment's
   /// bulge.
   void interior_half_row(std::size_t k, std::size_t slot, HalfRow& h) const {
     const int side = static_cast<int>(slot % 2);
-    if (slot < 2 && side == 1) return;  // c1 may be negative
     // The third-order rows only where the iterate peaks inside (u crossing zero downwards):
     // elsewhere the ends' rows cover the inside, and rows at c1 with the ends' coefficients
     // would only add rows (twice as many in torque-rate mode) that constrain nothing real.
@@ -453,10 +452,14 @@ class ThirdOrderLp {
       }
     }
     if (slot < 2) {
+      // Upper side: c1 <= the mean of x_upper. Lower side: c1 >= 0, so that x >= 0 all along
+      // (with x ~ 0 at a grid point of a near stop, the quadratic through the ends could dip
+      // below 0 inside: a motion that never reaches the next point; the set points then fell
+      // back on a quintic 25 times over the jerk limit on the dense test path).
       const double x_mean = 0.5 * (x_upper_[k] + x_upper_[k + 1]);
       const double scale = std::max(x_mean, 1e-300);
       add_form(h, c1, 1.0 / scale);
-      h.hi = x_mean / scale;
+      if (side == 0) h.hi = x_mean / scale; else h.lo = 0.0;
       return;
     }
     const std::size_t r = ((slot - 2) / 2) % p_.n3;

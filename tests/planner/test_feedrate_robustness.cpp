@@ -125,13 +125,11 @@ TEST(DensePath, SecondOrderNeverOvershoots) {
 }
 
 // Third order on the same path: the jerk rows, not the second-order profile, force the slow-downs
-// at the curvature jumps and the reversals of Y. Known gap (disabled, run with
-// --gtest_also_run_disabled_tests): passes in 4.7 minutes (measured once, 7.5 before the
-// set points followed the planned law and rows bounded the inside of each grid segment): at each
-// curvature jump of Y the spline's q_sss is about 80 / h and the plan nearly stops there
-// (x ~ 1e-11 m^2/s^2 at a grid point); the set points between such near stops still need many
-// slow-down rounds.
-TEST(DensePath, DISABLED_ThirdOrderNeverOvershoots) {
+// at the curvature jumps and the reversals of Y (x ~ 1e-11 m^2/s^2 at some grid points there).
+// 11 s; it took 7.5 minutes of slow-down rounds before the set points followed the planned law
+// and x was kept >= 0 inside each grid segment (the quadratic through a near stop dipped below
+// 0, and the fallback quintic exceeded the jerk 25 times).
+TEST(DensePath, ThirdOrderNeverOvershoots) {
   const auto machine = limited_machine();
   const auto path = sample_path(5, 0.12, 12001, dense);
   FeedrateOptions options;

@@ -37,10 +37,11 @@
 //    approximation and the previous iterate stays feasible. Inside a grid segment x is
 //    quadratic and peaks between the ends where u crosses zero downwards: there the rows are
 //    imposed once more at the middle Bernstein coefficient of x, c1 = x0 + h u0
-//    (x <= max(x0, c1, x1)): c1 <= the mean of the upper bound at the ends, and the third-order
-//    rows of both ends with x = c1 (exact on a straight move; without them a line on 10-50 grid
-//    segments exceeded its speed limit by 0.2 % between grid points, and part 1's rapids their
-//    jerk). Each programme maximises the
+//    (min(x0, c1, x1) <= x <= max(x0, c1, x1)): 0 <= c1 <= the mean of the upper bound at the
+//    ends, and the third-order rows of both ends with x = c1 (exact on a straight move; without
+//    them a line on 10-50 grid segments exceeded its speed limit by 0.2 % between grid points,
+//    part 1's rapids their jerk, and near stops x dipped below 0 inside a segment: a motion
+//    that never reaches the next point). Each programme maximises the
 //    first-order gain in T (sum of x weighted by ds / x^(3/2) at the current iterate, at the
 //    second-order profile first), followed by a line search on T between the two iterates
 //    (their segment is feasible: the programme's set is convex), so T decreases monotonically
