@@ -7,10 +7,12 @@
 #include "commands.hpp"
 #include "exit_codes.hpp"
 #include "vmsim/common/errors.hpp"
+#include "vmsim/common/memory.hpp"
 #include "vmsim/viz/display.hpp"
 
 int main(int argc, char** argv) {
   using namespace vmsim::app;
+  vmsim::keep_freed_memory_in_process();
   CLI::App app{"vmsim: virtual machining simulator. Predicts how a machine's drives follow a tool "
                "path at production feed and what marks that leaves on the part."};
   app.footer(kExitCodeHelp);

@@ -9,10 +9,16 @@
 #include <exception>
 #include <numbers>
 
+#include "vmsim/common/memory.hpp"
 #include "vmsim/kinematics/sample_models.hpp"
 #include "vmsim/planner/feedrate.hpp"
 
 namespace {
+
+// The allocator set as the vmsim program sets it (see memory.hpp: with glibc's defaults the
+// figures at 10 000 points include the page faults of mapping the work arrays afresh each call,
+// about as much again).
+const bool kFreedMemoryKept = (vmsim::keep_freed_memory_in_process(), true);
 
 using vmsim::kinematics::MachineModel;
 using vmsim::kinematics::PathKinematics;
