@@ -53,10 +53,6 @@ struct Interval {
   bool empty() const { return bad_constant || lo > hi + 1e-12 * (std::abs(lo) + std::abs(hi)) + 1e-300; }
 };
 
-}  // namespace
-
-namespace {
-
 /// Smallest root s > 0 of c2 s^2 + c1 s + c0 (c2 may be 0), +inf when none.
 double smallest_positive_root(double c2, double c1, double c0) {
   if (c2 == 0.0) {
@@ -687,7 +683,7 @@ FeedratePlan plan_feedrate(const kinematics::MachineModel& machine,
   const kinematics::PathTorqueCoefficients no_coefficients;  // kinematic mode (a reference, not a copy per row)
   EndData e, e_right;  // e_right: at the previous segment's right end
   kinematics::PathTorqueCoefficients c_right;
-  // The third-order row of axis j where the spline's derivatives are e (and, dynamic, the path
+  // The third-order row of axis j where the spline's derivatives are d (and, dynamic, the path
   // torque coefficients c).
   auto row3 = [&](const kinematics::PathTorqueCoefficients& c, const EndData& d, const AxisLimitValues& limit,
                   Index j) {
