@@ -90,13 +90,14 @@ double distance_to_polyline(const Eigen::Vector3d& p, const planner::Toolpath& p
 }
 
 struct SetPointFigures {
-  double velocity_ratio = 0, acceleration_ratio = 0;  ///< largest |fd| / limit over the axes
+  double velocity_ratio = 0, acceleration_ratio = 0, jerk_ratio = 0;  ///< largest |fd| / limit over the axes
   double largest_distance_m = 0;  ///< of a set point's tip from the programmed polyline
 };
 
 // Finite differences at the period, with the motion held at rest outside the samples (as the
-// planner's own check and the planner tests do): backward velocity, centred acceleration, each
-// a weighted mean of the continuous derivative, so never above its maximum.
+// planner's own check and the planner tests do): backward velocity, centred acceleration,
+// backward-centred jerk, each a weighted mean of the continuous derivative, so never above its
+// maximum.
 SetPointFigures check_set_points(const std::filesystem::path& setpoints) {
   const kinematics::MachineModel machine = kinematics::load_machine(kMikron);
   const planner::Toolpath path = planner::read_toolpath(kPath);
@@ -112,6 +113,7 @@ SetPointFigures check_set_points(const std::filesystem::path& setpoints) {
   for (long k = -1; k <= n; ++k) {
     const Eigen::VectorXd v = (at(k) - at(k - 1)) / T;
     const Eigen::VectorXd a = (at(k + 1) - 2 * at(k) + at(k - 1)) / (T * T);
+    const Eigen::VectorXd jerk = (at(k + 1) - 3 * at(k) + 3 * at(k - 1) - at(k - 2)) / (T * T * T);
     for (std::size_t j = 0; j < machine.axis_count(); ++j) {
       const auto& limits = machine.axes[j].limits;
       const auto jj = static_cast<Eigen::Index>(j);
@@ -119,6 +121,7 @@ SetPointFigures check_set_points(const std::filesystem::path& setpoints) {
       if (limits.acceleration_max > 0) {
         out.acceleration_ratio = std::max(out.acceleration_ratio, std::abs(a[jj]) / limits.acceleration_max);
       }
+      if (limits.jerk_max > 0) out.jerk_ratio = std::max(out.jerk_ratio, std::abs(jerk[jj]) / limits.jerk_max);
     }
   }
   for (const Eigen::VectorXd& qk : q) {
@@ -137,13 +140,11 @@ SetPointFigures check_set_points(const std::filesystem::path& setpoints) {
   return out;
 }
 
-// TODO(third order): the runs below use --no-third-order because the jerk planner fails on
-// many paths today; drop the flag (and check the jerk too) once it is robust.
 TEST(CliPlan, ExactStopOnPart2WritesLimitsSetPointsAndSummaryThatHoldTheLimits) {
   const auto folder = test::fresh_folder("plan_exact");
   const auto out = folder / "out";
   const test::RunResult run = test::run_vmsim("plan --part " + kPart +
-                                              " --no-third-order --no-plot --out " + out.string());
+                                              " --no-plot --out " + out.string());
   ASSERT_EQ(run.exit_code, 0) << run.output;
   EXPECT_NE(run.output.find("T = "), std::string::npos) << run.output;
 
@@ -161,7 +162,8 @@ TEST(CliPlan, ExactStopOnPart2WritesLimitsSetPointsAndSummaryThatHoldTheLimits) 
   const SetPointFigures figures = check_set_points(out / "setpoints.csv");
   EXPECT_LE(figures.velocity_ratio, 1.0 + 1e-4);
   EXPECT_LE(figures.acceleration_ratio, 1.0 + 1e-4);
-  EXPECT_GT(figures.acceleration_ratio, 0.5);  // the limits are reached, not merely held
+  EXPECT_LE(figures.jerk_ratio, 1.0 + 1e-4);
+  EXPECT_GT(figures.jerk_ratio, 0.5);  // the limits are reached, not merely held
   EXPECT_LT(figures.largest_distance_m, 1e-9);
 
   // limits.csv: s increasing, executed sd never above the feed, sd_lim or the admissible sd,
@@ -186,6 +188,11 @@ TEST(CliPlan, ExactStopOnPart2WritesLimitsSetPointsAndSummaryThatHoldTheLimits) 
   EXPECT_NEAR(limits.number(limits.rows.size() - 1, "t_s"), T, 1e-9);
 }
 
+// Second order (velocity and acceleration limits). Known gap of the third-order planner: with
+// the jerk limits this 0.5 mm blend plans 2.5 % slower than the exact stop (2.85 s against
+// 2.78 s) because the speed nearly stops inside the blend, where sdd piecewise linear in s is a
+// poor profile class (an exact stop starts and ends with the exact constant-jerk motion
+// instead); the third-order run is checked in the next test.
 TEST(CliPlan, CornerToleranceBlendsTheCornerWithinItAndIsFaster) {
   const auto folder = test::fresh_folder("plan_blend");
   const test::RunResult exact = test::run_vmsim("plan --part " + kPart + " --no-third-order --no-plot --exact-stop --out " +
@@ -224,11 +231,31 @@ TEST(CliPlan, CornerToleranceBlendsTheCornerWithinItAndIsFaster) {
   EXPECT_GT(figures.largest_distance_m, 0.5 * tolerance_mm * 1e-3);
 }
 
+// Third order through the same blend: every limit, the jerk included, holds on the set points
+// from the first plan (with CLP's default primal tolerance the node equalities were off by
+// ~1e-7 m^2/s^2 where the speed nearly stops in the blend: 8 slow-down rounds, the X jerk 11-26 %
+// over between them).
+TEST(CliPlan, ThirdOrderThroughABlendHoldsTheJerkWithoutSlowDownRounds) {
+  const auto folder = test::fresh_folder("plan_blend_third_order");
+  const test::RunResult run =
+      test::run_vmsim("plan --part " + kPart + " --no-plot --corner-tolerance-mm 0.5 --out " + folder.string());
+  ASSERT_EQ(run.exit_code, 0) << run.output;
+  const nlohmann::json summary = read_json(folder / "summary.json");
+  EXPECT_TRUE(summary["third_order"].get<bool>());
+  EXPECT_EQ(summary["slowdown_rounds"], 0);
+  const SetPointFigures figures = check_set_points(folder / "setpoints.csv");
+  EXPECT_LE(figures.velocity_ratio, 1.0 + 1e-4);
+  EXPECT_LE(figures.acceleration_ratio, 1.0 + 1e-4);
+  EXPECT_LE(figures.jerk_ratio, 1.0 + 1e-4);
+  EXPECT_GT(figures.jerk_ratio, 0.5);
+  EXPECT_LE(figures.largest_distance_m, 0.5e-3 * 1.001);
+}
+
 TEST(CliPlan, WithoutADisplayEveryNumericalFileIsWrittenAndThePlotSkippedWithTheRemedy) {
   const auto folder = test::fresh_folder("plan_no_display");
   const auto out = folder / "out";
   const test::RunResult run = test::run_vmsim_with_env(
-      "env -u DISPLAY", "plan --part " + kPart + " --no-third-order --out " + out.string());
+      "env -u DISPLAY", "plan --part " + kPart + " --out " + out.string());
   EXPECT_EQ(run.exit_code, 0) << run.output;
   EXPECT_NE(run.output.find("xvfb-run -a"), std::string::npos) << run.output;
   for (const char* name : {"limits.csv", "setpoints.csv", "summary.json"}) {
@@ -245,7 +272,7 @@ TEST(CliPlan, PlotIsAPngUnderADisplay) {
   const auto folder = test::fresh_folder("plan_plot");
   const auto out = folder / "out";
   const test::RunResult run =
-      test::run_vmsim("plan --part " + kPart + " --no-third-order --corner-tolerance-mm 0.05 --out " + out.string());
+      test::run_vmsim("plan --part " + kPart + " --corner-tolerance-mm 0.05 --out " + out.string());
   ASSERT_EQ(run.exit_code, 0) << run.output;
   const std::string png = read_file((out / "plan.png").string());
   ASSERT_GT(png.size(), 1000u);
@@ -256,7 +283,7 @@ TEST(CliPlan, PlotIsAPngUnderADisplay) {
 TEST(CliPlan, BadInputExitsWithItsCodeAndWritesNothing) {
   const auto folder = test::fresh_folder("plan_bad");
   const auto out = folder / "out";
-  const std::string common = " --no-third-order --no-plot --out " + out.string();
+  const std::string common = " --no-plot --out " + out.string();
   struct Case {
     std::string arguments;
     int exit_code;
