@@ -232,7 +232,7 @@ TEST(CliPlan, CornerToleranceBlendsTheCornerWithinItAndIsFaster) {
 }
 
 // Third order through the same blend: every limit, the jerk included, holds on the set points
-// from the first plan (with CLP's default primal tolerance the node equalities were off by
+// from the first plan (with CLP's default primal tolerance, 1e-7, the node equalities were off by
 // ~1e-7 m^2/s^2 where the speed nearly stops in the blend: 8 slow-down rounds, the X jerk 11-26 %
 // over between them).
 TEST(CliPlan, ThirdOrderThroughABlendHoldsTheJerkWithoutSlowDownRounds) {
