@@ -24,10 +24,6 @@
 namespace vmsim::viz {
 namespace {
 
-std::filesystem::path fresh_folder(const std::string& name) {
-  return test::fresh_temp_folder("viz_" + name);
-}
-
 TEST(Histogram, KnownValuesFallInTheirBins) {
   const Histogram h = make_histogram({0.0, 0.5, 1.0, 1.5, 2.0, 3.9, 4.0}, 4, Range{0.0, 4.0});
   ASSERT_EQ(h.edges.size(), 5u);
@@ -144,7 +140,7 @@ TEST(SurfaceValidation, BadFieldsAreRejectedNamingTheField) {
 
 TEST(SurfaceFiles, VtpReadsBackWithPointsTrianglesAndArrays) {
   const HeightField field = ramp(4, 3);
-  const auto path = fresh_folder("vtp") / "surface.vtp";
+  const auto path = test::fresh_temp_folder("viz_vtp") / "surface.vtp";
   write_surface_vtp(path.string(), field);
   auto reader = vtkSmartPointer<vtkXMLPolyDataReader>::New();
   reader->SetFileName(path.string().c_str());
@@ -173,7 +169,7 @@ TEST(SurfaceFiles, VtpReadsBackWithPointsTrianglesAndArrays) {
 TEST(SurfaceFiles, VtpWithoutDeviationHasOnlyTheHeight) {
   HeightField field = ramp(2, 2);
   field.deviation_m.clear();
-  const auto path = fresh_folder("vtp_height") / "surface.vtp";
+  const auto path = test::fresh_temp_folder("viz_vtp_height") / "surface.vtp";
   write_surface_vtp(path.string(), field);
   auto reader = vtkSmartPointer<vtkXMLPolyDataReader>::New();
   reader->SetFileName(path.string().c_str());
@@ -184,7 +180,7 @@ TEST(SurfaceFiles, VtpWithoutDeviationHasOnlyTheHeight) {
 
 TEST(SurfaceFiles, BinaryStlHoldsTwoTrianglesPerCellInMillimetres) {
   const HeightField field = ramp(3, 2);
-  const auto path = fresh_folder("stl") / "surface.stl";
+  const auto path = test::fresh_temp_folder("viz_stl") / "surface.stl";
   write_surface_stl(path.string(), field);
   const std::string bytes = read_file(path.string());
   const std::size_t triangles = 2 * 2 * 1;

@@ -74,10 +74,6 @@ void expect_every_render_throws_no_display(const std::filesystem::path& folder) 
   EXPECT_FALSE(std::filesystem::exists(png)) << "a failed render must leave no file";
 }
 
-std::filesystem::path fresh_folder(const std::string& name) {
-  return test::fresh_temp_folder("viz_" + name);
-}
-
 TEST(NoDisplay, UnsetDisplayIsReportedWithTheRemedy) {
   ScopedDisplay no_display(std::nullopt);
   std::string why_not;
@@ -103,7 +99,7 @@ TEST(NoDisplay, DisplayThatCannotBeOpenedIsReportedByName) {
 }
 
 TEST(NoDisplay, EveryRenderThrowsNoDisplayErrorInsteadOfAborting) {
-  const auto folder = fresh_folder("no_display");
+  const auto folder = test::fresh_temp_folder("viz_no_display");
   {
     ScopedDisplay no_display(std::nullopt);
     expect_every_render_throws_no_display(folder);
@@ -124,7 +120,7 @@ TEST(NoDisplay, BadDataIsReportedBeforeTheDisplayIsLookedFor) {
 
 TEST(NoDisplay, SurfaceFilesNeedNoDisplay) {
   ScopedDisplay no_display(std::nullopt);
-  const auto folder = fresh_folder("files_no_display");
+  const auto folder = test::fresh_temp_folder("viz_files_no_display");
   EXPECT_NO_THROW(write_surface_vtp((folder / "s.vtp").string(), small_field()));
   EXPECT_NO_THROW(write_surface_stl((folder / "s.stl").string(), small_field()));
   EXPECT_TRUE(std::filesystem::exists(folder / "s.vtp"));
