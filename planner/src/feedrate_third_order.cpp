@@ -6,6 +6,8 @@
 #include <algorithm>
 #include <cmath>
 #include <memory>
+#include <stdexcept>
+#include <string>
 #include <vector>
 
 #include "feedrate_detail.hpp"
@@ -359,7 +361,7 @@ class ThirdOrderLp {
   };
 
   /// The terms of slot `slot` of grid segment k for the rows at its ends and middle; false
-  /// for the x range and the inside rows.
+  /// for the x range and the inside rows. (violations_in_segment walks the same layout.)
   bool slot_terms(std::size_t k, std::size_t slot, RowTerms& t) const {
     const int side = static_cast<int>(slot % 2);
     const std::size_t n2 = p_.n2;
@@ -408,21 +410,6 @@ class ThirdOrderLp {
     add_form(h, x_form != nullptr ? *x_form : fx, t.cx);
     h.lo = t.lo;
     h.hi = t.hi;
-  }
-
-  /// The activity of `t` at the current solution, from x and u at the grid points (u is linear
-  /// on the segment, x quadratic with x' = 2 u): no forms needed.
-  double terms_activity(const RowTerms& t, std::size_t k) const {
-    const double delta = p_.delta(k);
-    const double b = (u_[k + 1] - u_[k]) / delta;
-    const double x = x_[k] + t.sigma * (2.0 * u_[k] + b * t.sigma);
-    const double u = u_[k] + b * t.sigma;
-    double activity = t.cx * x + t.cu * u;
-    if (t.cup != 0.0) {
-      const std::size_t c = node_of_segment_[k];
-      activity += t.cup * (un_[c + 1] - un_[c]) / (p_.s[nodes_[c + 1]] - p_.s[nodes_[c]]);
-    }
-    return activity;
   }
 
   /// Rows for the inside of grid segment k. u is linear there, so x is quadratic in sigma and
@@ -569,6 +556,7 @@ class ThirdOrderLp {
   /// (Re)builds the programme: the equalities, then the active half-rows in their order;
   /// the previous basis is kept (same columns and rows, new rows basic).
   void build() {
+    full_scan_ = true;  // a new linearisation: every row changes
     const int ncols = columns();
     const std::size_t nodes = nodes_.size();
     std::vector<double> col_lo(static_cast<std::size_t>(ncols)), col_hi(col_lo.size()),
@@ -738,27 +726,149 @@ class ThirdOrderLp {
     return true;
   }
 
-  /// Adds every violated half-row to the programme; returns how many.
+  /// Calls found(slot, violation) for every inactive half-row of regular grid segment k that
+  /// its x and u violate: the rows of slot_terms evaluated family by family (the same terms
+  /// and activity as slot_terms and terms_activity, without decoding each slot), the others
+  /// built. With `next_shares_point` (the next grid segment is in the same node span) the
+  /// second-order rows of the right end are left to that segment's left end: the same rows at
+  /// the same point in the same columns.
+  template <class Found>
+  void violations_in_segment(std::size_t k, bool next_shares_point, HalfRow& h, Found&& found) const {
+    const std::size_t n2 = p_.n2, n3 = p_.n3;
+    const char* active = &active_[k * per_];
+    const double delta = p_.delta(k);
+    const double b = (u_[k + 1] - u_[k]) / delta;
+    const std::size_t c = node_of_segment_[k];
+    const double u_slope = (un_[c + 1] - un_[c]) / (p_.s[nodes_[c + 1]] - p_.s[nodes_[c]]);
+    RowTerms t;
+    auto check = [&](std::size_t slot, double x, double u) {
+      double a = t.cx * x + t.cu * u;
+      if (t.cup != 0.0) a += t.cup * u_slope;
+      const double violation = std::max(a - t.hi, t.lo - a);
+      if (violation > kRowTolerance) found(slot, violation);
+    };
+    auto x_at = [&](double sigma) { return x_[k] + sigma * (2.0 * u_[k] + b * sigma); };
+    const double x_ends[2] = {x_at(0.0), x_at(delta)};
+    const double u_ends[2] = {u_[k], u_[k] + b * delta};
+    const double x_middle = x_at(0.5 * delta), u_middle = u_[k] + b * 0.5 * delta;
+    const double middle_q = 0.5 * (lin_[k] + lin_[k + 1]);
+    for (int end = 0; end < 2; ++end) {
+      const std::size_t i = k + static_cast<std::size_t>(end);
+      if (end == 1 && next_shares_point && p_.incoming[i] < 0) break;
+      const Row2* rows = p_.rows2(k, end);
+      for (std::size_t r = 0; r < n2; ++r) {
+        for (int side = 0; side < 2; ++side) {
+          const std::size_t slot = static_cast<std::size_t>(end) * 2 * n2 + 2 * r + static_cast<std::size_t>(side);
+          if (active[slot]) continue;
+          t = RowTerms{};
+          second_order_terms(rows[r], side, lin_[i], x_upper_[i], t);
+          check(slot, x_ends[end], u_ends[end]);
+        }
+      }
+    }
+    const Row2* middle2 = p_.rows2mid(k);
+    const double middle_x_max = 1.5 * std::max(x_upper_[k], x_upper_[k + 1]);
+    for (std::size_t r = 0; r < n2; ++r) {
+      for (int side = 0; side < 2; ++side) {
+        const std::size_t slot = 4 * n2 + 2 * r + static_cast<std::size_t>(side);
+        if (active[slot]) continue;
+        t = RowTerms{};
+        second_order_terms(middle2[r], side, middle_q, middle_x_max, t);
+        check(slot, x_middle, u_middle);
+      }
+    }
+    for (int end = 0; end < 2; ++end) {
+      const std::size_t i = k + static_cast<std::size_t>(end);
+      const Row3* rows = p_.rows3(k, end);
+      for (std::size_t r = 0; r < n3; ++r) {
+        for (int side = 0; side < 2; ++side) {
+          const std::size_t slot = 6 * n2 + static_cast<std::size_t>(end) * 2 * n3 + 2 * r + static_cast<std::size_t>(side);
+          if (active[slot]) continue;
+          t = RowTerms{};
+          third_order_terms(rows[r], side, lin_[i], u_[i], t);
+          check(slot, x_ends[end], u_ends[end]);
+        }
+      }
+    }
+    const Row3* middle3 = p_.rows3mid(k);
+    for (std::size_t r = 0; r < n3; ++r) {
+      for (int side = 0; side < 2; ++side) {
+        const std::size_t slot = per_end_ + per_inside_ + 2 * r + static_cast<std::size_t>(side);
+        if (active[slot]) continue;
+        t = RowTerms{};
+        third_order_terms(middle3[r], side, middle_q, 0.5 * (u_[k] + u_[k + 1]), t);
+        check(slot, x_middle, u_middle);
+      }
+    }
+    // The x range at the right end and the rows for the inside: built (the inside's
+    // third-order rows exist only where u crosses zero downwards).
+    const bool peaks_inside = u_[k] > 0.0 && u_[k + 1] < 0.0;
+    for (std::size_t slot = 6 * n2 + 4 * n3; slot < per_end_ + per_inside_; ++slot) {
+      if (active[slot]) continue;
+      if (slot >= per_end_ + 2 && !peaks_inside) break;
+      half_row(k, slot, h);
+      if (h.n == 0) continue;
+      const double a = activity(h);
+      const double violation = std::max(a - h.hi, h.lo - a);
+      if (violation > kRowTolerance) found(slot, violation);
+    }
+  }
+
+  /// Adds violated half-rows to the programme; returns how many. Per node span and slot only
+  /// the most violated grid segment's row: the rows of one slot along a span are nearly
+  /// parallel forms in the same few columns (neighbouring grid points), so adding all of them
+  /// (on dense grids, tens per span) makes the programme several times larger and degenerate
+  /// for little gain; the next round adds any neighbour still violated.
   std::size_t add_violated_rows() {
     std::vector<double> row_lo, row_hi, elements;
     std::vector<int> indices;
     std::vector<CoinBigIndex> starts{0};
     HalfRow h;
-    for (std::size_t k = 0; k < p_.segments(); ++k) {
-      if (!regular_[k]) continue;
+    std::vector<double> worst(per_);
+    std::vector<std::size_t> worst_k(per_);
+    std::vector<int> violated(per_);  // violated rows per slot in the span
+    const std::size_t nodes = nodes_.size();
+    if (scanned_xn_.size() != nodes) full_scan_ = true;
+    auto moved = [&](std::size_t c) {
+      const double scale = 1e-14 * std::max(x_upper_[nodes_[c]], 1e-300);
+      return std::abs(xn_[c] - scanned_xn_[c]) > scale ||
+             std::abs(un_[c] - scanned_un_[c]) > 1e-14 * (std::abs(un_[c]) + std::abs(scanned_un_[c])) + 1e-300;
+    };
+    std::vector<char> node_moved(nodes, 1);
+    if (!full_scan_) {
+      for (std::size_t c = 0; c < nodes; ++c) node_moved[c] = moved(c);
+    }
+    span_pending_.resize(nodes, 1);
+    for (std::size_t c = 0; c + 1 < nodes; ++c) {
+      const std::size_t k0 = nodes_[c], k1 = nodes_[c + 1];
+      if (!regular_[k0]) continue;
+      // A span whose nodes did not move since its last scan, where every violated row was
+      // added, has none: its rows depend on its two nodes and the linearisation only.
+      if (!node_moved[c] && !node_moved[c + 1] && !span_pending_[c]) continue;
+      span_pending_[c] = 0;
+      std::fill(worst.begin(), worst.end(), 0.0);
+      std::fill(violated.begin(), violated.end(), 0);
+      for (std::size_t k = k0; k < k1; ++k) {
+        violations_in_segment(k, k + 1 < k1, h, [&](std::size_t slot, double violation) {
+          ++violated[slot];
+          if (violation > worst[slot]) {
+            worst[slot] = violation;
+            worst_k[slot] = k;
+          }
+        });
+      }
       for (std::size_t slot = 0; slot < per_; ++slot) {
-        const std::size_t key = k * per_ + slot;
-        if (active_[key]) continue;
-        RowTerms t;
-        if (slot_terms(k, slot, t)) {  // most slots: checked without building the row
-          const double a = terms_activity(t, k);
-          if (a <= t.hi + kRowTolerance && a >= t.lo - kRowTolerance) continue;
-        }
+        if (worst[slot] == 0.0) continue;
+        const std::size_t k = worst_k[slot];
+        if (violated[slot] > 1) span_pending_[c] = 1;  // others left out: scan it again
         half_row(k, slot, h);
-        if (h.n == 0) continue;
+        // The scan evaluates the slots family by family: the row built from the slot must be
+        // the one it found violated (a guard for the two slot layouts).
         const double a = activity(h);
-        if (a <= h.hi + kRowTolerance && a >= h.lo - kRowTolerance) continue;
-        active_[key] = 1;
+        if (!(std::max(a - h.hi, h.lo - a) > 0.5 * kRowTolerance)) {
+          throw std::logic_error("third-order planner: the scan and half_row disagree on slot " + std::to_string(slot));
+        }
+        active_[k * per_ + slot] = 1;
         row_keys_.push_back(row_key(k, slot));
         append_row(h, indices, elements, starts, row_lo, row_hi);
       }
@@ -767,6 +877,9 @@ class ThirdOrderLp {
       model_->addRows(static_cast<int>(row_lo.size()), row_lo.data(), row_hi.data(), starts.data(),
                       indices.data(), elements.data());
     }
+    scanned_xn_ = xn_;
+    scanned_un_ = un_;
+    full_scan_ = false;
     return row_lo.size();
   }
 
@@ -812,6 +925,11 @@ class ThirdOrderLp {
   mutable double max_upper_ = -1.0;
   std::unique_ptr<ClpSimplex> model_;
   std::size_t block_rows_ = 0;
+  // The node values at the last scan for violated rows, and the spans where a violated row
+  // was left out (only the worst per slot is added); a full scan after each build.
+  std::vector<double> scanned_xn_, scanned_un_;
+  std::vector<char> span_pending_;
+  bool full_scan_ = true;
 };
 
 }  // namespace

@@ -89,6 +89,11 @@ TEST(FirstExit, IsTheFirstLeavingOfTheBandForRandomPolynomials) {
     if (std::isfinite(exit)) {
       const double after = exit * (1.0 + 1e-6) + 1e-12;
       EXPECT_GT(std::abs(f(after)), L * (1.0 - 1e-9)) << "n " << n << " exit " << exit;
+      // On the band's edge, not merely near it (the root search's precision).
+      EXPECT_LE(std::abs(f(exit)), L) << "n " << n;
+      if (exit > 0.0) {
+        EXPECT_NEAR(std::abs(f(exit)), L, 1e-12) << "n " << n << " exit " << exit;
+      }
     }
   }
 }
