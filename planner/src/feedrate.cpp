@@ -144,7 +144,7 @@ double detail::first_exit(double p0, double p1, double p2, double p3, double L) 
       const double slope = df(s);
       double next = slope != 0.0 ? s - (fs - target) / slope : 0.5 * (lo + hi);
       if (!(next > lo && next < hi)) next = 0.5 * (lo + hi);
-      if (std::abs(next - s) <= 1e-16 * hi) {
+      if (std::abs(next - s) <= 1e-15 * hi) {  // a few ulps: Newton has converged
         // Converged: the admissible side within a few ulps of the crossing.
         for (int step = 0; step < 64 && next > lo && std::abs(f(next)) > L; ++step) next = std::nextafter(next, 0.0);
         if (next > lo && std::abs(f(next)) <= L) lo = next;

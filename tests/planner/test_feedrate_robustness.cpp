@@ -43,6 +43,37 @@ TEST(PathSpline, ReproducesAQuinticAndItsDerivatives) {
   }
 }
 
+// On micrometre segments the quintic's q_sss must not carry the rounding of q over h^3: a
+// sinusoid plus a ramp far from q = 0 (q ~ 0.24 m) on 3 um segments, where 1 ulp of q is 5e-17 m
+// and h^3 = 2.7e-17 m^3 (the quintic through the rounded q had q_sss errors of up to 100 against
+// a true 22). Positions stay within a few ulps at the knots.
+TEST(PathSpline, MicrometreSegmentsKeepTheThirdDerivative) {
+  const double w = 2.0 * std::numbers::pi / 0.3, a = 0.05 / w;
+  auto f = [&](double s, Eigen::VectorXd& q, Eigen::VectorXd& qs, Eigen::VectorXd& qss,
+               Eigen::VectorXd& qsss) {
+    q(0) = 0.8 * s + a * std::sin(w * s);
+    qs(0) = 0.8 + a * w * std::cos(w * s);
+    qss(0) = -a * w * w * std::sin(w * s);
+    qsss(0) = -a * w * w * w * std::cos(w * s);
+  };
+  const std::size_t points = 100001;
+  const auto path = sample_path(1, 0.3, points, f);
+  const PathSpline spline(path);
+  Eigen::VectorXd q(1), qs(1), qss(1), qsss(1), p, v, acc, jerk;
+  double worst_jerk = 0.0, worst_q = 0.0;
+  for (std::size_t i = 60000; i + 1 < points; i += 7) {  // near s = 0.18 m: q ~ 0.15 m
+    for (double lambda : {0.0, 0.5, 1.0}) {
+      const double h = spline.s_m()[i + 1] - spline.s_m()[i];
+      f(spline.s_m()[i] + lambda * h, q, qs, qss, qsss);
+      spline.evaluate(i, lambda * h, &p, &v, &acc, &jerk);
+      worst_jerk = std::max(worst_jerk, std::abs(jerk(0) - qsss(0)));
+      worst_q = std::max(worst_q, std::abs(p(0) - q(0)));
+    }
+  }
+  EXPECT_LT(worst_jerk, 1e-3 * a * w * w * w) << "q_sss off by " << worst_jerk;
+  EXPECT_LT(worst_q, 1e-15);
+}
+
 // Paths with fitted derivatives (from solve_path_kinematics) get the clamped cubic spline through
 // the points: it reproduces a cubic exactly from its values and end slopes alone (the fitted
 // q_ss, q_sss in between are ignored: wrong values are given here on purpose), on uneven spacing.
