@@ -661,7 +661,6 @@ class ThirdOrderLp {
     // jerk by 11-26 % for 8 slow-down rounds). 1e-8 is enough there; 1e-9 costs 15-50 % more
     // simplex time.
     model_->setPrimalTolerance(1e-8);
-    if (getenv("SCALE")) model_->scaling(atoi(getenv("SCALE")));
     model_->loadProblem(matrix, col_lo.data(), col_hi.data(), objective.data(), row_lo.data(),
                         row_hi.data());
     model_->setOptimizationDirection(-1.0);

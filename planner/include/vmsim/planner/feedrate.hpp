@@ -47,15 +47,17 @@
 //    (their segment is feasible: the programme's set is convex), so T decreases monotonically
 //    (convex-concave procedure; stops when T gains < 1e-7). In torque-rate rows the viscous terms d_s sd + d u / sd are taken
 //    at the previous iterate (not conservative; the set-point check below covers them). Rows are
-//    generated lazily (the jerk row of the dominant axis first, then every violated one, warm
-//    re-solves). Near the stops the motion is the exact constant-jerk start s = j t^3 / 6 (and
+//    generated lazily (the jerk row of the dominant axis first, then per node span and row
+//    slot the most violated one, warm re-solves; a span is rescanned only where its nodes
+//    moved). Near the stops the motion is the exact constant-jerk start s = j t^3 / 6 (and
 //    its mirror): x = z (6 d)^(4/3) / 4, u = z (6 d)^(1/3) with z = j^(2/3) one column, over as
 //    many grid segments as the rows allow the full jerk of the first segment and x stays below
 //    1/4 of the second-order profile; its rows are polynomials in sqrt(z), bounded exactly.
 //    (A piecewise linear u cannot start from rest: x ~ s^2 would take an infinite time.)
 //    The programme is feasible whenever the second-order problem is (x = u = 0), so this never
 //    fails where the second order does not.
-//    Known gaps: speed (about 0.6 s for 10 000 points, bench_planner); optimality within the
+//    Known gaps: speed in torque-rate mode (about 0.3 s for 10 000 points, bench_planner; jerk
+//    0.15 s); optimality within the
 //    profile class (u piecewise linear in s: 0.17 % above the seven-phase optimum where the jerk
 //    ramps cover only ~20 grid segments, see the tests; coarse grids cost more: a 0.3 m line on
 //    10 segments takes 14 % longer than the seven-phase optimum); on curved paths the rows
