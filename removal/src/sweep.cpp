@@ -288,7 +288,7 @@ bool section_lowest_x(const Sweep& s, double eta, double& x_lo, double& x_hi) {
   // y grows with b (the projection along x is convex): two bisections bracket the b of every
   // such point. |n . a| <= |a - a_x x| gives |n - (n . a) a| >= |a_x|.
   struct Point {
-    double x_core, y_low, y_high, na;  // y over the support set (a segment when n . a ~ 0)
+    double x_core, y_core, y_low, y_high, na;  // y over the support set (a segment when n . a ~ 0)
   };
   auto point = [&](double b) {
     const double sb = std::sin(b), cb = std::cos(b);
@@ -298,6 +298,7 @@ bool section_lowest_x(const Sweep& s, double eta, double& x_lo, double& x_hi) {
     p.na = na;
     p.x_core = -s.rho * na * ax / perp;
     const double y = s.rho * (sb - na * ay) / perp + s.r * sb;
+    p.y_core = y;
     const double y_top = y + s.ell * ay;
     const bool both = std::abs(na) <= 1e-9;
     const double y_one = na > 0.0 ? y_top : y;
@@ -340,9 +341,22 @@ bool section_lowest_x(const Sweep& s, double eta, double& x_lo, double& x_hi) {
   const double spread = 0.5 * lip * (b2 - b1) + 1e-12;
   x_lo = std::min(p1.x_core, p2.x_core) - spread;
   x_hi = std::max(p1.x_core, p2.x_core) + spread;
-  if (s.ell > 0.0 && std::max(p1.na, p2.na) + 0.5 * (b2 - b1) >= -1e-9) {
-    x_lo += std::min(0.0, s.ell * ax);
-    x_hi += std::max(0.0, s.ell * ax);
+  const double na_reach = 0.5 * (b2 - b1) + 1e-9;
+  if (s.ell > 0.0 && std::min(p1.na, p2.na) > na_reach) {  // the top end throughout
+    x_lo += s.ell * ax;
+    x_hi += s.ell * ax;
+  } else if (s.ell > 0.0 && std::max(p1.na, p2.na) >= -na_reach) {
+    // On the flank's segment c + x_core + lambda a, lambda in [0, ell]: where it is not
+    // parallel to the plane, the plane's y picks lambda (y_core moves by at most `spread`).
+    double l0 = 0.0, l1 = s.ell;
+    if (std::abs(ay) > 1e-6) {
+      const double ya = std::min(p1.y_core, p2.y_core) - spread - tau, yb = std::max(p1.y_core, p2.y_core) + spread + tau;
+      const double la = (eta - ya) / ay, lb = (eta - yb) / ay;
+      l0 = std::clamp(std::min(la, lb), 0.0, s.ell);
+      l1 = std::clamp(std::max(la, lb), 0.0, s.ell);
+    }
+    x_lo += std::min(l0 * ax, l1 * ax);
+    x_hi += std::max(l0 * ax, l1 * ax);
   }
   return true;
 }
