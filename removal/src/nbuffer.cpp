@@ -324,6 +324,7 @@ struct SectionRows {
   double rho = 0.0, r = 0.0, ell = 0.0, c_y = 0.0;
   int iv0 = 0;
   std::vector<double> lo, hi;
+  std::vector<double> z_low;  // below the section's lowest point, from the core point's z
   std::vector<char> hit;
   bool same_family(const Sweep& s) const {
     return a == s.a && rho == s.rho && r == s.r && ell == s.ell && c_y == s.c0.y();
@@ -428,10 +429,11 @@ CutStatistics NBuffer::cut(const Tool& tool, std::span<const Pose> trajectory, c
           const int iv1 = std::min(nv_ - 1, static_cast<int>(std::ceil((t.c_y + reach - origin0_.y()) / sp)) + 1);
           for (int iv = t.iv0; iv <= iv1; ++iv) {
             const double y = origin0_.y() + iv * sp;  // as cut_zmap_tile computes it
-            double lo = 0.0, hi = 0.0;
-            t.hit.push_back(detail::section_lowest_x(s, y - t.c_y, lo, hi));
+            double lo = 0.0, hi = 0.0, z_low = 0.0;
+            t.hit.push_back(detail::section_lowest_x(s, y - t.c_y, lo, hi, &z_low));
             t.lo.push_back(lo);
             t.hi.push_back(hi);
+            t.z_low.push_back(z_low);
           }
         }
         section_rows.push_back(std::move(t));
@@ -445,6 +447,29 @@ CutStatistics NBuffer::cut(const Tool& tool, std::span<const Pose> trajectory, c
         if (role.skip_behind || role.leave_ahead) role.rows = rows_for(sweeps[k]);
       }
     }
+    // A sweep in a chain can cut a tile only where its rows' strips (between the sections'
+    // lowest points at c0 and c1, as cut_zmap_tile narrows them) meet the tile's columns, and
+    // only above its rows' lowest section points.
+    auto chain_may_cut = [&](const Sweep& s, const ChainRole& role, int tu, int tv) {
+      if (role.rows < 0) return true;
+      const SectionRows& t = section_rows[static_cast<std::size_t>(role.rows)];
+      const std::size_t tile = static_cast<std::size_t>(tu) + static_cast<std::size_t>(tiles_u_) * tv;
+      const double x_lo = tiles_[tile].lo.x() - slack, x_hi = tiles_[tile].hi.x() + slack;
+      const double top = tiles_[tile].hi.z();
+      const bool forward = s.c1.x() > s.c0.x();
+      const int v_end = std::min(nv_, (tv + 1) * kTile);
+      for (int iv = tv * kTile; iv < v_end; ++iv) {
+        const int k = iv - t.iv0;
+        if (k < 0 || k >= static_cast<int>(t.hit.size())) return true;  // not in the table: no narrowing
+        if (!t.hit[k] || top <= s.c0.z() + t.z_low[k]) continue;
+        const double lo = forward ? (role.skip_behind ? s.c0.x() + t.lo[k] : -detail::kInf)
+                                  : (role.leave_ahead ? s.c1.x() + t.lo[k] : -detail::kInf);
+        const double hi = forward ? (role.leave_ahead ? s.c1.x() + t.hi[k] : detail::kInf)
+                                  : (role.skip_behind ? s.c0.x() + t.hi[k] : detail::kInf);
+        if (lo <= x_hi && hi >= x_lo) return true;
+      }
+      return false;
+    };
     auto cut_batch = [&] {
       pairs.clear();
       for (std::size_t j = 0; j < sweeps.size(); ++j) {
@@ -467,7 +492,9 @@ CutStatistics NBuffer::cut(const Tool& tool, std::span<const Pose> trajectory, c
           for (int tv = v0; tv <= v1; ++tv) {
             for (int tu = u0; tu <= u1; ++tu) {
               const std::size_t t = static_cast<std::size_t>(tu) + static_cast<std::size_t>(tiles_u_) * tv;
-              if (may_cut(s, tiles_[t].lo, tiles_[t].hi, true)) pairs.emplace_back(static_cast<std::uint32_t>(t), static_cast<std::uint32_t>(j));
+              if (may_cut(s, tiles_[t].lo, tiles_[t].hi, true) && chain_may_cut(s, roles[j], tu, tv)) {
+              pairs.emplace_back(static_cast<std::uint32_t>(t), static_cast<std::uint32_t>(j));
+            }
             }
           }
         } else {
@@ -510,10 +537,12 @@ CutStatistics NBuffer::cut(const Tool& tool, std::span<const Pose> trajectory, c
           if (!capsule_row(s.c0.x(), s.c0.y(), s.c1.x(), s.c1.y(), reach + slack, y, xa, xb)) continue;
           if (tilted) keep_positive(s.a.y() * y - s.amin + s.a.z() * top + slack, s.a.x(), xa, xb);
           if (behind) keep_positive((y - s.c0.y()) * dy - s.c0.x() * dx + slack, dx, xa, xb);
+          double row_floor = -detail::kInf;  // lines no higher than this cannot be lowered (length, m)
           if (chain_rows) {  // in a chain: from the section's lowest point at c0 to the one at c1
             const int k = iv - chain_rows->iv0;
             if (k >= 0 && k < static_cast<int>(chain_rows->hit.size())) {
               if (!chain_rows->hit[k]) continue;  // the row misses the tool
+              row_floor = s.c0.z() + chain_rows->z_low[k] - z0;
               const double lo = chain_rows->lo[k], hi = chain_rows->hi[k];
               if (dx > 0.0) {
                 if (role.skip_behind) xa = std::max(xa, s.c0.x() + lo - slack);
@@ -540,6 +569,7 @@ CutStatistics NBuffer::cut(const Tool& tool, std::span<const Pose> trajectory, c
               continue;
             }
             double& h = row[iu - tu * kTile];
+            if (h <= row_floor) continue;  // at or below the lowest point of the row's section
             const double x = origin0_.x() + iu * sp;
             double t0 = 0.0, t1 = 0.0;
             if (tilted && s.rho > 0.0) {  // flat-end / bull-nose, tilted: VerticalEntry decides most lines

@@ -279,7 +279,7 @@ void split_segment(const Tool& tool, const Pose& pose0, const Pose& pose1, doubl
   }
 }
 
-bool section_lowest_x(const Sweep& s, double eta, double& x_lo, double& x_hi) {
+bool section_lowest_x(const Sweep& s, double eta, double& x_lo, double& x_hi, double* z_low) {
   const double ax = s.a.x(), ay = s.a.y(), az = s.a.z();
   if (!(az > 0.0) || !(std::abs(ax) >= kSectionMinAx)) return false;
   // The lowest points of the section y = eta are the support points x(n) of the normals
@@ -288,7 +288,7 @@ bool section_lowest_x(const Sweep& s, double eta, double& x_lo, double& x_hi) {
   // y grows with b (the projection along x is convex): two bisections bracket the b of every
   // such point. |n . a| <= |a - a_x x| gives |n - (n . a) a| >= |a_x|.
   struct Point {
-    double x_core, y_core, y_low, y_high, na;  // y over the support set (a segment when n . a ~ 0)
+    double x_core, y_core, z_core, y_low, y_high, na;  // y over the support set (a segment when n . a ~ 0)
   };
   auto point = [&](double b) {
     const double sb = std::sin(b), cb = std::cos(b);
@@ -299,6 +299,7 @@ bool section_lowest_x(const Sweep& s, double eta, double& x_lo, double& x_hi) {
     p.x_core = -s.rho * na * ax / perp;
     const double y = s.rho * (sb - na * ay) / perp + s.r * sb;
     p.y_core = y;
+    p.z_core = s.rho * (-cb - na * az) / perp - s.r * cb;
     const double y_top = y + s.ell * ay;
     const bool both = std::abs(na) <= 1e-9;
     const double y_one = na > 0.0 ? y_top : y;
@@ -339,6 +340,8 @@ bool section_lowest_x(const Sweep& s, double eta, double& x_lo, double& x_hi) {
   // Over [b1, b2]: x_core within lip (b2 - b1) / 2 of the nearer end; the top end's ell a_x
   // where n . a may reach 0 (|d(n . a) / db| <= 1).
   const double spread = 0.5 * lip * (b2 - b1) + 1e-12;
+  // (The top end's z is higher by ell a_z > 0: the bottom's bounds the point from below.)
+  if (z_low) *z_low = std::min(p1.z_core, p2.z_core) - spread;
   x_lo = std::min(p1.x_core, p2.x_core) - spread;
   x_hi = std::max(p1.x_core, p2.x_core) + spread;
   const double na_reach = 0.5 * (b2 - b1) + 1e-9;

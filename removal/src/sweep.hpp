@@ -59,8 +59,10 @@ double reach_below(const Sweep& s, double z);
 /// point, so the lines ahead of it at the end of a move are cut lower by the next move along
 /// the same line (nbuffer.cpp, the chains). Bisection on the contact normal's angle with a
 /// margin over rounding and the bracket's width (a Lipschitz bound): a rigorous interval,
-/// within about 1e-10 m of the point except near the plane's extreme y.
-bool section_lowest_x(const Sweep& s, double eta, double& x_lo, double& x_hi);
+/// within about 1e-10 m of the point except near the plane's extreme y. With `z_low`, also a
+/// lower bound of that lowest point's z [m, from c] (no line in the plane enters the tool, at
+/// any position along x, below it).
+bool section_lowest_x(const Sweep& s, double eta, double& x_lo, double& x_hi, double* z_low = nullptr);
 inline constexpr double kSectionMinAx = 0.01;
 
 /// Bull-nose sweep (r > 0, rho > 0) and a line: the entry t0 to ~1e-13 m (regula falsi on the
