@@ -530,29 +530,36 @@ CutStatistics NBuffer::cut(const Tool& tool, std::span<const Pose> trajectory, c
         // crossing it get that disc's height as their entry, which the last sweep (holding the tool
         // at c0) already cut: they are skipped.
         const bool skip_start_disc = tilted && s.rho > 0.0 && s.continues_axis && fast.lowest_at_start();
-      const SectionRows* chain_rows = role.rows >= 0 ? &section_rows[static_cast<std::size_t>(role.rows)] : nullptr;
+        const SectionRows* chain_rows = role.rows >= 0 ? &section_rows[static_cast<std::size_t>(role.rows)] : nullptr;
+        const double tile_x_lo = tiles_[tile].lo.x() - slack, tile_x_hi = tiles_[tile].hi.x() + slack;
         for (int iv = tv * kTile; iv < v_end; ++iv) {
           const double y = origin0_.y() + iv * sp;
-          double xa = 0.0, xb = 0.0;
-          if (!capsule_row(s.c0.x(), s.c0.y(), s.c1.x(), s.c1.y(), reach + slack, y, xa, xb)) continue;
-          if (tilted) keep_positive(s.a.y() * y - s.amin + s.a.z() * top + slack, s.a.x(), xa, xb);
-          if (behind) keep_positive((y - s.c0.y()) * dy - s.c0.x() * dx + slack, dx, xa, xb);
+          // In a chain, first the strip from the section's lowest point at c0 to the one at c1
+          // (cheap, and often outside the tile's columns).
+          double strip_a = -detail::kInf, strip_b = detail::kInf;
           double row_floor = -detail::kInf;  // lines no higher than this cannot be lowered (length, m)
-          if (chain_rows) {  // in a chain: from the section's lowest point at c0 to the one at c1
+          if (chain_rows) {
             const int k = iv - chain_rows->iv0;
             if (k >= 0 && k < static_cast<int>(chain_rows->hit.size())) {
               if (!chain_rows->hit[k]) continue;  // the row misses the tool
               row_floor = s.c0.z() + chain_rows->z_low[k] - z0;
               const double lo = chain_rows->lo[k], hi = chain_rows->hi[k];
               if (dx > 0.0) {
-                if (role.skip_behind) xa = std::max(xa, s.c0.x() + lo - slack);
-                if (role.leave_ahead) xb = std::min(xb, s.c1.x() + hi + slack);
+                if (role.skip_behind) strip_a = s.c0.x() + lo - slack;
+                if (role.leave_ahead) strip_b = s.c1.x() + hi + slack;
               } else {
-                if (role.leave_ahead) xa = std::max(xa, s.c1.x() + lo - slack);
-                if (role.skip_behind) xb = std::min(xb, s.c0.x() + hi + slack);
+                if (role.leave_ahead) strip_a = s.c1.x() + lo - slack;
+                if (role.skip_behind) strip_b = s.c0.x() + hi + slack;
               }
+              if (strip_a > tile_x_hi || strip_b < tile_x_lo) continue;
             }
           }
+          double xa = 0.0, xb = 0.0;
+          if (!capsule_row(s.c0.x(), s.c0.y(), s.c1.x(), s.c1.y(), reach + slack, y, xa, xb)) continue;
+          if (tilted) keep_positive(s.a.y() * y - s.amin + s.a.z() * top + slack, s.a.x(), xa, xb);
+          if (behind) keep_positive((y - s.c0.y()) * dy - s.c0.x() * dx + slack, dx, xa, xb);
+          xa = std::max(xa, strip_a);
+          xb = std::min(xb, strip_b);
           if (!(xa <= xb)) continue;
           const int ia = std::max(tu * kTile, static_cast<int>(std::ceil((xa - origin0_.x()) / sp)));
           const int ib = std::min(u_end - 1, static_cast<int>(std::floor((xb - origin0_.x()) / sp)));
