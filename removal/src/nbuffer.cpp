@@ -324,7 +324,8 @@ struct SectionRows {
   double rho = 0.0, r = 0.0, ell = 0.0, c_y = 0.0;
   int iv0 = 0;
   std::vector<double> lo, hi;
-  std::vector<double> z_low;  // below the section's lowest point, from the core point's z
+  std::vector<double> z_low;    // below the section's lowest point, from the core point's z
+  std::vector<double> z_point;  // that point's z where known within kSectionZError, else NaN
   std::vector<char> hit;
   bool same_family(const Sweep& s) const {
     return a == s.a && rho == s.rho && r == s.r && ell == s.ell && c_y == s.c0.y();
@@ -429,11 +430,12 @@ CutStatistics NBuffer::cut(const Tool& tool, std::span<const Pose> trajectory, c
           const int iv1 = std::min(nv_ - 1, static_cast<int>(std::ceil((t.c_y + reach - origin0_.y()) / sp)) + 1);
           for (int iv = t.iv0; iv <= iv1; ++iv) {
             const double y = origin0_.y() + iv * sp;  // as cut_zmap_tile computes it
-            double lo = 0.0, hi = 0.0, z_low = 0.0;
-            t.hit.push_back(detail::section_lowest_x(s, y - t.c_y, lo, hi, &z_low));
+            double lo = 0.0, hi = 0.0, z_low = 0.0, z_point = 0.0;
+            t.hit.push_back(detail::section_lowest_x(s, y - t.c_y, lo, hi, &z_low, &z_point));
             t.lo.push_back(lo);
             t.hi.push_back(hi);
             t.z_low.push_back(z_low);
+            t.z_point.push_back(z_point);
           }
         }
         section_rows.push_back(std::move(t));
@@ -538,6 +540,10 @@ CutStatistics NBuffer::cut(const Tool& tool, std::span<const Pose> trajectory, c
           // (cheap, and often outside the tile's columns).
           double strip_a = -detail::kInf, strip_b = detail::kInf;
           double row_floor = -detail::kInf;  // lines no higher than this cannot be lowered (length, m)
+          // Lines the section's lowest point passes over during the move: their entry is that
+          // point's height (no position enters lower), the same for the whole row.
+          int over_a = 0, over_b = -1;
+          double over_t0 = 0.0;
           if (chain_rows) {
             const int k = iv - chain_rows->iv0;
             if (k >= 0 && k < static_cast<int>(chain_rows->hit.size())) {
@@ -552,6 +558,12 @@ CutStatistics NBuffer::cut(const Tool& tool, std::span<const Pose> trajectory, c
                 if (role.skip_behind) strip_b = s.c0.x() + hi + slack;
               }
               if (strip_a > tile_x_hi || strip_b < tile_x_lo) continue;
+              if (std::isfinite(chain_rows->z_point[k])) {
+                const double x_start = std::min(s.c0.x(), s.c1.x()), x_end = std::max(s.c0.x(), s.c1.x());
+                over_a = static_cast<int>(std::ceil((x_start + hi + slack - origin0_.x()) / sp));
+                over_b = static_cast<int>(std::floor((x_end + lo - slack - origin0_.x()) / sp));
+                over_t0 = s.c0.z() + chain_rows->z_point[k] - z0;
+              }
             }
           }
           double xa = 0.0, xb = 0.0;
@@ -577,6 +589,14 @@ CutStatistics NBuffer::cut(const Tool& tool, std::span<const Pose> trajectory, c
             }
             double& h = row[iu - tu * kTile];
             if (h <= row_floor) continue;  // at or below the lowest point of the row's section
+            if (iu >= over_a && iu <= over_b) {
+              if (over_t0 < h) {
+                lowered_max = std::max(lowered_max, h);
+                h = std::max(0.0, over_t0);
+                ++lowered;
+              }
+              continue;
+            }
             const double x = origin0_.x() + iu * sp;
             double t0 = 0.0, t1 = 0.0;
             if (tilted && s.rho > 0.0) {  // flat-end / bull-nose, tilted: VerticalEntry decides most lines

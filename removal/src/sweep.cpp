@@ -279,7 +279,7 @@ void split_segment(const Tool& tool, const Pose& pose0, const Pose& pose1, doubl
   }
 }
 
-bool section_lowest_x(const Sweep& s, double eta, double& x_lo, double& x_hi, double* z_low) {
+bool section_lowest_x(const Sweep& s, double eta, double& x_lo, double& x_hi, double* z_low, double* z_point) {
   const double ax = s.a.x(), ay = s.a.y(), az = s.a.z();
   if (!(az > 0.0) || !(std::abs(ax) >= kSectionMinAx)) return false;
   // The lowest points of the section y = eta are the support points x(n) of the normals
@@ -307,9 +307,9 @@ bool section_lowest_x(const Sweep& s, double eta, double& x_lo, double& x_hi, do
     p.y_high = both ? std::max(y, y_top) : y_one;
     return p;
   };
-  constexpr double tau = 1e-12;  // [m] far above the rounding of y (~1e-18 m)
-  const double lip = s.rho / std::abs(ax) + s.r;  // |dx_core / db|
-  const double width = 1e-10 / lip;               // bracket width [rad] worth 1e-10 m of x
+  constexpr double tau = 1e-15;  // [m] far above the rounding of y (~1e-17 m)
+  const double lip = s.rho / std::abs(ax) + s.r;  // |dx_core / db|, |dz_core / db|
+  const double width = 0.1 * kSectionZError / lip;  // bracket width [rad] worth 0.1 kSectionZError
   const double half_pi = 0.5 * M_PI;
   // b1: every b at or below it has all its y < eta (so the points lie above b1).
   double lo = -half_pi, hi = half_pi;
@@ -342,6 +342,11 @@ bool section_lowest_x(const Sweep& s, double eta, double& x_lo, double& x_hi, do
   const double spread = 0.5 * lip * (b2 - b1) + 1e-12;
   // (The top end's z is higher by ell a_z > 0: the bottom's bounds the point from below.)
   if (z_low) *z_low = std::min(p1.z_core, p2.z_core) - spread;
+  if (z_point) {
+    const Point mid = point(0.5 * (b1 + b2));
+    const bool off_flank = !(s.ell > 0.0) || std::max(p1.na, p2.na) < -(0.5 * (b2 - b1) + 1e-9);
+    *z_point = off_flank && 0.5 * lip * (b2 - b1) <= 0.5 * kSectionZError ? mid.z_core : std::nan("");
+  }
   x_lo = std::min(p1.x_core, p2.x_core) - spread;
   x_hi = std::max(p1.x_core, p2.x_core) + spread;
   const double na_reach = 0.5 * (b2 - b1) + 1e-9;

@@ -61,8 +61,12 @@ double reach_below(const Sweep& s, double z);
 /// margin over rounding and the bracket's width (a Lipschitz bound): a rigorous interval,
 /// within about 1e-10 m of the point except near the plane's extreme y. With `z_low`, also a
 /// lower bound of that lowest point's z [m, from c] (no line in the plane enters the tool, at
-/// any position along x, below it).
-bool section_lowest_x(const Sweep& s, double eta, double& x_lo, double& x_hi, double* z_low = nullptr);
+/// any position along x, below it). With `z_point`, that lowest z itself [m, from c] where it
+/// is known within kSectionZError (a narrow bracket, the point off the top end and the flank),
+/// else NaN.
+bool section_lowest_x(const Sweep& s, double eta, double& x_lo, double& x_hi, double* z_low = nullptr,
+                      double* z_point = nullptr);
+inline constexpr double kSectionZError = 1e-13;
 inline constexpr double kSectionMinAx = 0.01;
 
 /// Bull-nose sweep (r > 0, rho > 0) and a line: the entry t0 to ~1e-13 m (regula falsi on the

@@ -37,7 +37,7 @@ double static_entry(const detail::Sweep& s, double x, double y) {
 TEST(NBufferChains, SectionLowestPointMatchesBruteForce) {
   std::mt19937 rng(3);
   std::uniform_real_distribution<double> unit(0.0, 1.0);
-  int checked = 0;
+  int checked = 0, exact_heights = 0;
   for (int trial = 0; trial < 40; ++trial) {
     const bool bull = trial % 2 == 1;
     const double rho = (1.0 + 2.0 * unit(rng)) * mm, r = bull ? (0.3 + unit(rng)) * mm : 0.0;
@@ -50,7 +50,8 @@ TEST(NBufferChains, SectionLowestPointMatchesBruteForce) {
     EXPECT_FALSE(detail::section_lowest_x(s, s.lo.y() - 1e-6, x_lo, x_hi));
     for (int row = 0; row < 8; ++row) {
       const double y = s.lo.y() + (0.03 + 0.94 * unit(rng)) * (s.hi.y() - s.lo.y());
-      ASSERT_TRUE(detail::section_lowest_x(s, y, x_lo, x_hi)) << trial;
+      double z_low = 0.0, z_point = 0.0;
+      ASSERT_TRUE(detail::section_lowest_x(s, y, x_lo, x_hi, &z_low, &z_point)) << trial;
       // The brute force: the entry along the row on a dense grid, then golden section between
       // the best sample's neighbours (the entry is convex along the row).
       const int n = 1500;
@@ -81,6 +82,14 @@ TEST(NBufferChains, SectionLowestPointMatchesBruteForce) {
       EXPECT_GE(x_min, x_lo - precision) << trial << " row " << row;
       EXPECT_LE(x_min, x_hi + precision) << trial << " row " << row;
       EXPECT_LT(x_hi - x_lo, 1e-6) << trial << " row " << row;
+      // Its height: bounded from below, and where given, the brute force's minimum (which
+      // the golden section finds to ~1e-13 m).
+      const double z_brute = std::min(best_z, static_entry(s, x_min, y));
+      EXPECT_LE(z_low, z_brute + 1e-13) << trial << " row " << row;
+      if (std::isfinite(z_point) && precision < step) {  // (not where the row only grazes the tool)
+        EXPECT_NEAR(z_point, z_brute, 2e-13) << trial << " row " << row;
+        ++exact_heights;
+      }
       // Lines beyond the interval enter higher, the farther the higher.
       for (double d : {1e-6, 1e-5, 1e-4}) {
         EXPECT_GE(static_entry(s, x_hi + 2 * d, y), static_entry(s, x_hi + d, y) - 1e-13);
@@ -90,6 +99,7 @@ TEST(NBufferChains, SectionLowestPointMatchesBruteForce) {
     }
   }
   EXPECT_GT(checked, 250);
+  EXPECT_GT(exact_heights, 200);
 }
 
 // Random passes along x with one tilted axis each: segments of random length, sometimes a
