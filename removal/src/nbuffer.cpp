@@ -317,18 +317,18 @@ bool chains(const Sweep& s, const Sweep& next) {
          s.r == next.r && s.ell == next.ell && (s.c1.x() > s.c0.x()) == (next.c1.x() > next.c0.x());
 }
 
-// The section points of one tool pose family (axis, radii, length, core y) for the grid rows
+// The section points of one tool pose family (axis, radii, length, core y and z) for the grid rows
 // it can reach: [lo, hi] of x relative to the core point, or no hit (the row misses the tool).
 struct SectionRows {
   Eigen::Vector3d a = Eigen::Vector3d::Zero();
-  double rho = 0.0, r = 0.0, ell = 0.0, c_y = 0.0;
+  double rho = 0.0, r = 0.0, ell = 0.0, c_y = 0.0, c_z = 0.0;  // (c_z decides the rows: the reach)
   int iv0 = 0;
   std::vector<double> lo, hi;
   std::vector<double> z_low;    // below the section's lowest point, from the core point's z
   std::vector<double> z_point;  // that point's z where known within kSectionZError, else NaN
   std::vector<char> hit;
   bool same_family(const Sweep& s) const {
-    return a == s.a && rho == s.rho && r == s.r && ell == s.ell && c_y == s.c0.y();
+    return a == s.a && rho == s.rho && r == s.r && ell == s.ell && c_y == s.c0.y() && c_z == s.c0.z();
   }
 };
 
@@ -423,7 +423,7 @@ CutStatistics NBuffer::cut(const Tool& tool, std::span<const Pose> trajectory, c
           }
         }
         SectionRows t;
-        t.a = s.a, t.rho = s.rho, t.r = s.r, t.ell = s.ell, t.c_y = s.c0.y();
+        t.a = s.a, t.rho = s.rho, t.r = s.r, t.ell = s.ell, t.c_y = s.c0.y(), t.c_z = s.c0.z();
         const double reach = detail::reach_below(s, material.max_W_m.z());
         if (reach >= 0.0) {
           t.iv0 = std::max(0, static_cast<int>(std::floor((t.c_y - reach - origin0_.y()) / sp)) - 1);
