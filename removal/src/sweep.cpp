@@ -279,6 +279,96 @@ void split_segment(const Tool& tool, const Pose& pose0, const Pose& pose1, doubl
   }
 }
 
+bool section_lowest_x(const Sweep& s, double eta, double& x_lo, double& x_hi, double* z_low, double* z_point) {
+  const double ax = s.a.x(), ay = s.a.y(), az = s.a.z();
+  if (!(az > 0.0) || !(std::abs(ax) >= kSectionMinAx)) return false;
+  // The lowest points of the section y = eta are the support points x(n) of the normals
+  // n(b) = (0, sin b, -cos b), b in [-pi/2, pi/2], whose y is eta: x(n) = rho (n - (n . a) a) /
+  // |n - (n . a) a| + ell [n . a > 0] a + r n (the whole segment over ell where n . a = 0). Their
+  // y grows with b (the projection along x is convex): two bisections bracket the b of every
+  // such point. |n . a| <= |a - a_x x| gives |n - (n . a) a| >= |a_x|.
+  struct Point {
+    double x_core, y_core, z_core, y_low, y_high, na;  // y over the support set (a segment when n . a ~ 0)
+  };
+  auto point = [&](double b) {
+    const double sb = std::sin(b), cb = std::cos(b);
+    const double na = sb * ay - cb * az;
+    const double perp = std::sqrt(std::max(0.0, (1.0 - na) * (1.0 + na)));
+    Point p;
+    p.na = na;
+    p.x_core = -s.rho * na * ax / perp;
+    const double y = s.rho * (sb - na * ay) / perp + s.r * sb;
+    p.y_core = y;
+    p.z_core = s.rho * (-cb - na * az) / perp - s.r * cb;
+    const double y_top = y + s.ell * ay;
+    const bool both = std::abs(na) <= 1e-9;
+    const double y_one = na > 0.0 ? y_top : y;
+    p.y_low = both ? std::min(y, y_top) : y_one;
+    p.y_high = both ? std::max(y, y_top) : y_one;
+    return p;
+  };
+  constexpr double tau = 1e-15;  // [m] far above the rounding of y (~1e-17 m)
+  const double lip = s.rho / std::abs(ax) + s.r;  // |dx_core / db|, |dz_core / db|
+  const double width = 0.1 * kSectionZError / lip;  // bracket width [rad] worth 0.1 kSectionZError
+  const double half_pi = 0.5 * M_PI;
+  // b1: every b at or below it has all its y < eta (so the points lie above b1).
+  double lo = -half_pi, hi = half_pi;
+  if (point(lo).y_high >= eta - tau) {
+    hi = lo;
+  } else {
+    if (point(hi).y_high < eta - tau) return false;  // the plane lies beyond the tool's +y side
+    while (hi - lo > width) {
+      const double mid = 0.5 * (lo + hi);
+      (point(mid).y_high < eta - tau ? lo : hi) = mid;
+    }
+  }
+  const double b1 = lo;
+  // b2: every b at or above it has all its y > eta.
+  lo = b1, hi = half_pi;
+  if (point(hi).y_low <= eta + tau) {
+    lo = hi;
+    if (point(-half_pi).y_low > eta + tau) return false;
+  } else {
+    if (point(lo).y_low > eta + tau) return false;  // beyond the tool's -y side
+    while (hi - lo > width) {
+      const double mid = 0.5 * (lo + hi);
+      (point(mid).y_low > eta + tau ? hi : lo) = mid;
+    }
+  }
+  const double b2 = hi;
+  const Point p1 = point(b1), p2 = point(b2);
+  // Over [b1, b2]: x_core within lip (b2 - b1) / 2 of the nearer end; the top end's ell a_x
+  // where n . a may reach 0 (|d(n . a) / db| <= 1).
+  const double spread = 0.5 * lip * (b2 - b1) + 1e-12;
+  // (The top end's z is higher by ell a_z > 0: the bottom's bounds the point from below.)
+  if (z_low) *z_low = std::min(p1.z_core, p2.z_core) - spread;
+  if (z_point) {
+    const Point mid = point(0.5 * (b1 + b2));
+    const bool off_flank = !(s.ell > 0.0) || std::max(p1.na, p2.na) < -(0.5 * (b2 - b1) + 1e-9);
+    *z_point = off_flank && 0.5 * lip * (b2 - b1) <= 0.5 * kSectionZError ? mid.z_core : std::nan("");
+  }
+  x_lo = std::min(p1.x_core, p2.x_core) - spread;
+  x_hi = std::max(p1.x_core, p2.x_core) + spread;
+  const double na_reach = 0.5 * (b2 - b1) + 1e-9;
+  if (s.ell > 0.0 && std::min(p1.na, p2.na) > na_reach) {  // the top end throughout
+    x_lo += s.ell * ax;
+    x_hi += s.ell * ax;
+  } else if (s.ell > 0.0 && std::max(p1.na, p2.na) >= -na_reach) {
+    // On the flank's segment c + x_core + lambda a, lambda in [0, ell]: where it is not
+    // parallel to the plane, the plane's y picks lambda (y_core moves by at most `spread`).
+    double l0 = 0.0, l1 = s.ell;
+    if (std::abs(ay) > 1e-6) {
+      const double ya = std::min(p1.y_core, p2.y_core) - spread - tau, yb = std::max(p1.y_core, p2.y_core) + spread + tau;
+      const double la = (eta - ya) / ay, lb = (eta - yb) / ay;
+      l0 = std::clamp(std::min(la, lb), 0.0, s.ell);
+      l1 = std::clamp(std::max(la, lb), 0.0, s.ell);
+    }
+    x_lo += std::min(l0 * ax, l1 * ax);
+    x_hi += std::max(l0 * ax, l1 * ax);
+  }
+  return true;
+}
+
 bool capsule_interval(const Eigen::Vector3d& A, const Eigen::Vector3d& B, double R,
                       const Eigen::Vector3d& o, const Eigen::Vector3d& u, double& t0, double& t1) {
   bool any = false;

@@ -50,6 +50,25 @@ double lowest_z_beyond(const Sweep& s, double d);
 /// The largest planar distance d at which lowest_z_beyond(s, d) < z (negative when none).
 double reach_below(const Sweep& s, double z);
 
+/// The tool of sweep `s` held still with its core point c at the origin; needs a_z > 0 and
+/// |a_x| >= kSectionMinAx (else false). For the plane y = eta [m, from c], an interval
+/// [x_lo, x_hi] [m, from c] holding the x of every lowest point of the tool's section by that
+/// plane (the surface points whose outer normal has n_x = 0, n_z < 0); false when the plane
+/// misses the tool. Why: for a level move along x, the entry of a vertical line at (x, eta) as a
+/// function of the tool's position is convex and smallest where the line passes that lowest
+/// point, so the lines ahead of it at the end of a move are cut lower by the next move along
+/// the same line (nbuffer.cpp, the chains). Bisection on the contact normal's angle with a
+/// margin over rounding and the bracket's width (a Lipschitz bound): a rigorous interval,
+/// within about 1e-10 m of the point except near the plane's extreme y. With `z_low`, also a
+/// lower bound of that lowest point's z [m, from c] (no line in the plane enters the tool, at
+/// any position along x, below it). With `z_point`, that lowest z itself [m, from c] where it
+/// is known within kSectionZError (a narrow bracket, the point off the top end and the flank),
+/// else NaN.
+bool section_lowest_x(const Sweep& s, double eta, double& x_lo, double& x_hi, double* z_low = nullptr,
+                      double* z_point = nullptr);
+inline constexpr double kSectionZError = 1e-13;
+inline constexpr double kSectionMinAx = 0.01;
+
 /// Bull-nose sweep (r > 0, rho > 0) and a line: the entry t0 to ~1e-13 m (regula falsi on the
 /// signed distance between closed-form flat-end brackets). With a finite h it returns false
 /// early when the entry cannot be below h or the exit above 0, and then t1 is only a value in

@@ -1,0 +1,177 @@
+// Chains of level moves along x with a tilted flat-end or bull-nose tool (nbuffer.cpp): each
+// sweep tests only the lines between the lowest points of the tool's sections at its two ends.
+// Checked here: the section's lowest point (section_lowest_x) against a brute-force minimum of
+// the static tool's entry along the row, and whole random chains (both directions, reversals,
+// stops, interruptions in the middle of a chain) on the Z-map against the same lines cut as a
+// general buffer (every line through line_interval, no chains).
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <random>
+#include <vector>
+
+#include "../../removal/src/sweep.hpp"
+#include "removal_test_tools.hpp"
+#include "vmsim/removal/nbuffer.hpp"
+
+namespace vmsim::removal {
+namespace {
+
+constexpr double mm = 1e-3;
+
+using test::make_tool;
+
+// A random tilted axis with |a_x| in [0.01, 0.35] (the chains' condition) and a small a_y.
+Eigen::Vector3d random_axis(std::mt19937& rng) {
+  std::uniform_real_distribution<double> ax(0.01, 0.35), ay(-0.2, 0.2), sign(-1.0, 1.0);
+  return Eigen::Vector3d((sign(rng) < 0.0 ? -1.0 : 1.0) * ax(rng), sign(rng) < -0.5 ? 0.0 : ay(rng), 1.0).normalized();
+}
+
+// The static tool's entry on the vertical line (x, y) [m], +inf where it misses.
+double static_entry(const detail::Sweep& s, double x, double y) {
+  double t0 = 0.0, t1 = 0.0;
+  if (!detail::line_interval(s, Eigen::Vector3d(x, y, -1.0), Eigen::Vector3d::UnitZ(), t0, t1)) return detail::kInf;
+  return t0 - 1.0;
+}
+
+TEST(NBufferChains, SectionLowestPointMatchesBruteForce) {
+  std::mt19937 rng(3);
+  std::uniform_real_distribution<double> unit(0.0, 1.0);
+  int checked = 0, exact_heights = 0;
+  for (int trial = 0; trial < 40; ++trial) {
+    const bool bull = trial % 2 == 1;
+    const double rho = (1.0 + 2.0 * unit(rng)) * mm, r = bull ? (0.3 + unit(rng)) * mm : 0.0;
+    const double ell = (2.0 + 6.0 * unit(rng)) * mm;
+    const Eigen::Vector3d a = random_axis(rng);
+    const detail::Sweep s = detail::make_sweep(Eigen::Vector3d::Zero(), Eigen::Vector3d::Zero(), a, rho, r, ell);
+    double x_lo = 0.0, x_hi = 0.0;
+    // Planes beyond the tool's y extent miss it.
+    EXPECT_FALSE(detail::section_lowest_x(s, s.hi.y() + 1e-6, x_lo, x_hi));
+    EXPECT_FALSE(detail::section_lowest_x(s, s.lo.y() - 1e-6, x_lo, x_hi));
+    for (int row = 0; row < 8; ++row) {
+      const double y = s.lo.y() + (0.03 + 0.94 * unit(rng)) * (s.hi.y() - s.lo.y());
+      double z_low = 0.0, z_point = 0.0;
+      ASSERT_TRUE(detail::section_lowest_x(s, y, x_lo, x_hi, &z_low, &z_point)) << trial;
+      // The brute force: the entry along the row on a dense grid, then golden section between
+      // the best sample's neighbours (the entry is convex along the row).
+      const int n = 1500;
+      const double step = (s.hi.x() - s.lo.x()) / n;
+      int best = -1;
+      double best_z = detail::kInf;
+      for (int i = 0; i <= n; ++i) {
+        const double z = static_entry(s, s.lo.x() + i * step, y);
+        if (z < best_z) best_z = z, best = i;
+      }
+      if (best < 0) continue;  // the row only grazes the tool
+      double lo = s.lo.x() + std::max(best - 1, 0) * step, hi = s.lo.x() + std::min(best + 1, n) * step;
+      for (int k = 0; k < 100; ++k) {
+        const double m1 = lo + (hi - lo) / 3.0, m2 = hi - (hi - lo) / 3.0;
+        if (static_entry(s, m1, y) <= static_entry(s, m2, y)) {
+          hi = m2;
+        } else {
+          lo = m1;
+        }
+      }
+      double x_min = 0.5 * (lo + hi), precision = 1e-8;
+      if (!(static_entry(s, x_min, y) <= best_z)) {  // the refinement left the tool (a row grazing it)
+        x_min = s.lo.x() + best * step;
+        precision = step;
+      }
+      // The lowest point lies in the interval (to the brute force's precision), and the
+      // interval is tight.
+      EXPECT_GE(x_min, x_lo - precision) << trial << " row " << row;
+      EXPECT_LE(x_min, x_hi + precision) << trial << " row " << row;
+      EXPECT_LT(x_hi - x_lo, 1e-6) << trial << " row " << row;
+      // Its height: bounded from below, and where given, the brute force's minimum (which
+      // the golden section finds to ~1e-13 m).
+      const double z_brute = std::min(best_z, static_entry(s, x_min, y));
+      EXPECT_LE(z_low, z_brute + 1e-13) << trial << " row " << row;
+      if (std::isfinite(z_point) && precision < step) {  // (not where the row only grazes the tool)
+        EXPECT_NEAR(z_point, z_brute, 2e-13) << trial << " row " << row;
+        ++exact_heights;
+      }
+      // Lines beyond the interval enter higher, the farther the higher.
+      for (double d : {1e-6, 1e-5, 1e-4}) {
+        EXPECT_GE(static_entry(s, x_hi + 2 * d, y), static_entry(s, x_hi + d, y) - 1e-13);
+        EXPECT_GE(static_entry(s, x_lo - 2 * d, y), static_entry(s, x_lo - d, y) - 1e-13);
+      }
+      ++checked;
+    }
+  }
+  EXPECT_GT(checked, 250);
+  EXPECT_GT(exact_heights, 200);
+}
+
+// Random passes along x with one tilted axis each: segments of random length, sometimes a
+// reversal or a stop (both end a chain), a step in y between passes.
+std::vector<Pose> random_chains(std::mt19937& rng, double z_mm) {
+  std::uniform_real_distribution<double> unit(0.0, 1.0);
+  std::vector<Pose> path;
+  for (int pass = 0; pass < 4; ++pass) {
+    const Eigen::Vector3d a = random_axis(rng);
+    double x = -1.5 + 3.0 * unit(rng), dir = unit(rng) < 0.5 ? 1.0 : -1.0;
+    const double y = -1.2 + 0.8 * pass + 0.2 * unit(rng);
+    for (int k = 0; k < 12; ++k) {
+      path.push_back(Pose{Eigen::Vector3d(x, y, z_mm) * mm, a});
+      const double u = unit(rng);
+      if (u < 0.1) dir = -dir;             // reversal
+      if (u > 0.93) continue;              // stop: the same pose twice
+      x += dir * (0.05 + 0.25 * unit(rng));
+      if (std::abs(x) > 2.0) dir = -dir;
+    }
+  }
+  return path;
+}
+
+void expect_chains_exact(const Tool& tool, std::uint32_t seed, double tolerance_m, double spacing_mm, int stop_after_batches) {
+  std::mt19937 rng(seed);
+  const Box stock{Eigen::Vector3d(-3, -3, 0) * mm, Eigen::Vector3d(3, 3, 5) * mm};
+  NBuffer zmap = NBuffer::zmap(stock, spacing_mm * mm);
+  std::vector<Eigen::Vector3d> origins, directions;
+  std::vector<double> lengths;
+  for (int j = 0; j < zmap.nv(); ++j) {
+    for (int i = 0; i < zmap.nu(); ++i) {
+      origins.push_back(zmap.origin(i, j));
+      directions.push_back(Eigen::Vector3d::UnitZ());
+      lengths.push_back(zmap.length(i, j));
+    }
+  }
+  NBuffer general = NBuffer::lines(zmap.nu(), zmap.nv(), origins, directions, lengths);
+  const std::vector<Pose> path = random_chains(rng, 4.85);
+  CutOptions options;
+  options.batch_segments = 9;  // batches end in the middle of chains
+  // The axis turns between passes: coarse sub-steps there (both buffers cut the same sweeps).
+  options.orientation_tolerance_m = 20e-6;
+  int batches = 0;
+  if (stop_after_batches > 0) options.interrupted = [&](double) { return ++batches >= stop_after_batches; };
+  const CutStatistics stats = zmap.cut(tool, path, options);
+  batches = 0;
+  general.cut(tool, path, options);
+  EXPECT_EQ(stats.interrupted, stop_after_batches > 0);
+  double worst = 0.0;
+  std::size_t lowered = 0;
+  for (int j = 0; j < zmap.nv(); ++j) {
+    for (int i = 0; i < zmap.nu(); ++i) {
+      worst = std::max(worst, std::abs(zmap.length(i, j) - general.length(i, j)));
+      lowered += zmap.length(i, j) < 5 * mm;
+    }
+  }
+  EXPECT_LT(worst, tolerance_m) << "seed " << seed;
+  EXPECT_GT(lowered, 300u) << "seed " << seed;
+}
+
+TEST(NBufferChains, FlatChainsEqualGeneralLines) {
+  const Tool flat = make_tool(ToolType::flat, 3, 0, 3);
+  for (std::uint32_t seed : {1u, 2u, 3u}) expect_chains_exact(flat, seed, 1e-12, 0.05, 0);
+  expect_chains_exact(flat, 4, 1e-12, 0.05, 2);  // stopped in the middle of a chain
+}
+
+TEST(NBufferChains, BullChainsEqualGeneralLines) {
+  const Tool bull = make_tool(ToolType::bull, 3, 0.6, 3);
+  // A coarser grid: the general buffer computes every line of every tile the long way.
+  for (std::uint32_t seed : {5u, 6u}) expect_chains_exact(bull, seed, 1e-11, 0.12, 0);
+  expect_chains_exact(bull, 7, 1e-11, 0.12, 3);
+}
+
+}  // namespace
+}  // namespace vmsim::removal
