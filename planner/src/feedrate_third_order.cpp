@@ -735,9 +735,9 @@ class ThirdOrderLp {
   }
 
   /// Calls found(slot, violation) for every inactive half-row of regular grid segment k that
-  /// its x and u violate: the rows of slot_terms evaluated family by family (the same terms
-  /// and activity as slot_terms and terms_activity, without decoding each slot), the others
-  /// built. With `next_shares_point` (the next grid segment is in the same node span) the
+  /// its x and u violate: the rows of slot_terms evaluated family by family, both sides of a
+  /// row at once (the same values as slot_terms' terms, without decoding each slot), the
+  /// others built. With `next_shares_point` (the next grid segment is in the same node span) the
   /// second-order rows of the right end are left to that segment's left end: the same rows at
   /// the same point in the same columns.
   template <class Found>
@@ -748,66 +748,54 @@ class ThirdOrderLp {
     const double b = (u_[k + 1] - u_[k]) / delta;
     const std::size_t c = node_of_segment_[k];
     const double u_slope = (un_[c + 1] - un_[c]) / (p_.s[nodes_[c + 1]] - p_.s[nodes_[c]]);
-    RowTerms t;
-    auto check = [&](std::size_t slot, double x, double u) {
-      double a = t.cx * x + t.cu * u;
-      if (t.cup != 0.0) a += t.cup * u_slope;
-      const double violation = std::max(a - t.hi, t.lo - a);
-      if (violation > kRowTolerance) found(slot, violation);
-    };
     auto x_at = [&](double sigma) { return x_[k] + sigma * (2.0 * u_[k] + b * sigma); };
     const double x_ends[2] = {x_at(0.0), x_at(delta)};
     const double u_ends[2] = {u_[k], u_[k] + b * delta};
     const double x_middle = x_at(0.5 * delta), u_middle = u_[k] + b * 0.5 * delta;
     const double middle_q = 0.5 * (lin_[k] + lin_[k + 1]);
+    // Second-order rows, both sides at once (second_order_terms: sqrt(x) by its tangent at q on
+    // the side where that tightens the row, by its chord on [0, x_max] on the other).
+    auto check2 = [&](std::size_t slot0, const Row2* rows, double q, double x_max, double x, double u) {
+      const double root = std::sqrt(std::max(q, 1e-300));
+      const double tangent = 0.5 * x / root + 0.5 * root, chord = x_max > 0.0 ? x / std::sqrt(x_max) : 0.0;
+      for (std::size_t r = 0; r < n2; ++r) {
+        const std::size_t slot = slot0 + 2 * r;
+        if (active[slot] && active[slot + 1]) continue;
+        const Row2& row = rows[r];
+        const double linear = row.A * u + row.B * x + row.C + row.E;
+        const double upper = (linear + row.D * (row.D > 0.0 ? tangent : chord)) / row.L;
+        const double lower = (linear + row.D * (row.D < 0.0 ? tangent : chord)) / row.L;
+        if (!active[slot] && upper - 1.0 > kRowTolerance) found(slot, upper - 1.0);
+        if (!active[slot + 1] && -1.0 - lower > kRowTolerance) found(slot + 1, -1.0 - lower);
+      }
+    };
     for (int end = 0; end < 2; ++end) {
       const std::size_t i = k + static_cast<std::size_t>(end);
       if (end == 1 && next_shares_point && p_.incoming[i] < 0) break;
-      const Row2* rows = p_.rows2(k, end);
-      for (std::size_t r = 0; r < n2; ++r) {
-        for (int side = 0; side < 2; ++side) {
-          const std::size_t slot = static_cast<std::size_t>(end) * 2 * n2 + 2 * r + static_cast<std::size_t>(side);
-          if (active[slot]) continue;
-          t = RowTerms{};
-          second_order_terms(rows[r], side, lin_[i], x_upper_[i], t);
-          check(slot, x_ends[end], u_ends[end]);
-        }
-      }
+      check2(static_cast<std::size_t>(end) * 2 * n2, p_.rows2(k, end), lin_[i], x_upper_[i], x_ends[end], u_ends[end]);
     }
-    const Row2* middle2 = p_.rows2mid(k);
-    const double middle_x_max = 1.5 * std::max(x_upper_[k], x_upper_[k + 1]);
-    for (std::size_t r = 0; r < n2; ++r) {
-      for (int side = 0; side < 2; ++side) {
-        const std::size_t slot = 4 * n2 + 2 * r + static_cast<std::size_t>(side);
-        if (active[slot]) continue;
-        t = RowTerms{};
-        second_order_terms(middle2[r], side, middle_q, middle_x_max, t);
-        check(slot, x_middle, u_middle);
+    check2(4 * n2, p_.rows2mid(k), middle_q, 1.5 * std::max(x_upper_[k], x_upper_[k + 1]), x_middle, u_middle);
+    // Third-order rows, both sides at once (third_order_terms: the sides differ only in the
+    // tangent's sign and the bound).
+    auto check3 = [&](std::size_t slot0, const Row3* rows, double q, double u_now, double x, double u) {
+      const double rq = std::sqrt(q), tangent = 0.5 * x / q;
+      for (std::size_t r = 0; r < n3; ++r) {
+        const std::size_t slot = slot0 + 2 * r;
+        if (active[slot] && active[slot + 1]) continue;
+        const Row3& row = rows[r];
+        const double inverse_scale = rq / row.L;
+        const double viscous = row.V * rq + (row.Z != 0.0 ? row.Z * u_now / rq : 0.0);
+        const double base = inverse_scale * (row.P * u_slope + row.R * u + row.S * x + row.W + viscous);
+        const double over = base + tangent - 1.5, under = -1.5 - (base - tangent);
+        if (!active[slot] && over > kRowTolerance) found(slot, over);
+        if (!active[slot + 1] && under > kRowTolerance) found(slot + 1, under);
       }
-    }
+    };
     for (int end = 0; end < 2; ++end) {
       const std::size_t i = k + static_cast<std::size_t>(end);
-      const Row3* rows = p_.rows3(k, end);
-      for (std::size_t r = 0; r < n3; ++r) {
-        for (int side = 0; side < 2; ++side) {
-          const std::size_t slot = 6 * n2 + static_cast<std::size_t>(end) * 2 * n3 + 2 * r + static_cast<std::size_t>(side);
-          if (active[slot]) continue;
-          t = RowTerms{};
-          third_order_terms(rows[r], side, lin_[i], u_[i], t);
-          check(slot, x_ends[end], u_ends[end]);
-        }
-      }
+      check3(6 * n2 + static_cast<std::size_t>(end) * 2 * n3, p_.rows3(k, end), lin_[i], u_[i], x_ends[end], u_ends[end]);
     }
-    const Row3* middle3 = p_.rows3mid(k);
-    for (std::size_t r = 0; r < n3; ++r) {
-      for (int side = 0; side < 2; ++side) {
-        const std::size_t slot = per_end_ + per_inside_ + 2 * r + static_cast<std::size_t>(side);
-        if (active[slot]) continue;
-        t = RowTerms{};
-        third_order_terms(middle3[r], side, middle_q, 0.5 * (u_[k] + u_[k + 1]), t);
-        check(slot, x_middle, u_middle);
-      }
-    }
+    check3(per_end_ + per_inside_, p_.rows3mid(k), middle_q, 0.5 * (u_[k] + u_[k + 1]), x_middle, u_middle);
     // The x range at the right end and the rows for the inside: built (the inside's
     // third-order rows exist only where u crosses zero downwards).
     const bool peaks_inside = u_[k] > 0.0 && u_[k + 1] < 0.0;
