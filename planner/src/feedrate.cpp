@@ -696,6 +696,9 @@ FeedratePlan plan_feedrate(const kinematics::MachineModel& machine,
   for (auto& v : plan.profile.axis_by_kind) v.assign(points, -1);
   const kinematics::PathTorqueCoefficients no_coefficients;  // kinematic mode (a reference, not a copy per row)
   EndData e, e_right;  // e_right: at the previous segment's right end
+  std::vector<double> sd3_max(p.n3, kInf);  // per third-order row at the current end: its sd_lim (sdd = sddd = 0)
+  std::vector<long> row3_of_axis(axes, -1);
+  for (std::size_t r = 0; r < p.n3; ++r) row3_of_axis[axes3[r]] = static_cast<long>(r);
   kinematics::PathTorqueCoefficients c_right;
   // The third-order row of axis j where the spline's derivatives are d (and, dynamic, the path
   // torque coefficients c).
@@ -773,10 +776,11 @@ FeedratePlan plan_feedrate(const kinematics::MachineModel& machine,
       // Third order: the paper's sd_lim for jerk / torque rate (sdd = sddd = 0) caps x too, so
       // that the second-order profile the third-order passes steer by already slows down where
       // sd^3 q_sss (or its torque-rate counterpart) alone reaches the limit.
+      // (At a shared end, the rows and so their sd_max are the previous right end's.)
       for (std::size_t r = 0; r < p.n3; ++r) {
         const Row3& row = rows3[r];
-        const double sd_max = detail::first_exit(0.0, row.W, row.V, row.S, row.L);
-        if (std::isfinite(sd_max)) cap = std::min(cap, sd_max * sd_max);
+        if (!shared) sd3_max[r] = detail::first_exit(0.0, row.W, row.V, row.S, row.L);
+        if (std::isfinite(sd3_max[r])) cap = std::min(cap, sd3_max[r] * sd3_max[r]);
       }
       p.cap_end[2 * k + static_cast<std::size_t>(end)] = cap;
 
@@ -803,8 +807,8 @@ FeedratePlan plan_feedrate(const kinematics::MachineModel& machine,
             put(ConstraintKind::torque, detail::first_exit(c.c(jj) + c.e(jj), c.d(jj), c.b(jj), 0.0, L[j].torque_N_m), a);
           }
           if (options.third_order && L[j].torque_rate_N_m_per_s > 0.0) {
-            put(ConstraintKind::torque_rate,
-                detail::first_exit(0.0, c.c_s(jj), c.d_s(jj), c.b_s(jj), L[j].torque_rate_N_m_per_s), a);
+            // The row's own polynomial (row3: W = c_s, V = d_s, S = b_s), solved just above.
+            put(ConstraintKind::torque_rate, sd3_max[static_cast<std::size_t>(row3_of_axis[j])], a);
           }
         }
       }
