@@ -157,6 +157,17 @@ double detail::first_exit(double p0, double p1, double p2, double p3, double L) 
   return kInf;
 }
 
+std::vector<double> detail::middle_c1_bounds(const Problem& p, const std::vector<double>& cap,
+                                             const std::vector<double>& slow) {
+  std::vector<double> bound(p.segments(), kInf);
+  for (std::size_t k = 0; k < bound.size(); ++k) {
+    const double middle = p.cap_mid[k] * std::min(slow[k], slow[k + 1]);
+    const double b = 2.0 * middle - 0.5 * (cap[k] + cap[k + 1]);
+    if (std::isfinite(b)) bound[k] = std::max(b, 0.0);
+  }
+  return bound;
+}
+
 namespace {
 
 struct EndData {  // path derivatives at one segment end
@@ -684,6 +695,7 @@ FeedratePlan plan_feedrate(const kinematics::MachineModel& machine,
   p.r3.resize(2 * segments * p.n3);
   p.r3mid.resize(segments * p.n3);
   p.cap_end.assign(2 * segments, kInf);
+  p.cap_mid.assign(segments, kInf);
   auto feed_of_segment = [&](std::size_t k) {
     if (options.feed_m_per_s > 0.0) return options.feed_m_per_s;
     const std::size_t point = p.seg[k] + 1;
@@ -727,6 +739,13 @@ FeedratePlan plan_feedrate(const kinematics::MachineModel& machine,
       }
       Row3* rows3 = p.r3mid.data() + k * p.n3;
       for (std::size_t r = 0; r < p.n3; ++r) rows3[r] = row3(c, e, L[axes3[r]], idx(axes3[r]));
+      const double feed = feed_of_segment(k);
+      double cap = feed * feed;
+      for (std::size_t j = 0; j < axes; ++j) {
+        const double qs = std::abs(e.q_s(idx(j)));
+        if (L[j].velocity > 0.0 && qs > 0.0) cap = std::min(cap, (L[j].velocity / qs) * (L[j].velocity / qs));
+      }
+      p.cap_mid[k] = cap;
     }
     for (int end = 0; end < 2; ++end) {
       const double sigma = p.sigma0[k] + (end == 0 ? 0.0 : p.delta(k));
@@ -907,7 +926,7 @@ FeedratePlan plan_feedrate(const kinematics::MachineModel& machine,
     }
     if (p.n3 > 0) {
       // Third order under the second-order profile (an upper bound), every stretch at once.
-      if (!detail::plan_third_order(p, stretches, x2, third)) {
+      if (!detail::plan_third_order(p, stretches, x2, detail::middle_c1_bounds(p, cap, slow), third)) {
         if (round + 1 >= options.max_verification_rounds) {
           throw InfeasibleError(
               "feedrate interpolation: no jerk/torque-rate admissible profile found (the linear "

@@ -51,6 +51,7 @@ struct Problem {
   std::vector<Row3> r3mid;       // (k * n3 + r): at the middle of each segment
   std::vector<double> cap_end;   // x cap at (2 k + end): velocity and feed
   std::vector<double> cap_pt;    // x cap at the points (min over the ends there; 0 at stops)
+  std::vector<double> cap_mid;   // x cap at the middle of each segment: velocity and feed
   std::size_t segments() const { return s.size() - 1; }
   double delta(std::size_t k) const { return s[k + 1] - s[k]; }
   const Row2* rows2mid(std::size_t k) const { return r2mid.data() + k * n2; }
@@ -94,8 +95,20 @@ struct ThirdOrderProfile {
 };
 
 /// Plans every stretch under x <= x_upper (the second-order time-optimal profile, 0 at stops);
-/// see feedrate.hpp for the method. Returns false when no linear programme could be solved.
+/// see feedrate.hpp for the method. c1_upper (per grid segment): a bound on the middle
+/// Bernstein coefficient c1 = x0 + h u0 that keeps x at the segment's middle under the x cap
+/// there (see middle_c1_bounds). Returns false when no linear programme could be solved.
 bool plan_third_order(const Problem& p, const std::vector<std::pair<std::size_t, std::size_t>>& stretches,
-                      const std::vector<double>& x_upper, ThirdOrderProfile& out);
+                      const std::vector<double>& x_upper, const std::vector<double>& c1_upper,
+                      ThirdOrderProfile& out);
+
+/// Per grid segment, the bound on c1 under which x at the middle, (x0 + 2 c1 + x1) / 4, stays
+/// below cap_mid given x0 <= cap[k] and x1 <= cap[k + 1] (the scaled point caps): c1 <=
+/// 2 cap_mid - (cap[k] + cap[k + 1]) / 2, at least 0 (x = u = 0 stays feasible). Where the cap
+/// is concave between the points it is looser than the chord the programme already holds;
+/// where it dips (a rotary axis turning fast in a singular zone) it keeps the set points' speed
+/// under it between the points.
+std::vector<double> middle_c1_bounds(const Problem& p, const std::vector<double>& cap,
+                                     const std::vector<double>& slow);
 
 }  // namespace vmsim::planner::detail

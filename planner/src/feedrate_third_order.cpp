@@ -92,9 +92,10 @@ struct Form {
 class ThirdOrderLp {
  public:
   ThirdOrderLp(const Problem& p, const std::vector<std::pair<std::size_t, std::size_t>>& stretches,
-               const std::vector<double>& x_upper)
+               const std::vector<double>& x_upper, const std::vector<double>& c1_upper)
       : p_(p),
         x_upper_(x_upper),
+        c1_upper_(c1_upper),
         points_(p.s.size()),
         per_end_(6 * p.n2 + 4 * p.n3 + 2),
         per_inside_(2 + 4 * p.n3),
@@ -445,10 +446,12 @@ class ThirdOrderLp {
       // (with x ~ 0 at a grid point of a near stop, the quadratic through the ends could dip
       // below 0 inside: a motion that never reaches the next point; the set points then fell
       // back on a quintic 25 times over the jerk limit on the dense test path).
+      // The upper side also holds c1 under c1_upper (x under the cap at the middle, where the
+      // cap dips between the points).
       const double x_mean = 0.5 * (x_upper_[k] + x_upper_[k + 1]);
       const double scale = std::max(x_mean, 1e-300);
       add_form(h, c1, 1.0 / scale);
-      if (side == 0) h.hi = x_mean / scale; else h.lo = 0.0;
+      if (side == 0) h.hi = std::min(x_mean, c1_upper_[k]) / scale; else h.lo = 0.0;
       return;
     }
     const std::size_t r = ((slot - 2) / 2) % p_.n3;
@@ -904,6 +907,7 @@ class ThirdOrderLp {
 
   const Problem& p_;
   const std::vector<double>& x_upper_;
+  const std::vector<double>& c1_upper_;  // per grid segment: c1 keeps x under the cap at the middle
   std::size_t points_;
   std::size_t per_end_;  // half-row slots per regular grid segment at its ends and middle
   std::size_t per_inside_;  // half-row slots of interior_half_row
@@ -931,7 +935,8 @@ class ThirdOrderLp {
 }  // namespace
 
 bool plan_third_order(const Problem& p, const std::vector<std::pair<std::size_t, std::size_t>>& stretches,
-                      const std::vector<double>& x_upper, ThirdOrderProfile& out) {
+                      const std::vector<double>& x_upper, const std::vector<double>& c1_upper,
+                      ThirdOrderProfile& out) {
   // One programme per stretch (they only meet at stops, where x = u = 0): the simplex's work
   // grows faster than the size, so many small programmes beat one large.
   out.x.assign(p.s.size(), 0.0);
@@ -954,8 +959,9 @@ bool plan_third_order(const Problem& p, const std::vector<std::pair<std::size_t,
     local.r3.assign(p.r3.begin() + from(2 * k0 * p.n3), p.r3.begin() + from(2 * k1 * p.n3));
     local.r3mid.assign(p.r3mid.begin() + from(k0 * p.n3), p.r3mid.begin() + from(k1 * p.n3));
     const std::vector<double> upper(x_upper.begin() + from(k0), x_upper.begin() + from(k1) + 1);
+    const std::vector<double> c1_bound(c1_upper.begin() + from(k0), c1_upper.begin() + from(k1));
     ThirdOrderProfile part;
-    ThirdOrderLp lp(local, {{0, k1 - k0}}, upper);
+    ThirdOrderLp lp(local, {{0, k1 - k0}}, upper, c1_bound);
     if (!lp.solve(part)) return false;
     out.iterations += part.iterations;
     std::copy(part.x.begin(), part.x.end(), out.x.begin() + from(k0));
