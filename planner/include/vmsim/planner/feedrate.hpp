@@ -38,7 +38,9 @@
 //    quadratic and peaks between the ends where u crosses zero downwards: there the rows are
 //    imposed once more at the middle Bernstein coefficient of x, c1 = x0 + h u0
 //    (min(x0, c1, x1) <= x <= max(x0, c1, x1)): 0 <= c1 <= the mean of the upper bound at the
-//    ends, and the third-order rows of both ends with x = c1 (exact on a straight move; without
+//    ends and <= 2 cap_mid - the mean of the point caps (x at the middle under the velocity /
+//    feed cap there, where it dips between the points: path 2's singular zone), and the
+//    third-order rows of both ends with x = c1 (exact on a straight move; without
 //    them a line on 10-50 grid segments exceeded its speed limit by 0.2 % between grid points,
 //    part 1's rapids their jerk, and near stops x dipped below 0 inside a segment: a motion
 //    that never reaches the next point). Each programme maximises the
