@@ -157,14 +157,18 @@ double parallelogram_distance(const Sweep& s, const Eigen::Vector3d& p) {
 
 }  // namespace
 
-double distance_2d(double px, double py, double ax, double ay, double bx, double by) {
+double distance_2d_squared(double px, double py, double ax, double ay, double bx, double by) {
   const double dx = bx - ax, dy = by - ay;
   const double wx = px - ax, wy = py - ay;
   const double dd = dx * dx + dy * dy;
   double s = dd > 0.0 ? (wx * dx + wy * dy) / dd : 0.0;
   s = std::clamp(s, 0.0, 1.0);
   const double ex = wx - s * dx, ey = wy - s * dy;
-  return std::sqrt(ex * ex + ey * ey);
+  return ex * ex + ey * ey;
+}
+
+double distance_2d(double px, double py, double ax, double ay, double bx, double by) {
+  return std::sqrt(distance_2d_squared(px, py, ax, ay, bx, by));
 }
 
 Sweep make_sweep(const Eigen::Vector3d& c0, const Eigen::Vector3d& c1, const Eigen::Vector3d& a,
