@@ -187,9 +187,10 @@ namespace {
 // Distance in the plane from a box to a segment (0 when they meet).
 double box_segment_distance(double x0, double y0, double x1, double y1, double ax, double ay,
                             double bx, double by) {
+  // (Squared distances, one root at the end: the root is monotonic, so the result is the same.)
   auto point_box = [&](double px, double py) {
     const double dx = std::max({x0 - px, 0.0, px - x1}), dy = std::max({y0 - py, 0.0, py - y1});
-    return std::sqrt(dx * dx + dy * dy);
+    return dx * dx + dy * dy;
   };
   // Segment crossing the box (Liang-Barsky).
   double t0 = 0.0, t1 = 1.0;
@@ -201,9 +202,10 @@ double box_segment_distance(double x0, double y0, double x1, double y1, double a
     return t0 <= t1;
   };
   if (clip(-dx, ax - x0) && clip(dx, x1 - ax) && clip(-dy, ay - y0) && clip(dy, y1 - ay)) return 0.0;
-  return std::min({point_box(ax, ay), point_box(bx, by),
-                   detail::distance_2d(x0, y0, ax, ay, bx, by), detail::distance_2d(x1, y0, ax, ay, bx, by),
-                   detail::distance_2d(x0, y1, ax, ay, bx, by), detail::distance_2d(x1, y1, ax, ay, bx, by)});
+  return std::sqrt(std::min({point_box(ax, ay), point_box(bx, by), detail::distance_2d_squared(x0, y0, ax, ay, bx, by),
+                             detail::distance_2d_squared(x1, y0, ax, ay, bx, by),
+                             detail::distance_2d_squared(x0, y1, ax, ay, bx, by),
+                             detail::distance_2d_squared(x1, y1, ax, ay, bx, by)}));
 }
 
 }  // namespace
@@ -231,12 +233,14 @@ static bool may_cut(const Sweep& s, const Eigen::Vector3d& lo, const Eigen::Vect
     if (s.hi[i] < lo[i] || s.lo[i] > hi[i]) return false;
   }
   if (!zmap) return true;
-  const double d = box_segment_distance(lo.x(), lo.y(), hi.x(), hi.y(), s.c0.x(), s.c0.y(), s.c1.x(), s.c1.y());
-  if (detail::lowest_z_beyond(s, d) >= hi.z()) return false;
+  // (The cheap plane test first: it rejects most tiles of a tilted tool, and the planar distance
+  // costs several square roots.)
   if (!s.vertical && s.a.z() > 0.0) {
     const double reach = s.a.x() * (s.a.x() > 0.0 ? hi.x() : lo.x()) + s.a.y() * (s.a.y() > 0.0 ? hi.y() : lo.y());
     if ((s.amin - reach) / s.a.z() >= hi.z()) return false;
   }
+  const double d = box_segment_distance(lo.x(), lo.y(), hi.x(), hi.y(), s.c0.x(), s.c0.y(), s.c1.x(), s.c1.y());
+  if (detail::lowest_z_beyond(s, d) >= hi.z()) return false;
   if (behind_is_cut(s, hi.z())) {
     const double dx = s.c1.x() - s.c0.x(), dy = s.c1.y() - s.c0.y();
     const double ahead = (dx > 0.0 ? hi.x() : lo.x()) - s.c0.x();

@@ -157,14 +157,18 @@ double parallelogram_distance(const Sweep& s, const Eigen::Vector3d& p) {
 
 }  // namespace
 
-double distance_2d(double px, double py, double ax, double ay, double bx, double by) {
+double distance_2d_squared(double px, double py, double ax, double ay, double bx, double by) {
   const double dx = bx - ax, dy = by - ay;
   const double wx = px - ax, wy = py - ay;
   const double dd = dx * dx + dy * dy;
   double s = dd > 0.0 ? (wx * dx + wy * dy) / dd : 0.0;
   s = std::clamp(s, 0.0, 1.0);
   const double ex = wx - s * dx, ey = wy - s * dy;
-  return std::sqrt(ex * ex + ey * ey);
+  return ex * ex + ey * ey;
+}
+
+double distance_2d(double px, double py, double ax, double ay, double bx, double by) {
+  return std::sqrt(distance_2d_squared(px, py, ax, ay, bx, by));
 }
 
 Sweep make_sweep(const Eigen::Vector3d& c0, const Eigen::Vector3d& c1, const Eigen::Vector3d& a,
@@ -224,11 +228,15 @@ namespace {
 
 // The largest axial position of the core (lambda in [0, ell]) at which a tool of the motion
 // c0 -> c1, a0 -> a1 (slerp by theta) can meet the box: along each face normal n the tool's
-// points at lambda satisfy n . p >= min n . c + lambda min n . a - (rho + r), and over the arc
-// n . a >= min(n . a0, n . a1) - (1 - cos(theta / 2)) (the arc's sagitta).
+// points at lambda satisfy n . p >= min n . c + lambda min n . a - rho |n - (n . a) a| - r, and
+// over the arc n . a >= na = min(n . a0, n . a1) - (1 - cos(theta / 2)) (the arc's sagitta;
+// with na > 0 the arc's least n . a is at an end), so |n - (n . a) a| = sqrt(1 - (n . a)^2) <=
+// sqrt(1 - na^2): the disc of a tool steep to the face reaches it by far less than rho (a
+// 10 deg tilted disc dips 0.17 rho below its centre), which shortens the tool and so the
+// sub-step count.
 double reachable_length(const Box& box, const Eigen::Vector3d& c0, const Eigen::Vector3d& c1,
-                        const Eigen::Vector3d& a0, const Eigen::Vector3d& a1, double theta, double reach,
-                        double ell) {
+                        const Eigen::Vector3d& a0, const Eigen::Vector3d& a1, double theta, double rho,
+                        double r, double ell) {
   const double sag = 1.0 - std::cos(0.5 * theta);
   double best = ell;
   for (int i = 0; i < 3; ++i) {
@@ -237,6 +245,7 @@ double reachable_length(const Box& box, const Eigen::Vector3d& c0, const Eigen::
       const double na = std::min(sign * a0[i], sign * a1[i]) - sag;
       if (na <= 0.0) continue;
       const double nc = std::min(sign * c0[i], sign * c1[i]);
+      const double reach = rho * std::sqrt(std::max(0.0, (1.0 - na) * (1.0 + na))) + r;
       best = std::min(best, std::max(0.0, (face + reach - nc) / na));
     }
   }
@@ -253,7 +262,7 @@ void split_segment(const Tool& tool, const Pose& pose0, const Pose& pose1, doubl
   const Eigen::Vector3d c0 = pose0.tip_W_m + r * a0, c1 = pose1.tip_W_m + r * a1;
   const double theta = std::atan2(a0.cross(a1).norm(), a0.dot(a1));
   const bool vertical = a0 == Eigen::Vector3d::UnitZ() && a1 == Eigen::Vector3d::UnitZ();
-  if (material && !vertical) ell = reachable_length(*material, c0, c1, a0, a1, theta, rho + r, ell);
+  if (material && !vertical) ell = reachable_length(*material, c0, c1, a0, a1, theta, rho, r, ell);
   if (theta == 0.0) {
     out.push_back(make_sweep(c0, c1, a0, rho, r, ell));
     return;

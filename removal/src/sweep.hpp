@@ -216,6 +216,8 @@ double signed_distance(const Sweep& s, const Eigen::Vector3d& p);
 
 /// Distance in the plane from (px, py) to the 2-D segment (ax, ay)-(bx, by).
 double distance_2d(double px, double py, double ax, double ay, double bx, double by);
+/// Its square (the same arithmetic without the root: a minimum of distances needs one root).
+double distance_2d_squared(double px, double py, double ax, double ay, double bx, double by);
 
 /// Capsule (segment A-B, radius R) against a line: the interval of t; false if it misses.
 bool capsule_interval(const Eigen::Vector3d& A, const Eigen::Vector3d& B, double R,
