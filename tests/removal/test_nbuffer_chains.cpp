@@ -19,6 +19,9 @@ namespace {
 
 constexpr double mm = 1e-3;
 
+using test::BufferDifference;
+using test::compare_lines;
+using test::general_lines_like;
 using test::make_tool;
 
 // A random tilted axis with |a_x| in [0.01, 0.35] (the chains' condition) and a small a_y.
@@ -127,16 +130,7 @@ void expect_chains_exact(const Tool& tool, std::uint32_t seed, double tolerance_
   std::mt19937 rng(seed);
   const Box stock{Eigen::Vector3d(-3, -3, 0) * mm, Eigen::Vector3d(3, 3, 5) * mm};
   NBuffer zmap = NBuffer::zmap(stock, spacing_mm * mm);
-  std::vector<Eigen::Vector3d> origins, directions;
-  std::vector<double> lengths;
-  for (int j = 0; j < zmap.nv(); ++j) {
-    for (int i = 0; i < zmap.nu(); ++i) {
-      origins.push_back(zmap.origin(i, j));
-      directions.push_back(Eigen::Vector3d::UnitZ());
-      lengths.push_back(zmap.length(i, j));
-    }
-  }
-  NBuffer general = NBuffer::lines(zmap.nu(), zmap.nv(), origins, directions, lengths);
+  NBuffer general = general_lines_like(zmap);
   const std::vector<Pose> path = random_chains(rng, 4.85);
   CutOptions options;
   options.batch_segments = 9;  // batches end in the middle of chains
@@ -148,16 +142,9 @@ void expect_chains_exact(const Tool& tool, std::uint32_t seed, double tolerance_
   batches = 0;
   general.cut(tool, path, options);
   EXPECT_EQ(stats.interrupted, stop_after_batches > 0);
-  double worst = 0.0;
-  std::size_t lowered = 0;
-  for (int j = 0; j < zmap.nv(); ++j) {
-    for (int i = 0; i < zmap.nu(); ++i) {
-      worst = std::max(worst, std::abs(zmap.length(i, j) - general.length(i, j)));
-      lowered += zmap.length(i, j) < 5 * mm;
-    }
-  }
-  EXPECT_LT(worst, tolerance_m) << "seed " << seed;
-  EXPECT_GT(lowered, 300u) << "seed " << seed;
+  const BufferDifference difference = compare_lines(zmap, general, 5 * mm);
+  EXPECT_LT(difference.worst_m, tolerance_m) << "seed " << seed;
+  EXPECT_GT(difference.lowered, 300u) << "seed " << seed;
 }
 
 TEST(NBufferChains, FlatChainsEqualGeneralLines) {

@@ -17,6 +17,9 @@ namespace {
 
 constexpr double mm = 1e-3;
 
+using test::BufferDifference;
+using test::compare_lines;
+using test::general_lines_like;
 using test::make_tool;
 
 // Zig-zag finishing passes (0.3 mm stepover, 0.2 mm segments) 0.2 mm into the top of the stock;
@@ -40,30 +43,14 @@ void expect_same_as_general_lines(const Tool& tool, const std::vector<Pose>& pat
                                   double spacing_mm = 0.04) {
   const Box stock{Eigen::Vector3d(-3, -3, 0) * mm, Eigen::Vector3d(3, 3, 5) * mm};
   NBuffer zmap = NBuffer::zmap(stock, spacing_mm * mm);
-  std::vector<Eigen::Vector3d> origins, directions;
-  std::vector<double> lengths;
-  for (int j = 0; j < zmap.nv(); ++j) {
-    for (int i = 0; i < zmap.nu(); ++i) {
-      origins.push_back(zmap.origin(i, j));
-      directions.push_back(Eigen::Vector3d::UnitZ());
-      lengths.push_back(zmap.length(i, j));
-    }
-  }
-  NBuffer general = NBuffer::lines(zmap.nu(), zmap.nv(), origins, directions, lengths);
+  NBuffer general = general_lines_like(zmap);
   CutOptions options;
   options.orientation_tolerance_m = 0.5e-6;
   const CutStatistics stats = zmap.cut(tool, path, options);
   general.cut(tool, path, options);
-  double worst = 0.0;
-  std::size_t lowered = 0;
-  for (int j = 0; j < zmap.nv(); ++j) {
-    for (int i = 0; i < zmap.nu(); ++i) {
-      worst = std::max(worst, std::abs(zmap.length(i, j) - general.length(i, j)));
-      lowered += zmap.length(i, j) < 5 * mm;
-    }
-  }
-  EXPECT_LT(worst, tolerance_m);
-  EXPECT_GT(lowered, 400u);
+  const BufferDifference difference = compare_lines(zmap, general, 5 * mm);
+  EXPECT_LT(difference.worst_m, tolerance_m);
+  EXPECT_GT(difference.lowered, 400u);
   EXPECT_GT(stats.lines_lowered, 400u);
 }
 
