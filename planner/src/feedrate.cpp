@@ -721,6 +721,16 @@ FeedratePlan plan_feedrate(const kinematics::MachineModel& machine,
   kinematics::PathTorqueCoefficients c_right;
   // The third-order row of axis j where the spline's derivatives are d (and, dynamic, the path
   // torque coefficients c).
+  // The x cap of the feed and the axis velocities on grid segment k where the derivatives are d.
+  auto speed_cap = [&](std::size_t k, const EndData& d) {
+    const double feed = feed_of_segment(k);
+    double cap = feed * feed;
+    for (std::size_t j = 0; j < axes; ++j) {
+      const double qs = std::abs(d.q_s(idx(j)));
+      if (L[j].velocity > 0.0 && qs > 0.0) cap = std::min(cap, (L[j].velocity / qs) * (L[j].velocity / qs));
+    }
+    return cap;
+  };
   auto row3 = [&](const kinematics::PathTorqueCoefficients& c, const EndData& d, const AxisLimitValues& limit,
                   Index j) {
     if (dynamic) {
@@ -746,13 +756,7 @@ FeedratePlan plan_feedrate(const kinematics::MachineModel& machine,
       }
       Row3* rows3 = p.r3mid.data() + k * p.n3;
       for (std::size_t r = 0; r < p.n3; ++r) rows3[r] = row3(c, e, L[axes3[r]], idx(axes3[r]));
-      const double feed = feed_of_segment(k);
-      double cap = feed * feed;
-      for (std::size_t j = 0; j < axes; ++j) {
-        const double qs = std::abs(e.q_s(idx(j)));
-        if (L[j].velocity > 0.0 && qs > 0.0) cap = std::min(cap, (L[j].velocity / qs) * (L[j].velocity / qs));
-      }
-      p.cap_mid[k] = cap;
+      p.cap_mid[k] = speed_cap(k, e);
     }
     for (int end = 0; end < 2; ++end) {
       const double sigma = p.sigma0[k] + (end == 0 ? 0.0 : p.delta(k));
@@ -792,13 +796,8 @@ FeedratePlan plan_feedrate(const kinematics::MachineModel& machine,
         }
       }
       for (std::size_t r = 0; r < p.n3; ++r) rows3[r] = row3(c, e, L[axes3[r]], idx(axes3[r]));
-      double cap = kInf;
       const double feed = feed_of_segment(k);
-      cap = std::min(cap, feed * feed);
-      for (std::size_t j = 0; j < axes; ++j) {
-        const double qs = std::abs(e.q_s(idx(j)));
-        if (L[j].velocity > 0.0 && qs > 0.0) cap = std::min(cap, (L[j].velocity / qs) * (L[j].velocity / qs));
-      }
+      double cap = speed_cap(k, e);
       // Third order: the paper's sd_lim for jerk / torque rate (sdd = sddd = 0) caps x too, so
       // that the second-order profile the third-order passes steer by already slows down where
       // sd^3 q_sss (or its torque-rate counterpart) alone reaches the limit.

@@ -19,7 +19,6 @@ namespace {
 
 constexpr double mm = 1e-3;
 
-using test::BufferDifference;
 using test::compare_lines;
 using test::general_lines_like;
 using test::make_tool;
@@ -142,7 +141,7 @@ void expect_chains_exact(const Tool& tool, std::uint32_t seed, double tolerance_
   batches = 0;
   general.cut(tool, path, options);
   EXPECT_EQ(stats.interrupted, stop_after_batches > 0);
-  const BufferDifference difference = compare_lines(zmap, general, 5 * mm);
+  const auto difference = compare_lines(zmap, general, 5 * mm);
   EXPECT_LT(difference.worst_m, tolerance_m) << "seed " << seed;
   EXPECT_GT(difference.lowered, 300u) << "seed " << seed;
 }

@@ -17,7 +17,6 @@ namespace {
 
 constexpr double mm = 1e-3;
 
-using test::BufferDifference;
 using test::compare_lines;
 using test::general_lines_like;
 using test::make_tool;
@@ -48,7 +47,7 @@ void expect_same_as_general_lines(const Tool& tool, const std::vector<Pose>& pat
   options.orientation_tolerance_m = 0.5e-6;
   const CutStatistics stats = zmap.cut(tool, path, options);
   general.cut(tool, path, options);
-  const BufferDifference difference = compare_lines(zmap, general, 5 * mm);
+  const auto difference = compare_lines(zmap, general, 5 * mm);
   EXPECT_LT(difference.worst_m, tolerance_m);
   EXPECT_GT(difference.lowered, 400u);
   EXPECT_GT(stats.lines_lowered, 400u);
