@@ -55,12 +55,13 @@ void run(benchmark::State& state, vmsim::planner::FeedrateOptions options) {
   }
   const PathKinematics p = path(static_cast<std::size_t>(state.range(0)));
   options.max_grid_step_m = 1.0;  // the path points are the grid
-  double duration = 0.0, rounds = 0.0;
+  double duration = 0.0, rounds = 0.0, grid_points = 0.0;
   for (auto _ : state) {
     try {
       auto plan = vmsim::planner::plan_feedrate(machine, p, options);
       duration = plan.duration_s;
       rounds = plan.slowdown_rounds;
+      grid_points = static_cast<double>(plan.profile.s_m.size());
     } catch (const std::exception& error) {
       state.SkipWithError(error.what());
       break;
@@ -69,6 +70,7 @@ void run(benchmark::State& state, vmsim::planner::FeedrateOptions options) {
   }
   state.counters["T_s"] = duration;
   state.counters["slowdown_rounds"] = rounds;
+  state.counters["grid_points"] = grid_points;  // the path points and the refinement near stops
 }
 
 void VelocityAcceleration(benchmark::State& state) {

@@ -89,14 +89,12 @@ TEST_P(StraightLineJerk, DurationEqualsSevenPhaseProfile) {
   EXPECT_LE(plan.lower_bound_s, plan.duration_s);
 }
 
+// The third: jerk ramps of 1 mm from rest (about 20 path segments; the grid is refined there,
+// see GridRefinement in feedrate.cpp: 0.17 % over the optimum without it, 0.04 % with it).
 INSTANTIATE_TEST_SUITE_P(Cases, StraightLineJerk,
                          ::testing::Values(LineCase{0.3, 0.5, 2.5, 20.0},   // a and v reached
-                                           LineCase{1.0, 0.5, 2.1, 5.0}));  // v reached, a not
-
-// Known gap (run with --gtest_also_run_disabled_tests): with j = 50 m/s^3 the jerk ramps cover
-// only ~20 grid segments and the piecewise-linear u loses 0.17 % against the optimum.
-INSTANTIATE_TEST_SUITE_P(DISABLED_ShortRamps, StraightLineJerk,
-                         ::testing::Values(LineCase{0.5, 0.5, 2.5, 50.0}));  // a and v reached
+                                           LineCase{1.0, 0.5, 2.1, 5.0},    // v reached, a not
+                                           LineCase{0.5, 0.5, 2.5, 50.0}));  // short jerk ramps
 
 // A short line on which neither v nor a is reached (L = 0.1 m, j = 5 m/s^3): four constant-jerk
 // phases, the seven-phase formula with zero-length constant-acceleration and cruise phases
@@ -296,7 +294,8 @@ TEST(StraightLineJerk, CoarseGridHoldsTheLimitsBetweenGridPoints) {
     options.max_verification_rounds = 1;
     const FeedratePlan plan = plan_feedrate(machine, path, options);
     EXPECT_GE(plan.duration_s, reference * (1.0 - 1e-9)) << points << " points";
-    EXPECT_LE(plan.duration_s, reference * 1.15) << points << " points";
+    // 11 points: 0.9 % over the optimum (14 % before the grid was refined near the stops).
+    EXPECT_LE(plan.duration_s, reference * 1.01) << points << " points";
     // Set points at the period from the closed-form motion: rounding only (see above).
     const auto r = finite_difference_ratios(plan.setpoints, plan.limits);
     EXPECT_LE(r.velocity, 1.0 + 1e-6) << points << " points";
