@@ -576,7 +576,10 @@ class ThirdOrderLp {
       col_hi[nodes + c] = u_bound;
     }
     // Maximise sum w x over the grid points with w the time's sensitivity at the second-order
-    // profile, ds / x^(3/2) (bounded where x is tiny), normalised; x at the grid points is a
+    // profile, ds / x^(3/2) (bounded where x is tiny), normalised to a mean of 1 (CLP's dual
+    // tolerance, 1e-7, is absolute: with weights summing to 1 most re-solves ended "optimal
+    // when scaled, dual infeasible unscaled" and CLP cleaned up each with a primal simplex, a
+    // quarter of the torque-rate bench's work); x at the grid points is a
     // form in the node columns.
     std::vector<double> weights(points_, 0.0);
     double total = 0.0;
@@ -589,7 +592,7 @@ class ThirdOrderLp {
     }
     Form fx, fu;
     for (std::size_t i = 0; i < points_; ++i) {
-      weights[i] /= total;
+      weights[i] *= static_cast<double>(points_) / total;
       if (weights[i] == 0.0) continue;
       if (node_of_point_[i] >= 0) {
         objective[static_cast<std::size_t>(node_of_point_[i])] += weights[i];
