@@ -104,9 +104,10 @@ TEST(PathSpline, FittedPathsAreTheClampedCubicThroughThePoints) {
   }
 }
 
-/// Dense path (0.12 m; 12 000 or 36 000 points), only velocity-continuous: Y is piecewise quadratic in
-/// s (its q_ss jumps every 10 mm), it reverses several times, and X nearly stops (q_s of X
-/// down to 1e-3), so that the path velocity limit from X is large there while Y limits it.
+/// Dense path (0.12 m; 12 000 or 36 000 points), only velocity-continuous: Y is piecewise
+/// quadratic in s (its q_ss jumps every 10 mm), it reverses several times, and X nearly stops
+/// (q_s of X down to 1e-3), so that the path velocity limit from X is large there while Y
+/// limits it.
 void dense(double s, Eigen::VectorXd& q, Eigen::VectorXd& qs, Eigen::VectorXd& qss,
            Eigen::VectorXd& qsss) {
   q.setZero(); qs.setZero(); qss.setZero(); qsss.setZero();
