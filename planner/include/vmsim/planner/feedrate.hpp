@@ -60,8 +60,8 @@
 //    fails where the second order does not.
 //    Near the stops the grid is refined over the constant-jerk ramp (below), where sd changes
 //    fast and u linear in s holds the jerk row at a segment's faster end only.
-//    Known gaps: speed in torque-rate mode (about 0.2-0.3 s for 10 000 points, bench_planner;
-//    jerk 0.15 s); optimality within the profile class (u piecewise linear in s: on straight
+//    Known gaps: speed in torque-rate mode (0.18-0.25 s for 10 000 points, bench_planner;
+//    jerk 0.13-0.15 s); optimality within the profile class (u piecewise linear in s: on straight
 //    lines 0.03-0.08 % above the seven-phase optimum on 10 000 segments, 0.9 % on 10); on
 //    curved paths the rows inside a segment use the coefficients of its ends.
 // Every result is then checked on the written set points (below); where a limit is exceeded
