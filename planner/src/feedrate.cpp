@@ -164,6 +164,26 @@ double detail::first_exit(double p0, double p1, double p2, double p3, double L) 
   return kInf;
 }
 
+detail::RestLimits detail::rest_limits(const Row2* rows2, std::size_t n2, const Row3* rows3,
+                                       std::size_t n3) {
+  RestLimits out;
+  for (std::size_t r = 0; r < n2; ++r) {
+    const Row2& row = rows2[r];
+    if (row.A != 0.0) out.sdd_max = std::min(out.sdd_max, std::max(row.L - std::abs(row.C + row.E), 0.0) / std::abs(row.A));
+  }
+  const double u = std::isfinite(out.sdd_max) ? out.sdd_max : 0.0;
+  for (std::size_t r = 0; r < n3; ++r) {
+    const Row3& row = rows3[r];
+    if (row.P != 0.0) out.sddd_max = std::min(out.sddd_max, std::max(row.L - std::abs(row.Z * u), 0.0) / std::abs(row.P));
+  }
+  return out;
+}
+
+double detail::RestLimits::ramp_distance_m() const {
+  if (!(std::isfinite(sdd_max) && std::isfinite(sddd_max) && sddd_max > 0.0)) return 0.0;
+  return sdd_max * sdd_max * sdd_max / (6.0 * sddd_max * sddd_max);
+}
+
 std::vector<double> detail::middle_c1_bounds(const Problem& p, const std::vector<double>& cap,
                                              const std::vector<double>& slow) {
   std::vector<double> bound(p.segments(), kInf);
@@ -190,9 +210,17 @@ struct EndData {  // path derivatives at one segment end
 /// from it instead (sd changes by 2/3 of kStepShare from one to the next), from r_0 =
 /// kFirstStepShare d (the programme's exact constant-jerk start covers that first step). Lines
 /// with 10 000 segments: 0.04-0.07 % over the optimum with these values (tests StraightLineJerk).
+/// Where d exceeds half the stretch (a move too short to reach its acceleration: on a
+/// tessellated path in exact-stop mode, nearly every stretch) the zone is half the stretch,
+/// from a tenth of it, with steps of 30 %: a 0.5 mm line on 4 segments took 1.45 times the
+/// optimum, now 1.004; a polygon of 600 corners 0.5 mm apart plans in 0.75 s instead of 0.4 s
+/// (12 600 grid points instead of 4 800) for a cycle 14 % shorter (finer steps: 0.2 % more for
+/// several times the work).
 struct GridRefinement {
   static constexpr double kStepShare = 0.06;
   static constexpr double kFirstStepShare = 1.0 / 30.0;
+  static constexpr double kShortStepShare = 0.3;
+  static constexpr double kShortFirstStepShare = 0.1;
   double first_stop_m = 0.0, first_ramp_m = 0.0;  ///< the stretch's start and its ramp distance
   double last_stop_m = 0.0, last_ramp_m = 0.0;    ///< its end
   double max_step_m = kInf;
@@ -204,10 +232,15 @@ struct GridRefinement {
     out.clear();
     const double h = s1_m - s0_m;
     auto zone = [&](double stop_m, double ramp_m, bool forward) {
+      const double half_stretch_m = 0.5 * (last_stop_m - first_stop_m);
+      const bool short_move = ramp_m > half_stretch_m;
+      if (short_move) ramp_m = half_stretch_m;
+      const double share = short_move ? kShortStepShare : kStepShare;
+      const double first = short_move ? kShortFirstStepShare : kFirstStepShare;
       const double near_m = forward ? s0_m - stop_m : stop_m - s1_m;  // the segment's distances to the stop
       const double far_m = forward ? s1_m - stop_m : stop_m - s0_m;
       if (!(ramp_m > 0.0) || near_m >= ramp_m) return;
-      const double r0 = kFirstStepShare * ramp_m, growth = std::log1p(kStepShare);
+      const double r0 = first * ramp_m, growth = std::log1p(share);
       double n = near_m > r0 ? std::floor(std::log(near_m / r0) / growth) : 0.0;
       for (;; n += 1.0) {
         const double r = r0 * std::exp(n * growth);
@@ -749,26 +782,18 @@ FeedratePlan plan_feedrate(const kinematics::MachineModel& machine,
   };
   // The distance [m] over which the time-optimal start from rest at spline segment `segment`,
   // sigma (or the stop there), runs at constant jerk before it reaches the acceleration it can
-  // hold: with the rows at rest (x = 0), u_max from the second-order rows and sddd_max from the
-  // third-order ones, s = sddd_max t^3 / 6 up to t = u_max / sddd_max. 0 without third-order
-  // rows (an estimate for the grid spacing only).
+  // hold (detail::RestLimits; an estimate for the grid spacing only). 0 without third-order
+  // rows.
+  std::vector<Row2> rest_rows2(p.n2);
+  std::vector<Row3> rest_rows3(p.n3);
   auto ramp_distance_m = [&](std::size_t segment, double sigma) {
     if (p.n3 == 0) return 0.0;
     EndData d;
     evaluate_at(segment, sigma, d);
     const auto& c = dynamic ? dyn_data->coefficients : no_coefficients;
-    double u_max = kInf, sddd_max = kInf;
-    for (std::size_t r = 0; r < p.n2; ++r) {
-      const Row2 row = row2(c, d, r);
-      if (row.A != 0.0) u_max = std::min(u_max, std::max(row.L - std::abs(row.C + row.E), 0.0) / std::abs(row.A));
-    }
-    if (!std::isfinite(u_max)) return 0.0;
-    for (std::size_t r = 0; r < p.n3; ++r) {
-      const Row3 row = row3(c, d, r);
-      if (row.P != 0.0) sddd_max = std::min(sddd_max, std::max(row.L - std::abs(row.Z * u_max), 0.0) / std::abs(row.P));
-    }
-    if (!(sddd_max > 0.0) || !std::isfinite(sddd_max)) return 0.0;
-    return u_max * u_max * u_max / (6.0 * sddd_max * sddd_max);
+    for (std::size_t r = 0; r < p.n2; ++r) rest_rows2[r] = row2(c, d, r);
+    for (std::size_t r = 0; r < p.n3; ++r) rest_rows3[r] = row3(c, d, r);
+    return detail::rest_limits(rest_rows2.data(), p.n2, rest_rows3.data(), p.n3).ramp_distance_m();
   };
 
   // ---- grid: every path point, long segments subdivided (finer near stops, GridRefinement);

@@ -70,6 +70,17 @@ struct Problem {
 /// +inf when never).
 double first_exit(double p0, double p1, double p2, double p3, double L);
 
+/// The path acceleration and jerk a move can hold at rest (x = 0) under the rows of one point:
+/// sdd_max from the second-order rows (|A u + C + E| <= L), sddd_max from the third-order
+/// ones with that acceleration (|P sddd + Z u| <= L); +inf where no row bounds them.
+struct RestLimits {
+  double sdd_max = kInf, sddd_max = kInf;
+  /// The distance [m] over which a start from rest at constant jerk sddd_max reaches sdd_max:
+  /// s = sddd t^3 / 6 at t = sdd / sddd (0 when either is unbounded or zero).
+  double ramp_distance_m() const;
+};
+RestLimits rest_limits(const Row2* rows2, std::size_t n2, const Row3* rows3, std::size_t n3);
+
 /// Duration [s] of a grid segment of length delta on which x = x0 + 2 u0 s + up s^2.
 double gauss_time(double delta, double x0, double u0, double up);
 

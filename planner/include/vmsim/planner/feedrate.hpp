@@ -53,8 +53,11 @@
 //    slot the most violated one, warm re-solves; a span is rescanned only where its nodes
 //    moved). Near the stops the motion is the exact constant-jerk start s = j t^3 / 6 (and
 //    its mirror): x = z (6 d)^(4/3) / 4, u = z (6 d)^(1/3) with z = j^(2/3) one column, over as
-//    many grid segments as the rows allow the full jerk of the first segment and x stays below
-//    1/4 of the second-order profile; its rows are polynomials in sqrt(z), bounded exactly.
+//    many grid segments as the rows allow the full jerk of the first segment, x stays below
+//    1/4 of the second-order profile and the distance stays within the first jerk phase of the
+//    straight-line optimum under the limits at the stop (until the acceleration limit, the
+//    speed cap or, on a short move, a twelfth of it); its rows are polynomials in sqrt(z),
+//    bounded exactly.
 //    (A piecewise linear u cannot start from rest: x ~ s^2 would take an infinite time.)
 //    The programme is feasible whenever the second-order problem is (x = u = 0), so this never
 //    fails where the second order does not.
@@ -93,7 +96,9 @@
 // (constant jerk from rest up to the acceleration it can hold, estimated from the rows at
 // rest: d = sdd_max^3 / (6 sddd_max^2)) grid points at distances d/30 (1.06)^n from the stop,
 // up to 58 per stop where the path is coarser than that (a 1.06 ratio costs the torque-rate
-// bench 4 % more work for 0.03 % shorter T; 1.03 cost 13 % for 0.05 %).
+// bench 4 % more work for 0.03 % shorter T; 1.03 cost 13 % for 0.05 %). A stretch shorter than
+// 2 d (a move that cannot reach its acceleration) gets points over its whole length instead,
+// from a tenth of its half, 30 % apart.
 #include <Eigen/Core>
 #include <array>
 #include <string>
