@@ -375,10 +375,11 @@ struct Junction {
 
 // Whether `next` continues `s` in a chain, and how (`top`: no line's material above it [m]).
 bool chains(const Sweep& s, const Sweep& next, double top, Junction* junction = nullptr) {
-  // (Sub-steps along the tip's line meet with their core points apart: SubStepPath::tip.)
+  // (Sub-steps along the tip's line meet with their core points apart, SubStepPath::tip: that
+  // distance adds to D below.)
   const double jump = (next.c0 - s.c1).norm();
-  if (!(along_x(s) && along_x(next) && jump <= 1e-3 * std::abs(s.c1.x() - s.c0.x()) && s.rho == next.rho &&
-        s.r == next.r && (s.c1.x() > s.c0.x()) == (next.c1.x() > next.c0.x()))) {
+  if (!(along_x(s) && along_x(next) && s.rho == next.rho && s.r == next.r &&
+        (s.c1.x() > s.c0.x()) == (next.c1.x() > next.c0.x()))) {
     return false;
   }
   Junction j;
@@ -691,6 +692,7 @@ CutStatistics NBuffer::cut(const Tool& tool, std::span<const Pose> trajectory, c
         role.leave_ahead = k + 1 < sweeps.size() ? chains(sweeps[k], sweeps[k + 1], top, &role.ahead)
                                                  : !lookahead.empty() && chains(sweeps[k], lookahead.front(), top, &role.ahead);
         if (!role.skip_behind && !role.leave_ahead) continue;
+        stats.chained_turning += role.leave_ahead && role.ahead.general;
         if ((role.skip_behind && role.behind.general) || (role.leave_ahead && role.ahead.general)) {
           role.rows = static_cast<int>(section_rows.size());
           section_rows.emplace_back();

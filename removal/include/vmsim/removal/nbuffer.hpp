@@ -87,6 +87,9 @@ struct CutStatistics {
   std::size_t sub_segments = 0;    ///< after the orientation sub-steps
   std::size_t tiles_visited = 0;   ///< (tile, sub-segment) pairs not culled by the tile bounds
   std::size_t lines_lowered = 0;   ///< line updates that lowered a line
+  /// Z-map chains (removal/README.md): sub-segments that left lines to the next one across a
+  /// junction where the tool differs (the axis turned, or the move is not exactly along x).
+  std::size_t chained_turning = 0;
   bool interrupted = false;
 };
 
