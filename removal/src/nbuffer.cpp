@@ -494,7 +494,7 @@ SectionRows section_rows_for(const Sweep& s, double y0, double sp, int nv, const
       // Above the top here and in every row farther out, for the tool anywhere along the move:
       // its core point drifts by dy across the rows, where the section's lowest z changes by
       // at most |dy| |tan b| (b the lowest point's normal angle; convex, growing outwards).
-      const double floor = z_start + row.z_low - drift_y * std::abs(std::tan(warm0.b)) - 1e-12;
+      const double floor = z_start + row.z_low - drift_y * std::abs(warm0.tan_b()) - 1e-12;
       if (!row.hit || floor >= tops.beyond(iv, step)) {
         if (iv != iv_first || stop_at_first) break;
         row.hit = false;
@@ -508,7 +508,7 @@ SectionRows section_rows_for(const Sweep& s, double y0, double sp, int nv, const
       }
       double lo = 0.0, hi = 0.0;
       auto seeded = [&](detail::SectionWarm& w) -> detail::SectionWarm& {
-        if (!std::isfinite(w.b)) w = warm0;  // start from this row's lowest point
+        if (!std::isfinite(w.u)) w = warm0;  // start from this row's lowest point
         return w;
       };
       // The shift t from the section's curvature radius in the last row (how far the point of

@@ -314,12 +314,13 @@ bool section_point_x(const Sweep& s, double eta, double slope, double& x_lo, dou
   // a + r n (the whole segment over ell where n . a = 0). The normals run over a great circle
   // through y, so their y grows with b (the projection on its plane is convex): a bracket of b
   // holds every such point. |n . a| <= |slope a_x| + |a - a_x x| bounds |n - (n . a) a| from
-  // below (|a_x| for slope 0).
+  // below (|a_x| for slope 0). b is taken through u = tan(b / 2) in [-1, 1] (sin b = 2 u / (1 +
+  // u^2), cos b = (1 - u^2) / (1 + u^2): no trigonometry; |db / du| <= 2).
   struct Point {
     double x_core, y_core, z_core, y_low, y_high, na;  // y over the support set (a segment when n . a ~ 0)
   };
-  auto point = [&](double b) {
-    const double sb = std::sin(b), cb = std::cos(b);
+  auto point = [&](double u) {
+    const double q = 1.0 / (1.0 + u * u), sb = 2.0 * u * q, cb = (1.0 - u * u) * q;
     double nx = 0.0, ny = sb, nz = -cb;
     if (slope != 0.0) {
       const double inv = 1.0 / std::sqrt(1.0 + slope * slope * cb * cb);
@@ -344,40 +345,53 @@ bool section_point_x(const Sweep& s, double eta, double slope, double& x_lo, dou
   const double na_max = std::abs(slope * ax) + std::sqrt(std::max(0.0, (1.0 - ax) * (1.0 + ax)));
   const double perp_min = std::sqrt(std::max(0.0, (1.0 - na_max) * (1.0 + na_max)));
   if (!(perp_min > 0.0)) return false;
-  const double lip = std::sqrt(1.0 + slope * slope) * (s.rho / perp_min + s.r);  // |dx_core / db|, |dz_core / db|
-  // Bracket width [rad]: worth 0.1 kSectionZError for the lowest point (its height is used),
-  // 1e-9 m of x for the other slopes (only bounds of x are).
-  const double width = (slope == 0.0 ? 0.1 * kSectionZError : 1e-9) / lip;
-  const double half_pi = 0.5 * M_PI;
+  const double lip = 2.0 * std::sqrt(1.0 + slope * slope) * (s.rho / perp_min + s.r);  // |dx_core / du|, |dz_core / du|
+  // Bracket width (in u): worth 0.1 kSectionZError for the lowest point (its height is used),
+  // 1e-8 m of x for the other slopes (only bounds of x are).
+  const double width = (slope == 0.0 ? 0.1 * kSectionZError : 1e-8) / lip;
+  const double end = 1.0;  // u at b = pi / 2
   double b1 = 0.0, b2 = 0.0;
   Point p1, p2;
   bool bracketed = false;
-  // Warm start (neighbouring row): Newton steps on y(b) = eta with the rate db / deta of the
+  // Warm start (neighbouring row): Newton steps on y(u) = eta with the rate du / deta of the
   // neighbours, then a bracket of the width around the root, accepted only when both ends
   // check (y monotone in b): a few evaluations instead of two bisections.
-  if (warm && std::isfinite(warm->b) && std::isfinite(warm->db_deta) && warm->db_deta != 0.0) {
-    double rate = warm->db_deta;
-    double b = std::clamp(warm->b + (eta - warm->eta) * rate, -half_pi, half_pi);
-    Point p = point(b);
+  if (warm && std::isfinite(warm->u) && std::isfinite(warm->du_deta) && warm->du_deta != 0.0) {
+    double rate = warm->du_deta;
+    // The guess: the neighbour's tangent, bent through the row before it (second order).
+    const double step = eta - warm->eta, back = warm->eta_before - warm->eta;
+    double bend = 0.0;
+    if (std::isfinite(warm->u_before) && back != 0.0) bend = (warm->u_before - warm->u - rate * back) / (back * back);
+    double b = std::clamp(warm->u + step * rate + step * step * bend, -end, end);
     auto half_width = [&] { return std::max(0.5 * width, 1.5 * tau * std::abs(rate)); };
-    for (int k = 0; k < 4; ++k) {
-      const double f = 0.5 * (p.y_low + p.y_high) - eta;
-      if (std::abs(f) <= 0.25 * half_width() / std::abs(rate)) break;
-      const double next = std::clamp(b - f * rate, -half_pi, half_pi);
-      const Point q = point(next);
-      const double dy = 0.5 * (q.y_low + q.y_high) - 0.5 * (p.y_low + p.y_high);
-      if (dy != 0.0 && next != b) rate = (next - b) / dy;
-      b = next, p = q;
+    auto accept = [&](double root) {
+      const double w = half_width();
+      b1 = std::max(-end, root - w), b2 = std::min(end, root + w);
+      p1 = point(b1), p2 = point(b2);
+      bracketed = b1 > -end && b2 < end && p1.y_high < eta - tau && p2.y_low > eta + tau;
+      return bracketed;
+    };
+    {
+      Point p = point(b);
+      for (int k = 0; k < 4; ++k) {
+        const double f = 0.5 * (p.y_low + p.y_high) - eta;
+        if (std::abs(f) <= 0.25 * half_width() / std::abs(rate)) break;
+        const double next = std::clamp(b - f * rate, -end, end);
+        const Point q = point(next);
+        const double dy = 0.5 * (q.y_low + q.y_high) - 0.5 * (p.y_low + p.y_high);
+        if (dy != 0.0 && next != b) rate = (next - b) / dy;
+        b = next, p = q;
+      }
+      accept(b);
     }
-    const double w = half_width();
-    b1 = std::max(-half_pi, b - w), b2 = std::min(half_pi, b + w);
-    p1 = point(b1), p2 = point(b2);
-    bracketed = b1 > -half_pi && b2 < half_pi && p1.y_high < eta - tau && p2.y_low > eta + tau;
-    if (bracketed) warm->b = b, warm->db_deta = rate, warm->eta = eta;
+    if (bracketed) {
+      warm->u_before = warm->u, warm->eta_before = warm->eta;
+      warm->u = b, warm->du_deta = rate, warm->eta = eta;
+    }
   }
   if (!bracketed) {
-    // b1: every b at or below it has all its y < eta (so the points lie above b1).
-    double lo = -half_pi, hi = half_pi;
+    // b1: every u at or below it has all its y < eta (so the points lie above b1).
+    double lo = -end, hi = end;
     if (point(lo).y_high >= eta - tau) {
       hi = lo;
     } else {
@@ -388,11 +402,11 @@ bool section_point_x(const Sweep& s, double eta, double slope, double& x_lo, dou
       }
     }
     b1 = lo;
-    // b2: every b at or above it has all its y > eta.
-    lo = b1, hi = half_pi;
+    // b2: every u at or above it has all its y > eta.
+    lo = b1, hi = end;
     if (point(hi).y_low <= eta + tau) {
       lo = hi;
-      if (point(-half_pi).y_low > eta + tau) return false;
+      if (point(-end).y_low > eta + tau) return false;
     } else {
       if (point(lo).y_low > eta + tau) return false;  // beyond the tool's -y side
       while (hi - lo > width) {
@@ -405,22 +419,22 @@ bool section_point_x(const Sweep& s, double eta, double slope, double& x_lo, dou
     if (warm) {
       // The rate for the next row's warm start, from this bracket's y.
       const double b = 0.5 * (b1 + b2), h = std::max(1e-7, b2 - b1);
-      const Point pa = point(std::max(-half_pi, b - h)), pb = point(std::min(half_pi, b + h));
+      const Point pa = point(std::max(-end, b - h)), pb = point(std::min(end, b + h));
       const double dy = pb.y_core - pa.y_core;
-      warm->b = b, warm->eta = eta;
-      warm->db_deta = dy != 0.0 ? (std::min(half_pi, b + h) - std::max(-half_pi, b - h)) / dy : std::nan("");
+      warm->u_before = std::nan("");
+      warm->u = b, warm->eta = eta;
+      warm->du_deta = dy != 0.0 ? (std::min(end, b + h) - std::max(-end, b - h)) / dy : std::nan("");
     }
   }
-  // Over [b1, b2]: x_core within lip (b2 - b1) / 2 of the nearer end; the top end's ell a_x
-  // where n . a may reach 0 (|d(n . a) / db| <= |dn / db| <= sqrt(1 + slope^2)).
+  // Over [b1, b2] (in u): x_core within lip (b2 - b1) / 2 of the nearer end; the top end's ell
+  // a_x where n . a may reach 0 (|d(n . a) / du| <= |dn / du| <= 2 sqrt(1 + slope^2)).
   const double spread = 0.5 * lip * (b2 - b1) + 1e-12;
-  const double na_reach = 0.5 * std::sqrt(1.0 + slope * slope) * (b2 - b1) + 1e-9;
+  const double na_reach = std::sqrt(1.0 + slope * slope) * (b2 - b1) + 1e-9;
   // (The top end's z is higher by ell a_z > 0: the bottom's bounds the point from below.)
   if (z_low) *z_low = std::min(p1.z_core, p2.z_core) - spread;
-  if (z_point) {
-    const Point mid = point(0.5 * (b1 + b2));
+  if (z_point) {  // (z_core within lip (b2 - b1) of the bracket's end)
     const bool off_flank = !(s.ell > 0.0) || std::max(p1.na, p2.na) < -na_reach;
-    *z_point = off_flank && 0.5 * lip * (b2 - b1) <= 0.5 * kSectionZError ? mid.z_core : std::nan("");
+    *z_point = off_flank && lip * (b2 - b1) <= kSectionZError ? p1.z_core : std::nan("");
   }
   x_lo = std::min(p1.x_core, p2.x_core) - spread;
   x_hi = std::max(p1.x_core, p2.x_core) + spread;

@@ -73,16 +73,20 @@ double reach_below(const Sweep& s, double z);
 /// else NaN.
 bool section_lowest_x(const Sweep& s, double eta, double& x_lo, double& x_hi, double* z_low = nullptr,
                       double* z_point = nullptr);
-/// The neighbouring row's solution (normal angle b at eta, and its rate db / deta): a warm start
-/// for section_point_x (NaN: none; any value gives rigorous results).
+/// The neighbouring row's solution (u = tan(b / 2) of the point's normal angle b at eta, and its
+/// rate du / deta): a warm start for section_point_x (NaN: none; any value gives rigorous
+/// results).
 struct SectionWarm {
-  double b = std::numeric_limits<double>::quiet_NaN(), db_deta = std::numeric_limits<double>::quiet_NaN(), eta = 0.0;
+  double u = std::numeric_limits<double>::quiet_NaN(), du_deta = std::numeric_limits<double>::quiet_NaN(), eta = 0.0;
+  double u_before = std::numeric_limits<double>::quiet_NaN(), eta_before = 0.0;  // the row before (second order)
+  /// tan b: for the lowest point (slope 0) the y-slope of the section's lowest z over the rows.
+  double tan_b() const { return 2.0 * u / ((1.0 - u) * (1.0 + u)); }
 };
 /// As section_lowest_x, for the points of the section where the lower envelope's x-slope
 /// (dz/dx) is `slope` instead of 0 (slope 0: the lowest points; z_low, z_point only for those):
 /// [x_lo, x_hi] holds them. Along a row the slope of the static tool's lower envelope grows with
 /// x (convex), so it is at least `slope` beyond x_hi and at most it before x_lo. The interval
-/// is within about 1e-9 m for slope != 0. With `warm`, a few Newton steps from the neighbouring
+/// is within about 1e-8 m for slope != 0. With `warm`, a few Newton steps from the neighbouring
 /// row's solution and a checked bracket replace the bisections (`warm` is updated).
 bool section_point_x(const Sweep& s, double eta, double slope, double& x_lo, double& x_hi, SectionWarm* warm = nullptr,
                      double* z_low = nullptr, double* z_point = nullptr);

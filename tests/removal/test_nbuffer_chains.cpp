@@ -144,7 +144,7 @@ TEST(NBufferChains, SectionSlopePointsMatchBruteForce) {
         EXPECT_NEAR(at, slope, 1e-3) << trial << " row " << row;
       }
       ++checked;
-      warm_checked += std::isfinite(warm.b);
+      warm_checked += std::isfinite(warm.u);
     }
   }
   EXPECT_EQ(checked, 16 * 30);
