@@ -420,21 +420,21 @@ bool chains(const Sweep& s, const Sweep& next, double top, Junction* junction = 
 // The section points of one tool pose (axis, radii, length, core y and z) for the grid rows in
 // which it can get below the material's top: [lo, hi] of x relative to the core point, or no
 // hit (the row misses the tool, or the section lies above the top); rows outside the table
-// are above it too. With a turning junction ahead (behind), `lead` (`trail`): the row's strip
+// are above it too. With a general junction ahead (behind), `lead` (`trail`): the row's strip
 // boundary relative to c1.x (c0.x) (Junction), else lo / hi by the direction.
 struct SectionRows {
   Eigen::Vector3d a = Eigen::Vector3d::Zero();
   double rho = 0.0, r = 0.0, ell = 0.0, c_y = 0.0, c_z = 0.0;  // (c_z decides the rows: the reach)
-  bool turning = false;  // built for one sweep (junction boundaries): never shared
+  bool own = false;  // built for one sweep (general junction boundaries): never shared
   bool level = true;     // the sweep moves exactly along x: z_low bounds the whole move, z_point holds
   int iv0 = 0;
   std::vector<double> lo, hi;
   std::vector<double> z_low;    // below the section's lowest point, from the core point's z
   std::vector<double> z_point;  // that point's z where known within kSectionZError, else NaN
   std::vector<char> hit;
-  std::vector<double> lead_x, trail_x;  // (turning junctions only)
+  std::vector<double> lead_x, trail_x;  // (general junctions only)
   bool same_family(const Sweep& s) const {
-    return !turning && a == s.a && rho == s.rho && r == s.r && ell == s.ell && c_y == s.c0.y() && c_z == s.c0.z();
+    return !own && a == s.a && rho == s.rho && r == s.r && ell == s.ell && c_y == s.c0.y() && c_z == s.c0.z();
   }
   int row(int iv) const {  // index into the vectors, or -1: the row cannot be cut
     const int k = iv - iv0;
@@ -471,8 +471,8 @@ SectionRows section_rows_for(const Sweep& s, double y0, double sp, int nv, const
                              const Junction* trail) {
   SectionRows t;
   t.a = s.a, t.rho = s.rho, t.r = s.r, t.ell = s.ell, t.c_y = s.c0.y(), t.c_z = s.c0.z();
-  const bool turning_lead = lead && lead->general, turning_trail = trail && trail->general;
-  t.turning = turning_lead || turning_trail;
+  const bool general_lead = lead && lead->general, general_trail = trail && trail->general;
+  t.own = general_lead || general_trail;
   t.level = level_along_x(s);
   const bool forward = s.c1.x() > s.c0.x();
   const double dir = forward ? 1.0 : -1.0;
@@ -514,7 +514,7 @@ SectionRows section_rows_for(const Sweep& s, double y0, double sp, int nv, const
       // The shift t from the section's curvature radius in the last row (how far the point of
       // the last slope lay from the lowest point): a short strip; any t is exact.
       row.lead = dir * detail::kInf;  // (no point found: nothing left ahead)
-      if (turning_lead) {
+      if (general_lead) {
         double shift = lead->shift_for(radius_lead);
         const double slope = lead->slope(true, shift);
         if (detail::section_point_x(s, y - s.c1.y(), dir * slope, lo, hi, &seeded(warm_lead))) {
@@ -523,7 +523,7 @@ SectionRows section_rows_for(const Sweep& s, double y0, double sp, int nv, const
         }
       }
       row.trail = -dir * detail::kInf;  // (nothing skipped behind)
-      if (turning_trail) {
+      if (general_trail) {
         double shift = trail->shift_for(radius_trail);
         const double slope = trail->slope(false, shift);
         if (detail::section_point_x(s, eta, -dir * slope, lo, hi, &seeded(warm_trail))) {
@@ -551,8 +551,8 @@ SectionRows section_rows_for(const Sweep& s, double y0, double sp, int nv, const
     t.hi.push_back(row.hi);
     t.z_low.push_back(row.z_low);
     t.z_point.push_back(row.z_point);
-    if (turning_lead) t.lead_x.push_back(row.lead);
-    if (turning_trail) t.trail_x.push_back(row.trail);
+    if (general_lead) t.lead_x.push_back(row.lead);
+    if (general_trail) t.trail_x.push_back(row.trail);
   }
   return t;
 }
@@ -599,7 +599,7 @@ CutStatistics NBuffer::cut(const Tool& tool, std::span<const Pose> trajectory, c
   std::vector<Sweep> lookahead;  // the first sweep after the batch (chains)
   std::vector<ChainRole> roles;  // per sweep of the batch
   std::vector<SectionRows> section_rows, section_rows_before;
-  SectionRows carried_rows;  // the last sweep's table when it leaves lines at a turning junction
+  SectionRows carried_rows;  // the last sweep's table when it leaves lines at a general junction
   const double sp = spacing_;
   const double slack = 1e-9;  // [m] widening of the row ranges against rounding: the exact test decides
 
@@ -684,7 +684,7 @@ CutStatistics NBuffer::cut(const Tool& tool, std::span<const Pose> trajectory, c
         section_rows.push_back(build_rows(s, role, false));
         return static_cast<int>(section_rows.size() - 1);
       };
-      std::vector<std::size_t> turning_tables;  // sweeps whose table is their own (a turning junction)
+      std::vector<std::size_t> own_tables;  // sweeps whose table is their own (a general junction)
       for (std::size_t k = 0; k < sweeps.size(); ++k) {
         ChainRole& role = roles[k];
         role.skip_behind = k == 0 ? have_before && chains(last_before, sweeps[0], top, &role.behind)
@@ -696,18 +696,18 @@ CutStatistics NBuffer::cut(const Tool& tool, std::span<const Pose> trajectory, c
         if ((role.skip_behind && role.behind.general) || (role.leave_ahead && role.ahead.general)) {
           role.rows = static_cast<int>(section_rows.size());
           section_rows.emplace_back();
-          turning_tables.push_back(k);
+          own_tables.push_back(k);
         } else {
           role.rows = shared_rows_for(sweeps[k], role);
         }
       }
       arena.execute([&] {
-        tbb::parallel_for(std::size_t{0}, turning_tables.size(), [&](std::size_t i) {
-          const std::size_t k = turning_tables[i];
+        tbb::parallel_for(std::size_t{0}, own_tables.size(), [&](std::size_t i) {
+          const std::size_t k = own_tables[i];
           section_rows[static_cast<std::size_t>(roles[k].rows)] = build_rows(sweeps[k], roles[k], true);
         });
       });
-      // At a turning junction the two tables differ: lines the sweep before leaves must not lie
+      // At a general junction the two tables differ: lines the sweep before leaves must not lie
       // behind the trail of the sweep after (they would fall between the two).
       for (std::size_t k = 0; k < sweeps.size(); ++k) {
         if (!roles[k].skip_behind || !roles[k].behind.general) continue;
