@@ -1,5 +1,6 @@
 #include "vmsim/removal/nbuffer.hpp"
 
+#include <Eigen/Geometry>
 #include <tbb/parallel_for.h>
 #include <tbb/task_arena.h>
 
@@ -302,44 +303,265 @@ void keep_positive(double c0, double c1, double& x0, double& x1) {
 }
 
 // Chains: level moves along x, end to end, with the same tilted flat-end or bull-nose tool
-// (same axis, radii and length). Over a chain the entry of a vertical line at (x, y) is a
-// convex function of the tool's position, smallest where the line passes the lowest point of
-// the tool's section by the plane through the line (detail::section_lowest_x). So a sweep of a
-// chain leaves the lines ahead of that point at its end to the next sweep (which holds the
-// tool there, so it cuts them at least as low), and skips the lines behind that point at its
-// start (the sweep before it cut them: they were not ahead of its end). Both sides use the same
-// table of section points, with the slack on opposite sides, so no line falls between two
-// sweeps. A sweep then tests about the strip its lowest points cross, not the footprint ahead.
-bool level_along_x(const Sweep& s) {
-  return s.c0.y() == s.c1.y() && s.c0.z() == s.c1.z() && s.c0.x() != s.c1.x() && !s.vertical && s.rho > 0.0 &&
-         s.a.z() > 0.0 && std::abs(s.a.x()) >= detail::kSectionMinAx;
+// (same radii; the axis constant or turning). Over a chain with one axis the entry of a
+// vertical line at (x, y) is a convex function of the tool's position, smallest where the line
+// passes the lowest point of the tool's section by the plane through the line
+// (detail::section_lowest_x). So a sweep of a chain leaves the lines ahead of that point at its
+// end to the next sweep (which holds the tool there, so it cuts them at least as low), and
+// skips the lines behind that point at its start (the sweep before it cut them: they were not
+// ahead of its end). Both sides use the same table of section points, with the slack on
+// opposite sides, so no line falls between two sweeps. A sweep then tests about the strip its
+// lowest points cross, not the footprint ahead. Where the axis turns (orientation sub-steps,
+// `Junction`), the next tool differs and the boundaries move by what that difference needs.
+// Moves along x within a slope of 1e-3 in y and z (a bull-nose whose axis turns moves its core
+// point c = tip + r a off the tip's line), with a tilted tool the sections can be found for.
+bool along_x(const Sweep& s) {
+  const double dx = std::abs(s.c1.x() - s.c0.x());
+  return dx > 0.0 && std::abs(s.c1.y() - s.c0.y()) <= 1e-3 * dx && std::abs(s.c1.z() - s.c0.z()) <= 1e-3 * dx &&
+         !s.vertical && s.rho > 0.0 && s.a.z() > 0.0 && std::abs(s.a.x()) >= detail::kSectionMinAx;
+}
+bool level_along_x(const Sweep& s) { return along_x(s) && s.c0.y() == s.c1.y() && s.c0.z() == s.c1.z(); }
+
+// Where two sweeps of a chain meet with different tools (the axis turned, or the core length
+// differs) or one does not move exactly along x. Their tools at the meeting point differ by a
+// rotation about c and a change of length, so each lies within D = sqrt(rho^2 + ell^2) angle +
+// |ell - ell'| of the other (Hausdorff), and one contains the other eroded by D: the core (+)
+// Ball(r - D), c fixed. On a line where the first tool's lowest point p = K + r n (K in the
+// core) is below `top`, the eroded ball about K enters at most delta = u / (r nu + sqrt(r^2 nu^2
+// - u)) above p, u = 2 r D - D^2, nu = (lowest core z - top) / r <= |n_z| (so the y-slope of the
+// entry is at most sqrt(1 - nu^2) / nu). Moved by t along x (its move's y and z over t are
+// added to D), the eroded tool enters the line at x no higher than the first tool at x -/+ t
+// plus delta, and the first tool's entry along the row is convex: where its x-slope is at
+// least delta / t (toward the motion) at x -/+ t, the moved one enters at least as low. So the
+// sweep before the junction leaves the lines beyond that point plus t (the next sweep, t into
+// its move, cuts them at least as low), and the sweep after it skips the lines behind its point
+// of the opposite slope minus t (the sweep before, t before its end, cut them at least as
+// low). A sweep off x also needs its own entry smallest at its end (start) there: an x-slope
+// above its y drift times the y-slope bound plus its rise. No loss against the sub-steps, so
+// nothing accumulates over a chain.
+struct Junction {
+  bool general = false;  // not the same tool moving exactly along x: the tables' own boundaries
+  double turn_m = 0.0;   // D without the shift's drift (0: the same tool, t = 0)
+  double r = 0.0, r_nu = 0.0;
+  // Per unit of x travel, the y and z drift of the next sweep (lead side) and of the sweep before
+  // (trail side) over the shift t; the x-slopes their own moves need; and their x lengths (t's
+  // upper bounds).
+  double lead_drift = 0.0, trail_drift = 0.0, lead_min_slope = 0.0, trail_min_slope = 0.0;
+  double lead_max_shift_m = 0.0, trail_max_shift_m = 0.0;
+  // How much higher a tool eroded by d can enter a line whose entry is below the top [m].
+  double delta(double d) const {
+    d = d * (1.0 + 1e-9) + 1e-15;
+    const double u = (2.0 * r - d) * d;
+    if (!(r_nu * r_nu > 2.0 * u)) return detail::kInf;
+    return u / (r_nu + std::sqrt(r_nu * r_nu - u)) * (1.0 + 1e-9) + 1e-15;
+  }
+  // The boundary's x-slope for a shift t (lead: the next sweep t into its move; trail: the sweep
+  // before t before its end); t is clamped to its upper bound.
+  double slope(bool lead, double& t) const {
+    const double max_t = lead ? lead_max_shift_m : trail_max_shift_m;
+    const double min_slope = lead ? lead_min_slope : trail_min_slope;
+    if (!(turn_m > 0.0)) {
+      t = 0.0;
+      return min_slope;
+    }
+    t = std::min(t, max_t);
+    return std::max(min_slope, delta(turn_m + t * (lead ? lead_drift : trail_drift)) / t * (1.0 + 1e-9));
+  }
+  // A first t: near sqrt(delta R) for a curvature radius R of the section, which makes the
+  // strip end about as far beyond the point of slope 0 as t itself. Any t in (0, length] is
+  // exact; this one only keeps the strips short.
+  double shift_for(double radius_m) const { return std::sqrt(delta(turn_m) * radius_m); }
+};
+
+// Whether `next` continues `s` in a chain, and how (`top`: no line's material above it [m]).
+bool chains(const Sweep& s, const Sweep& next, double top, Junction* junction = nullptr) {
+  // (Sub-steps along the tip's line meet with their core points apart, SubStepPath::tip: that
+  // distance adds to D below.)
+  const double jump = (next.c0 - s.c1).norm();
+  if (!(along_x(s) && along_x(next) && s.rho == next.rho && s.r == next.r &&
+        (s.c1.x() > s.c0.x()) == (next.c1.x() > next.c0.x()))) {
+    return false;
+  }
+  Junction j;
+  if (!(s.a == next.a && s.ell == next.ell && jump == 0.0 && level_along_x(s) && level_along_x(next))) {
+    if (!(s.r > 0.0)) return false;  // (a flat-end has no ball to erode, nor a bounded y-slope)
+    const double angle = std::atan2(s.a.cross(next.a).norm(), s.a.dot(next.a));
+    const double extent = std::hypot(s.rho, std::max(s.ell, next.ell));
+    j.turn_m = extent * angle + std::abs(s.ell - next.ell) + jump;
+    const double core_low =
+        std::min({s.c0.z(), s.c1.z(), next.c1.z()}) - s.rho * std::max(s.tilt_sin, next.tilt_sin);
+    const double nu = (core_low - top) / s.r;
+    if (!(nu > 0.0) || !(nu <= 1.0)) return false;
+    j.r = s.r, j.r_nu = s.r * nu;
+    const double y_slope = std::sqrt((1.0 - nu) * (1.0 + nu)) / nu;
+    auto per_x = [](const Sweep& m, double& length, double& y, double& rise) {
+      length = std::abs(m.c1.x() - m.c0.x());
+      y = std::abs(m.c1.y() - m.c0.y()) / length;
+      rise = (m.c1.z() - m.c0.z()) / length;  // up along the motion > 0
+    };
+    double y_before = 0.0, rise_before = 0.0, y_after = 0.0, rise_after = 0.0;
+    per_x(s, j.trail_max_shift_m, y_before, rise_before);
+    per_x(next, j.lead_max_shift_m, y_after, rise_after);
+    j.lead_drift = std::hypot(y_after, rise_after);
+    j.trail_drift = std::hypot(y_before, rise_before);
+    // The entry of `s` smallest at its end (of `next` at its start) beyond (behind) the point.
+    j.lead_min_slope = y_slope * y_before + std::max(0.0, rise_before);
+    j.trail_min_slope = y_slope * y_after + std::max(0.0, -rise_after);
+    if (!std::isfinite(j.delta(j.turn_m + j.lead_max_shift_m * j.lead_drift)) ||
+        !std::isfinite(j.delta(j.turn_m + j.trail_max_shift_m * j.trail_drift))) {
+      return false;
+    }
+    j.general = true;
+  }
+  if (junction) *junction = j;
+  return true;
 }
 
-// Whether `next` continues `s` in a chain.
-bool chains(const Sweep& s, const Sweep& next) {
-  return level_along_x(s) && level_along_x(next) && s.c1 == next.c0 && s.a == next.a && s.rho == next.rho &&
-         s.r == next.r && s.ell == next.ell && (s.c1.x() > s.c0.x()) == (next.c1.x() > next.c0.x());
-}
-
-// The section points of one tool pose family (axis, radii, length, core y and z) for the grid rows
-// it can reach: [lo, hi] of x relative to the core point, or no hit (the row misses the tool).
+// The section points of one tool pose (axis, radii, length, core y and z) for the grid rows in
+// which it can get below the material's top: [lo, hi] of x relative to the core point, or no
+// hit (the row misses the tool, or the section lies above the top); rows outside the table
+// are above it too. With a general junction ahead (behind), `lead` (`trail`): the row's strip
+// boundary relative to c1.x (c0.x) (Junction), else lo / hi by the direction.
 struct SectionRows {
   Eigen::Vector3d a = Eigen::Vector3d::Zero();
   double rho = 0.0, r = 0.0, ell = 0.0, c_y = 0.0, c_z = 0.0;  // (c_z decides the rows: the reach)
+  bool own = false;  // built for one sweep (general junction boundaries): never shared
+  bool level = true;     // the sweep moves exactly along x: z_low bounds the whole move, z_point holds
   int iv0 = 0;
   std::vector<double> lo, hi;
   std::vector<double> z_low;    // below the section's lowest point, from the core point's z
   std::vector<double> z_point;  // that point's z where known within kSectionZError, else NaN
   std::vector<char> hit;
+  std::vector<double> lead_x, trail_x;  // (general junctions only)
   bool same_family(const Sweep& s) const {
-    return a == s.a && rho == s.rho && r == s.r && ell == s.ell && c_y == s.c0.y() && c_z == s.c0.z();
+    return !own && a == s.a && rho == s.rho && r == s.r && ell == s.ell && c_y == s.c0.y() && c_z == s.c0.z();
+  }
+  int row(int iv) const {  // index into the vectors, or -1: the row cannot be cut
+    const int k = iv - iv0;
+    return k >= 0 && k < static_cast<int>(hit.size()) && hit[static_cast<std::size_t>(k)] ? k : -1;
+  }
+  // The strip boundaries of row k: lines beyond c1.x + lead are left to the next sweep, lines
+  // behind c0.x + trail were cut by the one before (forward: beyond = larger x).
+  double lead(int k, bool forward) const {
+    return !lead_x.empty() ? lead_x[static_cast<std::size_t>(k)] : forward ? hi[static_cast<std::size_t>(k)] : lo[static_cast<std::size_t>(k)];
+  }
+  double trail(int k, bool forward) const {
+    return !trail_x.empty() ? trail_x[static_cast<std::size_t>(k)] : forward ? lo[static_cast<std::size_t>(k)] : hi[static_cast<std::size_t>(k)];
   }
 };
+
+// Upper bounds of the lines' tops (z, m) by tile row over the x-range of the sweeps a table
+// serves, taken at the start of a batch (they only fall while it is cut).
+struct RowTops {
+  int rows_per_tile = 16;
+  std::vector<double> top, outward_up, outward_down;  // by tile row: its own; the max of it and all above / below
+  double at(int iv) const { return top[static_cast<std::size_t>(iv / rows_per_tile)]; }
+  double beyond(int iv, int step) const {
+    return (step > 0 ? outward_up : outward_down)[static_cast<std::size_t>(iv / rows_per_tile)];
+  }
+};
+
+// The table for sweep `s` on the grid rows y = y0 + iv sp (iv in [0, nv)), with the junctions
+// ahead and behind (nullptr: none, or the same tool). The section's lowest z is convex in the
+// row's y, smallest at the row of the tool's lowest point: the walk goes outwards from there,
+// each row warm-started from the one before, and stops at the first row whose section lies
+// above the tops of it and of every row farther out; rows whose section lies above their own
+// top are kept as misses without their junction points.
+SectionRows section_rows_for(const Sweep& s, double y0, double sp, int nv, const RowTops& tops, const Junction* lead,
+                             const Junction* trail) {
+  SectionRows t;
+  t.a = s.a, t.rho = s.rho, t.r = s.r, t.ell = s.ell, t.c_y = s.c0.y(), t.c_z = s.c0.z();
+  const bool general_lead = lead && lead->general, general_trail = trail && trail->general;
+  t.own = general_lead || general_trail;
+  t.level = level_along_x(s);
+  const bool forward = s.c1.x() > s.c0.x();
+  const double dir = forward ? 1.0 : -1.0;
+  const double z_start = std::min(s.c0.z(), s.c1.z()), drift_y = std::abs(s.c1.y() - s.c0.y());
+  struct Row {
+    int iv;
+    double lo, hi, z_low, z_point, lead, trail;
+    bool hit;
+  };
+  auto walk = [&](int iv_first, int step, bool stop_at_first, std::vector<Row>& out) {
+    detail::SectionWarm warm0, warm_lead, warm_trail;
+    double radius_lead = s.r + s.rho / std::max(s.tilt_sin, 1e-3), radius_trail = radius_lead;  // [m]
+    for (int iv = iv_first; iv >= 0 && iv < nv; iv += step) {
+      const double y = y0 + iv * sp;  // (as cut_zmap_tile computes it)
+      const double eta = y - t.c_y;   // from c0
+      Row row{iv, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, false};
+      row.hit = detail::section_point_x(s, eta, 0.0, row.lo, row.hi, &warm0, &row.z_low, &row.z_point);
+      if (!t.level) row.z_point = std::nan("");  // (the height of lines passed over holds for level moves only)
+      // Above the top here and in every row farther out, for the tool anywhere along the move:
+      // its core point drifts by dy across the rows, where the section's lowest z changes by
+      // at most |dy| |tan b| (b the lowest point's normal angle; convex, growing outwards).
+      const double floor = z_start + row.z_low - drift_y * std::abs(warm0.tan_b()) - 1e-12;
+      if (!row.hit || floor >= tops.beyond(iv, step)) {
+        if (iv != iv_first || stop_at_first) break;
+        row.hit = false;
+        out.push_back(row);
+        continue;
+      }
+      if (floor >= tops.at(iv)) {  // nothing to cut in this row (yet the walk goes on)
+        row.hit = false;
+        out.push_back(row);
+        continue;
+      }
+      double lo = 0.0, hi = 0.0;
+      auto seeded = [&](detail::SectionWarm& w) -> detail::SectionWarm& {
+        if (!std::isfinite(w.u)) w = warm0;  // start from this row's lowest point
+        return w;
+      };
+      // The shift t from the section's curvature radius in the last row (how far the point of
+      // the last slope lay from the lowest point): a short strip; any t is exact.
+      row.lead = dir * detail::kInf;  // (no point found: nothing left ahead)
+      if (general_lead) {
+        double shift = lead->shift_for(radius_lead);
+        const double slope = lead->slope(true, shift);
+        if (detail::section_point_x(s, y - s.c1.y(), dir * slope, lo, hi, &seeded(warm_lead))) {
+          row.lead = forward ? hi + shift : lo - shift;
+          if (slope > 0.0) radius_lead = std::clamp((forward ? hi - row.lo : row.hi - lo) / slope, 1e-5, 1.0);
+        }
+      }
+      row.trail = -dir * detail::kInf;  // (nothing skipped behind)
+      if (general_trail) {
+        double shift = trail->shift_for(radius_trail);
+        const double slope = trail->slope(false, shift);
+        if (detail::section_point_x(s, eta, -dir * slope, lo, hi, &seeded(warm_trail))) {
+          row.trail = forward ? lo - shift : hi + shift;
+          if (slope > 0.0) radius_trail = std::clamp((forward ? row.hi - lo : hi - row.lo) / slope, 1e-5, 1.0);
+        }
+      }
+      out.push_back(row);
+    }
+  };
+  // The tool's lowest point (support point of -z) lies at y = c_y + rho a_z a_y / sin(tilt).
+  const double y_lowest = t.c_y + s.rho * s.a.z() * s.a.y() / s.tilt_sin;
+  const int iv_up = static_cast<int>(std::ceil((y_lowest + 1e-12 - y0) / sp));
+  std::vector<Row> up, down;
+  walk(std::max(0, iv_up), 1, true, up);  // rows at or beyond the lowest point's y: monotone
+  // Rows below: the first one may lie within 1e-12 m of that y (either side): never stop there.
+  walk(std::min(nv - 1, iv_up - 1), -1, false, down);
+  std::reverse(down.begin(), down.end());
+  down.insert(down.end(), up.begin(), up.end());
+  t.iv0 = down.empty() ? 0 : down.front().iv;
+  for (const Row& row : down) {
+    if (row.iv != t.iv0 + static_cast<int>(t.hit.size())) break;  // (contiguous by construction)
+    t.hit.push_back(row.hit);
+    t.lo.push_back(row.lo);
+    t.hi.push_back(row.hi);
+    t.z_low.push_back(row.z_low);
+    t.z_point.push_back(row.z_point);
+    if (general_lead) t.lead_x.push_back(row.lead);
+    if (general_trail) t.trail_x.push_back(row.trail);
+  }
+  return t;
+}
 
 // What a sweep does in its chain.
 struct ChainRole {
   bool skip_behind = false;  // the sweep before it is in its chain
   bool leave_ahead = false;  // the sweep after it is in its chain
+  Junction behind, ahead;    // (skip_behind, leave_ahead)
   int rows = -1;             // its SectionRows
 };
 
@@ -377,6 +599,7 @@ CutStatistics NBuffer::cut(const Tool& tool, std::span<const Pose> trajectory, c
   std::vector<Sweep> lookahead;  // the first sweep after the batch (chains)
   std::vector<ChainRole> roles;  // per sweep of the batch
   std::vector<SectionRows> section_rows, section_rows_before;
+  SectionRows carried_rows;  // the last sweep's table when it leaves lines at a general junction
   const double sp = spacing_;
   const double slack = 1e-9;  // [m] widening of the row ranges against rounding: the exact test decides
 
@@ -386,7 +609,7 @@ CutStatistics NBuffer::cut(const Tool& tool, std::span<const Pose> trajectory, c
     for (std::size_t i = first; i < last; ++i) {
       const Pose& p0 = trajectory[i];
       const Pose& p1 = trajectory.size() == 1 ? trajectory[0] : trajectory[i + 1];
-      detail::split_segment(tool, p0, p1, options.orientation_tolerance_m, sweeps, &material);
+      detail::split_segment(tool, p0, p1, options.orientation_tolerance_m, sweeps, &material, detail::SubStepPath::tip);
     }
     const Sweep last_before = previous;
     const bool have_before = have_previous;
@@ -409,13 +632,45 @@ CutStatistics NBuffer::cut(const Tool& tool, std::span<const Pose> trajectory, c
       lookahead.clear();
       if (last < segments) {
         detail::split_segment(tool, trajectory[last], trajectory[last + 1], options.orientation_tolerance_m, lookahead,
-                              &material);
+                              &material, detail::SubStepPath::tip);
       }
       section_rows_before.swap(section_rows);
       section_rows.clear();
-      // The section points for the rows the sweep can reach (those within its planar reach at
-      // the material's top; cut_zmap_tile asks for no others), kept from batch to batch.
-      auto rows_for = [&](const Sweep& s) {
+      const double top = material.max_W_m.z();
+      // The tiles' tops by tile row over the x-range [x_lo, x_hi] (rows outside the y-range: none).
+      auto row_tops = [&](double x_lo, double x_hi, double y_lo, double y_hi) {
+        RowTops tops;
+        tops.rows_per_tile = kTile;
+        const std::size_t n = static_cast<std::size_t>(tiles_v_);
+        tops.top.assign(n, -detail::kInf);
+        const double tile_m = sp * kTile;
+        auto tile_index = [&](double v, double origin, int tiles) {  // clamped to [-1, tiles]
+          return static_cast<int>(std::clamp(std::floor((v - origin) / tile_m), -1.0, static_cast<double>(tiles)));
+        };
+        const int u0 = std::max(0, tile_index(x_lo, origin0_.x(), tiles_u_));
+        const int u1 = std::min(tiles_u_ - 1, tile_index(x_hi, origin0_.x(), tiles_u_));
+        const int v0 = std::max(0, tile_index(y_lo, origin0_.y(), tiles_v_));
+        const int v1 = std::min(tiles_v_ - 1, tile_index(y_hi, origin0_.y(), tiles_v_));
+        for (int tv = v0; tv <= v1; ++tv) {
+          for (int tu = u0; tu <= u1; ++tu) {
+            const TileBounds& b = tiles_[static_cast<std::size_t>(tu) + static_cast<std::size_t>(tiles_u_) * tv];
+            tops.top[static_cast<std::size_t>(tv)] = std::max(tops.top[static_cast<std::size_t>(tv)], b.hi.z());
+          }
+        }
+        tops.outward_up = tops.outward_down = tops.top;
+        for (std::size_t i = n; i-- > 1;) tops.outward_up[i - 1] = std::max(tops.outward_up[i - 1], tops.outward_up[i]);
+        for (std::size_t i = 1; i < n; ++i) tops.outward_down[i] = std::max(tops.outward_down[i], tops.outward_down[i - 1]);
+        return tops;
+      };
+      // (A table shared along a chain serves sweeps anywhere along x: the whole rows.)
+      const RowTops whole_rows = row_tops(-detail::kInf, detail::kInf, -detail::kInf, detail::kInf);
+      auto build_rows = [&](const Sweep& s, const ChainRole& role, bool own) {
+        const RowTops tops = own ? row_tops(s.lo.x(), s.hi.x(), s.lo.y(), s.hi.y()) : RowTops{};
+        return section_rows_for(s, origin0_.y(), sp, nv_, own ? tops : whole_rows,
+                                role.leave_ahead ? &role.ahead : nullptr, role.skip_behind ? &role.behind : nullptr);
+      };
+      // A tool held along a chain keeps its table from sweep to sweep and batch to batch.
+      auto shared_rows_for = [&](const Sweep& s, const ChainRole& role) {
         for (std::size_t i = 0; i < section_rows.size(); ++i) {
           if (section_rows[i].same_family(s)) return static_cast<int>(i);
         }
@@ -426,52 +681,76 @@ CutStatistics NBuffer::cut(const Tool& tool, std::span<const Pose> trajectory, c
             return static_cast<int>(section_rows.size() - 1);
           }
         }
-        SectionRows t;
-        t.a = s.a, t.rho = s.rho, t.r = s.r, t.ell = s.ell, t.c_y = s.c0.y(), t.c_z = s.c0.z();
-        const double reach = detail::reach_below(s, material.max_W_m.z());
-        if (reach >= 0.0) {
-          t.iv0 = std::max(0, static_cast<int>(std::floor((t.c_y - reach - origin0_.y()) / sp)) - 1);
-          const int iv1 = std::min(nv_ - 1, static_cast<int>(std::ceil((t.c_y + reach - origin0_.y()) / sp)) + 1);
-          for (int iv = t.iv0; iv <= iv1; ++iv) {
-            const double y = origin0_.y() + iv * sp;  // as cut_zmap_tile computes it
-            double lo = 0.0, hi = 0.0, z_low = 0.0, z_point = 0.0;
-            t.hit.push_back(detail::section_lowest_x(s, y - t.c_y, lo, hi, &z_low, &z_point));
-            t.lo.push_back(lo);
-            t.hi.push_back(hi);
-            t.z_low.push_back(z_low);
-            t.z_point.push_back(z_point);
-          }
-        }
-        section_rows.push_back(std::move(t));
+        section_rows.push_back(build_rows(s, role, false));
         return static_cast<int>(section_rows.size() - 1);
       };
+      std::vector<std::size_t> own_tables;  // sweeps whose table is their own (a general junction)
       for (std::size_t k = 0; k < sweeps.size(); ++k) {
         ChainRole& role = roles[k];
-        role.skip_behind = k == 0 ? have_before && chains(last_before, sweeps[0]) : chains(sweeps[k - 1], sweeps[k]);
-        role.leave_ahead = k + 1 < sweeps.size() ? chains(sweeps[k], sweeps[k + 1])
-                                                 : !lookahead.empty() && chains(sweeps[k], lookahead.front());
-        if (role.skip_behind || role.leave_ahead) role.rows = rows_for(sweeps[k]);
+        role.skip_behind = k == 0 ? have_before && chains(last_before, sweeps[0], top, &role.behind)
+                                  : chains(sweeps[k - 1], sweeps[k], top, &role.behind);
+        role.leave_ahead = k + 1 < sweeps.size() ? chains(sweeps[k], sweeps[k + 1], top, &role.ahead)
+                                                 : !lookahead.empty() && chains(sweeps[k], lookahead.front(), top, &role.ahead);
+        if (!role.skip_behind && !role.leave_ahead) continue;
+        stats.chained_turning += role.leave_ahead && role.ahead.general;
+        if ((role.skip_behind && role.behind.general) || (role.leave_ahead && role.ahead.general)) {
+          role.rows = static_cast<int>(section_rows.size());
+          section_rows.emplace_back();
+          own_tables.push_back(k);
+        } else {
+          role.rows = shared_rows_for(sweeps[k], role);
+        }
       }
+      arena.execute([&] {
+        tbb::parallel_for(std::size_t{0}, own_tables.size(), [&](std::size_t i) {
+          const std::size_t k = own_tables[i];
+          section_rows[static_cast<std::size_t>(roles[k].rows)] = build_rows(sweeps[k], roles[k], true);
+        });
+      });
+      // At a general junction the two tables differ: lines the sweep before leaves must not lie
+      // behind the trail of the sweep after (they would fall between the two).
+      for (std::size_t k = 0; k < sweeps.size(); ++k) {
+        if (!roles[k].skip_behind || !roles[k].behind.general) continue;
+        const SectionRows& before = k == 0 ? carried_rows : section_rows[static_cast<std::size_t>(roles[k - 1].rows)];
+        SectionRows& t = section_rows[static_cast<std::size_t>(roles[k].rows)];
+        const bool forward = sweeps[k].c1.x() > sweeps[k].c0.x();
+        const Sweep& previous_sweep = k == 0 ? last_before : sweeps[k - 1];
+        const double frame = previous_sweep.c1.x() - sweeps[k].c0.x();  // (the lead is from its c1, the trail from c0)
+        for (std::size_t i = 0; i < t.trail_x.size(); ++i) {
+          const int kb = before.row(t.iv0 + static_cast<int>(i));
+          if (kb < 0) continue;  // the sweep before cannot cut that row: it left nothing there
+          const double lead = before.lead(kb, forward) + frame;
+          t.trail_x[i] = forward ? std::min(t.trail_x[i], lead) : std::max(t.trail_x[i], lead);
+        }
+      }
+      const ChainRole& last_role = roles.back();
+      carried_rows = last_role.leave_ahead && last_role.ahead.general ? section_rows[static_cast<std::size_t>(last_role.rows)]
+                                                                          : SectionRows{};
     }
     // A sweep in a chain can cut a tile only where its rows' strips (between the sections'
     // lowest points at c0 and c1, as cut_zmap_tile narrows them) meet the tile's columns, and
     // only above its rows' lowest section points.
+    // The x-range of row k a sweep of a chain tests (without the slack): from the lines the sweep
+    // before cut to those it leaves to the next.
+    auto chain_strip = [](const Sweep& s, const ChainRole& role, const SectionRows& t, int k, double& lo, double& hi) {
+      const bool forward = s.c1.x() > s.c0.x();
+      const double behind = role.skip_behind ? s.c0.x() + t.trail(k, forward) : -detail::kInf * (forward ? 1.0 : -1.0);
+      const double ahead = role.leave_ahead ? s.c1.x() + t.lead(k, forward) : detail::kInf * (forward ? 1.0 : -1.0);
+      lo = forward ? behind : ahead;
+      hi = forward ? ahead : behind;
+    };
     auto chain_may_cut = [&](const Sweep& s, const ChainRole& role, int tu, int tv) {
       if (role.rows < 0) return true;
       const SectionRows& t = section_rows[static_cast<std::size_t>(role.rows)];
       const std::size_t tile = static_cast<std::size_t>(tu) + static_cast<std::size_t>(tiles_u_) * tv;
       const double x_lo = tiles_[tile].lo.x() - slack, x_hi = tiles_[tile].hi.x() + slack;
       const double top = tiles_[tile].hi.z();
-      const bool forward = s.c1.x() > s.c0.x();
       const int v_end = std::min(nv_, (tv + 1) * kTile);
       for (int iv = tv * kTile; iv < v_end; ++iv) {
-        const int k = iv - t.iv0;
-        if (k < 0 || k >= static_cast<int>(t.hit.size())) return true;  // not in the table: no narrowing
-        if (!t.hit[k] || top <= s.c0.z() + t.z_low[k]) continue;
-        const double lo = forward ? (role.skip_behind ? s.c0.x() + t.lo[k] : -detail::kInf)
-                                  : (role.leave_ahead ? s.c1.x() + t.lo[k] : -detail::kInf);
-        const double hi = forward ? (role.leave_ahead ? s.c1.x() + t.hi[k] : detail::kInf)
-                                  : (role.skip_behind ? s.c0.x() + t.hi[k] : detail::kInf);
+        const int k = t.row(iv);
+        if (k < 0 || (t.level && top <= s.c0.z() + t.z_low[static_cast<std::size_t>(k)])) continue;
+        double lo = 0.0, hi = 0.0;
+        chain_strip(s, role, t, k, lo, hi);
         if (lo <= x_hi && hi >= x_lo) return true;
       }
       return false;
@@ -549,25 +828,20 @@ CutStatistics NBuffer::cut(const Tool& tool, std::span<const Pose> trajectory, c
           int over_a = 0, over_b = -1;
           double over_t0 = 0.0;
           if (chain_rows) {
-            const int k = iv - chain_rows->iv0;
-            if (k >= 0 && k < static_cast<int>(chain_rows->hit.size())) {
-              if (!chain_rows->hit[k]) continue;  // the row misses the tool
-              row_floor = s.c0.z() + chain_rows->z_low[k] - z0;
-              const double lo = chain_rows->lo[k], hi = chain_rows->hi[k];
-              if (dx > 0.0) {
-                if (role.skip_behind) strip_a = s.c0.x() + lo - slack;
-                if (role.leave_ahead) strip_b = s.c1.x() + hi + slack;
-              } else {
-                if (role.leave_ahead) strip_a = s.c1.x() + lo - slack;
-                if (role.skip_behind) strip_b = s.c0.x() + hi + slack;
-              }
-              if (strip_a > tile_x_hi || strip_b < tile_x_lo) continue;
-              if (std::isfinite(chain_rows->z_point[k])) {
-                const double x_start = std::min(s.c0.x(), s.c1.x()), x_end = std::max(s.c0.x(), s.c1.x());
-                over_a = static_cast<int>(std::ceil((x_start + hi + slack - origin0_.x()) / sp));
-                over_b = static_cast<int>(std::floor((x_end + lo - slack - origin0_.x()) / sp));
-                over_t0 = s.c0.z() + chain_rows->z_point[k] - z0;
-              }
+            const int k = chain_rows->row(iv);
+            if (k < 0) continue;  // the row misses the tool, or its section lies above the material
+            const std::size_t kk = static_cast<std::size_t>(k);
+            if (chain_rows->level) row_floor = s.c0.z() + chain_rows->z_low[kk] - z0;
+            chain_strip(s, role, *chain_rows, k, strip_a, strip_b);
+            strip_a -= slack;
+            strip_b += slack;
+            if (strip_a > tile_x_hi || strip_b < tile_x_lo) continue;
+            if (std::isfinite(chain_rows->z_point[kk])) {
+              const double lo = chain_rows->lo[kk], hi = chain_rows->hi[kk];
+              const double x_start = std::min(s.c0.x(), s.c1.x()), x_end = std::max(s.c0.x(), s.c1.x());
+              over_a = static_cast<int>(std::ceil((x_start + hi + slack - origin0_.x()) / sp));
+              over_b = static_cast<int>(std::floor((x_end + lo - slack - origin0_.x()) / sp));
+              over_t0 = s.c0.z() + chain_rows->z_point[kk] - z0;
             }
           }
           double xa = 0.0, xb = 0.0;

@@ -233,10 +233,11 @@ namespace {
 // with na > 0 the arc's least n . a is at an end), so |n - (n . a) a| = sqrt(1 - (n . a)^2) <=
 // sqrt(1 - na^2): the disc of a tool steep to the face reaches it by far less than rho (a
 // 10 deg tilted disc dips 0.17 rho below its centre), which shortens the tool and so the
-// sub-step count.
+// sub-step count. `core_offset_m`: how far the core points of the sub-steps may lie from the
+// line c0 -> c1 (SubStepPath::tip).
 double reachable_length(const Box& box, const Eigen::Vector3d& c0, const Eigen::Vector3d& c1,
                         const Eigen::Vector3d& a0, const Eigen::Vector3d& a1, double theta, double rho,
-                        double r, double ell) {
+                        double r, double ell, double core_offset_m) {
   const double sag = 1.0 - std::cos(0.5 * theta);
   double best = ell;
   for (int i = 0; i < 3; ++i) {
@@ -244,7 +245,7 @@ double reachable_length(const Box& box, const Eigen::Vector3d& c0, const Eigen::
       const double face = sign > 0.0 ? box.max_W_m[i] : -box.min_W_m[i];
       const double na = std::min(sign * a0[i], sign * a1[i]) - sag;
       if (na <= 0.0) continue;
-      const double nc = std::min(sign * c0[i], sign * c1[i]);
+      const double nc = std::min(sign * c0[i], sign * c1[i]) - core_offset_m;
       const double reach = rho * std::sqrt(std::max(0.0, (1.0 - na) * (1.0 + na))) + r;
       best = std::min(best, std::max(0.0, (face + reach - nc) / na));
     }
@@ -255,14 +256,22 @@ double reachable_length(const Box& box, const Eigen::Vector3d& c0, const Eigen::
 }  // namespace
 
 void split_segment(const Tool& tool, const Pose& pose0, const Pose& pose1, double tolerance_m,
-                   std::vector<Sweep>& out, const Box* material) {
+                   std::vector<Sweep>& out, const Box* material, SubStepPath path) {
   const double r = tool.corner_radius(), rho = tool.disc_radius();
   double ell = tool.core_length();
   const Eigen::Vector3d a0 = pose0.axis_W.normalized(), a1 = pose1.axis_W.normalized();
   const Eigen::Vector3d c0 = pose0.tip_W_m + r * a0, c1 = pose1.tip_W_m + r * a1;
   const double theta = std::atan2(a0.cross(a1).norm(), a0.dot(a1));
   const bool vertical = a0 == Eigen::Vector3d::UnitZ() && a1 == Eigen::Vector3d::UnitZ();
-  if (material && !vertical) ell = reachable_length(*material, c0, c1, a0, a1, theta, rho, r, ell);
+  // Sub-steps along the tip's line: each core point lies within r (delta / 2 + (1 - cos(theta /
+  // 2))) of the motion's (the axis within delta / 2 of the sub-step's, the chord of the arc
+  // within 1 - cos(theta / 2) of it), which adds r to the rotation's lever and that chord term.
+  const double chord = 1.0 - std::cos(0.5 * theta);
+  const bool along_tip = path == SubStepPath::tip && theta > 0.0 && rho > 0.0 && r > 0.0 &&
+                         r * chord < 0.5 * tolerance_m;
+  if (material && !vertical) {
+    ell = reachable_length(*material, c0, c1, a0, a1, theta, rho, r, ell, along_tip ? r * (0.5 * theta + chord) : 0.0);
+  }
   if (theta == 0.0) {
     out.push_back(make_sweep(c0, c1, a0, rho, r, ell));
     return;
@@ -271,8 +280,9 @@ void split_segment(const Tool& tool, const Pose& pose0, const Pose& pose1, doubl
     throw InputError("tool axis turns by " + std::to_string(theta * 180.0 / M_PI) +
                      " deg between two trajectory samples: no unique interpolation");
   }
-  const double extent = std::hypot(ell, rho);
-  const double steps = std::ceil(theta * extent / (2.0 * tolerance_m));
+  const double extent = std::hypot(ell, rho) + (along_tip ? r : 0.0);
+  const double budget = tolerance_m - (along_tip ? r * chord : 0.0);
+  const double steps = std::ceil(theta * extent / (2.0 * budget));
   if (steps > 1e6) {
     throw InputError("tool axis turns by " + std::to_string(theta * 180.0 / M_PI) +
                      " deg in one segment: more than 1e6 sub-steps for the orientation tolerance");
@@ -284,31 +294,46 @@ void split_segment(const Tool& tool, const Pose& pose0, const Pose& pose1, doubl
     const double sm = 0.5 * (sa + sb);
     const Eigen::Vector3d a =
         ((std::sin((1.0 - sm) * theta) * a0 + std::sin(sm * theta) * a1) / sin_theta).normalized();
-    out.push_back(make_sweep(c0 + sa * (c1 - c0), c0 + sb * (c1 - c0), a, rho, r, ell));
+    if (along_tip) {
+      const Eigen::Vector3d tip_a = pose0.tip_W_m + sa * (pose1.tip_W_m - pose0.tip_W_m);
+      const Eigen::Vector3d tip_b = pose0.tip_W_m + sb * (pose1.tip_W_m - pose0.tip_W_m);
+      out.push_back(make_sweep(tip_a + r * a, tip_b + r * a, a, rho, r, ell));
+    } else {
+      out.push_back(make_sweep(c0 + sa * (c1 - c0), c0 + sb * (c1 - c0), a, rho, r, ell));
+    }
   }
 }
 
-bool section_lowest_x(const Sweep& s, double eta, double& x_lo, double& x_hi, double* z_low, double* z_point) {
+bool section_point_x(const Sweep& s, double eta, double slope, double& x_lo, double& x_hi, SectionWarm* warm,
+                     double* z_low, double* z_point) {
   const double ax = s.a.x(), ay = s.a.y(), az = s.a.z();
   if (!(az > 0.0) || !(std::abs(ax) >= kSectionMinAx)) return false;
-  // The lowest points of the section y = eta are the support points x(n) of the normals
-  // n(b) = (0, sin b, -cos b), b in [-pi/2, pi/2], whose y is eta: x(n) = rho (n - (n . a) a) /
-  // |n - (n . a) a| + ell [n . a > 0] a + r n (the whole segment over ell where n . a = 0). Their
-  // y grows with b (the projection along x is convex): two bisections bracket the b of every
-  // such point. |n . a| <= |a - a_x x| gives |n - (n . a) a| >= |a_x|.
+  // The points of the section y = eta where the lower envelope's x-slope is `slope` are the
+  // support points x(n) of the normals n(b) = m / |m|, m = (slope cos b, sin b, -cos b), b in
+  // [-pi/2, pi/2], whose y is eta: x(n) = rho (n - (n . a) a) / |n - (n . a) a| + ell [n . a > 0]
+  // a + r n (the whole segment over ell where n . a = 0). The normals run over a great circle
+  // through y, so their y grows with b (the projection on its plane is convex): a bracket of b
+  // holds every such point. |n . a| <= |slope a_x| + |a - a_x x| bounds |n - (n . a) a| from
+  // below (|a_x| for slope 0). b is taken through u = tan(b / 2) in [-1, 1] (sin b = 2 u / (1 +
+  // u^2), cos b = (1 - u^2) / (1 + u^2): no trigonometry; |db / du| <= 2).
   struct Point {
     double x_core, y_core, z_core, y_low, y_high, na;  // y over the support set (a segment when n . a ~ 0)
   };
-  auto point = [&](double b) {
-    const double sb = std::sin(b), cb = std::cos(b);
-    const double na = sb * ay - cb * az;
+  auto point = [&](double u) {
+    const double q = 1.0 / (1.0 + u * u), sb = 2.0 * u * q, cb = (1.0 - u * u) * q;
+    double nx = 0.0, ny = sb, nz = -cb;
+    if (slope != 0.0) {
+      const double inv = 1.0 / std::sqrt(1.0 + slope * slope * cb * cb);
+      nx = slope * cb * inv, ny = sb * inv, nz = -cb * inv;
+    }
+    const double na = nx * ax + ny * ay + nz * az;
     const double perp = std::sqrt(std::max(0.0, (1.0 - na) * (1.0 + na)));
     Point p;
     p.na = na;
-    p.x_core = -s.rho * na * ax / perp;
-    const double y = s.rho * (sb - na * ay) / perp + s.r * sb;
+    p.x_core = s.rho * (nx - na * ax) / perp + s.r * nx;
+    const double y = s.rho * (ny - na * ay) / perp + s.r * ny;
     p.y_core = y;
-    p.z_core = s.rho * (-cb - na * az) / perp - s.r * cb;
+    p.z_core = s.rho * (nz - na * az) / perp + s.r * nz;
     const double y_top = y + s.ell * ay;
     const bool both = std::abs(na) <= 1e-9;
     const double y_one = na > 0.0 ? y_top : y;
@@ -317,48 +342,102 @@ bool section_lowest_x(const Sweep& s, double eta, double& x_lo, double& x_hi, do
     return p;
   };
   constexpr double tau = 1e-15;  // [m] far above the rounding of y (~1e-17 m)
-  const double lip = s.rho / std::abs(ax) + s.r;  // |dx_core / db|, |dz_core / db|
-  const double width = 0.1 * kSectionZError / lip;  // bracket width [rad] worth 0.1 kSectionZError
-  const double half_pi = 0.5 * M_PI;
-  // b1: every b at or below it has all its y < eta (so the points lie above b1).
-  double lo = -half_pi, hi = half_pi;
-  if (point(lo).y_high >= eta - tau) {
-    hi = lo;
-  } else {
-    if (point(hi).y_high < eta - tau) return false;  // the plane lies beyond the tool's +y side
-    while (hi - lo > width) {
-      const double mid = 0.5 * (lo + hi);
-      (point(mid).y_high < eta - tau ? lo : hi) = mid;
+  const double na_max = std::abs(slope * ax) + std::sqrt(std::max(0.0, (1.0 - ax) * (1.0 + ax)));
+  const double perp_min = std::sqrt(std::max(0.0, (1.0 - na_max) * (1.0 + na_max)));
+  if (!(perp_min > 0.0)) return false;
+  const double lip = 2.0 * std::sqrt(1.0 + slope * slope) * (s.rho / perp_min + s.r);  // |dx_core / du|, |dz_core / du|
+  // Bracket width (in u): worth 0.1 kSectionZError for the lowest point (its height is used),
+  // 1e-8 m of x for the other slopes (only bounds of x are).
+  const double width = (slope == 0.0 ? 0.1 * kSectionZError : 1e-8) / lip;
+  const double end = 1.0;  // u at b = pi / 2
+  double b1 = 0.0, b2 = 0.0;
+  Point p1, p2;
+  bool bracketed = false;
+  // Warm start (neighbouring row): Newton steps on y(u) = eta with the rate du / deta of the
+  // neighbours, then a bracket of the width around the root, accepted only when both ends
+  // check (y monotone in b): a few evaluations instead of two bisections.
+  if (warm && std::isfinite(warm->u) && std::isfinite(warm->du_deta) && warm->du_deta != 0.0) {
+    double rate = warm->du_deta;
+    // The guess: the neighbour's tangent, bent through the row before it (second order).
+    const double step = eta - warm->eta, back = warm->eta_before - warm->eta;
+    double bend = 0.0;
+    if (std::isfinite(warm->u_before) && back != 0.0) bend = (warm->u_before - warm->u - rate * back) / (back * back);
+    double b = std::clamp(warm->u + step * rate + step * step * bend, -end, end);
+    auto half_width = [&] { return std::max(0.5 * width, 1.5 * tau * std::abs(rate)); };
+    auto accept = [&](double root) {
+      const double w = half_width();
+      b1 = std::max(-end, root - w), b2 = std::min(end, root + w);
+      p1 = point(b1), p2 = point(b2);
+      bracketed = b1 > -end && b2 < end && p1.y_high < eta - tau && p2.y_low > eta + tau;
+      return bracketed;
+    };
+    {
+      Point p = point(b);
+      for (int k = 0; k < 4; ++k) {
+        const double f = 0.5 * (p.y_low + p.y_high) - eta;
+        if (std::abs(f) <= 0.25 * half_width() / std::abs(rate)) break;
+        const double next = std::clamp(b - f * rate, -end, end);
+        const Point q = point(next);
+        const double dy = 0.5 * (q.y_low + q.y_high) - 0.5 * (p.y_low + p.y_high);
+        if (dy != 0.0 && next != b) rate = (next - b) / dy;
+        b = next, p = q;
+      }
+      accept(b);
+    }
+    if (bracketed) {
+      warm->u_before = warm->u, warm->eta_before = warm->eta;
+      warm->u = b, warm->du_deta = rate, warm->eta = eta;
     }
   }
-  const double b1 = lo;
-  // b2: every b at or above it has all its y > eta.
-  lo = b1, hi = half_pi;
-  if (point(hi).y_low <= eta + tau) {
-    lo = hi;
-    if (point(-half_pi).y_low > eta + tau) return false;
-  } else {
-    if (point(lo).y_low > eta + tau) return false;  // beyond the tool's -y side
-    while (hi - lo > width) {
-      const double mid = 0.5 * (lo + hi);
-      (point(mid).y_low > eta + tau ? hi : lo) = mid;
+  if (!bracketed) {
+    // b1: every u at or below it has all its y < eta (so the points lie above b1).
+    double lo = -end, hi = end;
+    if (point(lo).y_high >= eta - tau) {
+      hi = lo;
+    } else {
+      if (point(hi).y_high < eta - tau) return false;  // the plane lies beyond the tool's +y side
+      while (hi - lo > width) {
+        const double mid = 0.5 * (lo + hi);
+        (point(mid).y_high < eta - tau ? lo : hi) = mid;
+      }
+    }
+    b1 = lo;
+    // b2: every u at or above it has all its y > eta.
+    lo = b1, hi = end;
+    if (point(hi).y_low <= eta + tau) {
+      lo = hi;
+      if (point(-end).y_low > eta + tau) return false;
+    } else {
+      if (point(lo).y_low > eta + tau) return false;  // beyond the tool's -y side
+      while (hi - lo > width) {
+        const double mid = 0.5 * (lo + hi);
+        (point(mid).y_low > eta + tau ? hi : lo) = mid;
+      }
+    }
+    b2 = hi;
+    p1 = point(b1), p2 = point(b2);
+    if (warm) {
+      // The rate for the next row's warm start, from this bracket's y.
+      const double b = 0.5 * (b1 + b2), h = std::max(1e-7, b2 - b1);
+      const Point pa = point(std::max(-end, b - h)), pb = point(std::min(end, b + h));
+      const double dy = pb.y_core - pa.y_core;
+      warm->u_before = std::nan("");
+      warm->u = b, warm->eta = eta;
+      warm->du_deta = dy != 0.0 ? (std::min(end, b + h) - std::max(-end, b - h)) / dy : std::nan("");
     }
   }
-  const double b2 = hi;
-  const Point p1 = point(b1), p2 = point(b2);
-  // Over [b1, b2]: x_core within lip (b2 - b1) / 2 of the nearer end; the top end's ell a_x
-  // where n . a may reach 0 (|d(n . a) / db| <= 1).
+  // Over [b1, b2] (in u): x_core within lip (b2 - b1) / 2 of the nearer end; the top end's ell
+  // a_x where n . a may reach 0 (|d(n . a) / du| <= |dn / du| <= 2 sqrt(1 + slope^2)).
   const double spread = 0.5 * lip * (b2 - b1) + 1e-12;
+  const double na_reach = std::sqrt(1.0 + slope * slope) * (b2 - b1) + 1e-9;
   // (The top end's z is higher by ell a_z > 0: the bottom's bounds the point from below.)
   if (z_low) *z_low = std::min(p1.z_core, p2.z_core) - spread;
-  if (z_point) {
-    const Point mid = point(0.5 * (b1 + b2));
-    const bool off_flank = !(s.ell > 0.0) || std::max(p1.na, p2.na) < -(0.5 * (b2 - b1) + 1e-9);
-    *z_point = off_flank && 0.5 * lip * (b2 - b1) <= 0.5 * kSectionZError ? mid.z_core : std::nan("");
+  if (z_point) {  // (z_core within lip (b2 - b1) of the bracket's end)
+    const bool off_flank = !(s.ell > 0.0) || std::max(p1.na, p2.na) < -na_reach;
+    *z_point = off_flank && lip * (b2 - b1) <= kSectionZError ? p1.z_core : std::nan("");
   }
   x_lo = std::min(p1.x_core, p2.x_core) - spread;
   x_hi = std::max(p1.x_core, p2.x_core) + spread;
-  const double na_reach = 0.5 * (b2 - b1) + 1e-9;
   if (s.ell > 0.0 && std::min(p1.na, p2.na) > na_reach) {  // the top end throughout
     x_lo += s.ell * ax;
     x_hi += s.ell * ax;
@@ -376,6 +455,10 @@ bool section_lowest_x(const Sweep& s, double eta, double& x_lo, double& x_hi, do
     x_hi += std::max(l0 * ax, l1 * ax);
   }
   return true;
+}
+
+bool section_lowest_x(const Sweep& s, double eta, double& x_lo, double& x_hi, double* z_low, double* z_point) {
+  return section_point_x(s, eta, 0.0, x_lo, x_hi, nullptr, z_low, z_point);
 }
 
 bool capsule_interval(const Eigen::Vector3d& A, const Eigen::Vector3d& B, double R,

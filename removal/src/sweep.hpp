@@ -39,8 +39,15 @@ Sweep make_sweep(const Eigen::Vector3d& c0, const Eigen::Vector3d& c1, const Eig
 /// of the segment can bring it into the box (the core length ell becomes the largest axial
 /// position that can reach the box): the sweep inside the box is unchanged, the sub-step count
 /// (which grows with the length) and the work drop. Not done for a constant vertical axis.
+/// Where the sub-steps of a turning segment move: the core point c along the line c0 -> c1 (the
+/// motion as defined), or the tip along its line with c = tip + r a of the sub-step's axis
+/// (bull-nose only; otherwise as `core`): for a tip moving exactly along x each sub-step then
+/// does too (nbuffer.cpp's chains), at the price of r added to the rotation's lever and r (1 -
+/// cos(theta / 2)) (each core point within that of the motion's) in the bound; consecutive
+/// sub-steps then meet with their core points r times the axis step apart.
+enum class SubStepPath { core, tip };
 void split_segment(const Tool& tool, const Pose& pose0, const Pose& pose1, double tolerance_m,
-                   std::vector<Sweep>& out, const Box* material = nullptr);
+                   std::vector<Sweep>& out, const Box* material = nullptr, SubStepPath path = SubStepPath::core);
 
 /// Lower bound on z of the points of the sweep whose distance in the plane from the segment
 /// (c0, c1) projected on xy is at least d [m] (+inf where the sweep does not reach; -inf for a
@@ -66,6 +73,23 @@ double reach_below(const Sweep& s, double z);
 /// else NaN.
 bool section_lowest_x(const Sweep& s, double eta, double& x_lo, double& x_hi, double* z_low = nullptr,
                       double* z_point = nullptr);
+/// The neighbouring row's solution (u = tan(b / 2) of the point's normal angle b at eta, and its
+/// rate du / deta): a warm start for section_point_x (NaN: none; any value gives rigorous
+/// results).
+struct SectionWarm {
+  double u = std::numeric_limits<double>::quiet_NaN(), du_deta = std::numeric_limits<double>::quiet_NaN(), eta = 0.0;
+  double u_before = std::numeric_limits<double>::quiet_NaN(), eta_before = 0.0;  // the row before (second order)
+  /// tan b: for the lowest point (slope 0) the y-slope of the section's lowest z over the rows.
+  double tan_b() const { return 2.0 * u / ((1.0 - u) * (1.0 + u)); }
+};
+/// As section_lowest_x, for the points of the section where the lower envelope's x-slope
+/// (dz/dx) is `slope` instead of 0 (slope 0: the lowest points; z_low, z_point only for those):
+/// [x_lo, x_hi] holds them. Along a row the slope of the static tool's lower envelope grows with
+/// x (convex), so it is at least `slope` beyond x_hi and at most it before x_lo. The interval
+/// is within about 1e-8 m for slope != 0. With `warm`, a few Newton steps from the neighbouring
+/// row's solution and a checked bracket replace the bisections (`warm` is updated).
+bool section_point_x(const Sweep& s, double eta, double slope, double& x_lo, double& x_hi, SectionWarm* warm = nullptr,
+                     double* z_low = nullptr, double* z_point = nullptr);
 inline constexpr double kSectionZError = 1e-13;
 inline constexpr double kSectionMinAx = 0.01;
 

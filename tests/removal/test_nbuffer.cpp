@@ -324,6 +324,10 @@ TEST(NBuffer, TiltedFlatAndBullSameResultForOneAndTwoThreadsAndAnyBatch) {
       NBuffer two = one;
       const CutStatistics stats = cut_on_one_and_two_threads(tool, path, 1 * um, one, two);
       EXPECT_GT(stats.lines_lowered, 10000u);
+      // (The bull-nose's turning sub-steps are chained, their tables built in parallel.)
+      if (type == ToolType::bull && turn > 0.0) {
+        EXPECT_GT(stats.chained_turning, stats.sub_segments / 2);
+      }
       EXPECT_EQ(one.lengths(), two.lengths()) << static_cast<int>(type) << " turn " << turn;
     }
   }

@@ -24,9 +24,9 @@ using test::make_tool;
 
 // Two passes along x, 0.2 mm segments, 0.1 mm below the stock top (5 mm), the axis tilted by 10 to
 // 30 deg and its azimuth turning by 0.5 to 4 mrad a segment (reversing at random).
-std::vector<Pose> random_turning_passes(std::mt19937& rng) {
-  std::uniform_real_distribution<double> tilt(10.0 * M_PI / 180.0, 30.0 * M_PI / 180.0), turn(0.5e-3, 4e-3),
-      unit(0.0, 1.0);
+std::vector<Pose> random_turning_passes(std::mt19937& rng, double min_tilt_deg = 10.0, double max_tilt_deg = 30.0) {
+  std::uniform_real_distribution<double> tilt(min_tilt_deg * M_PI / 180.0, max_tilt_deg * M_PI / 180.0),
+      turn(0.5e-3, 4e-3), unit(0.0, 1.0);
   const double beta = tilt(rng);
   double phi = 2.0 * M_PI * unit(rng);
   std::vector<Pose> path;
@@ -43,11 +43,13 @@ std::vector<Pose> random_turning_passes(std::mt19937& rng) {
   return path;
 }
 
-void expect_within_orientation_tolerance(const Tool& tool, std::uint32_t seed) {
+// Returns the Z-map's statistics.
+CutStatistics expect_within_orientation_tolerance(const Tool& tool, std::uint32_t seed, double min_tilt_deg = 10.0,
+                                                  double max_tilt_deg = 30.0) {
   std::mt19937 rng(seed);
   const Box stock{Eigen::Vector3d(-2, -2, 0) * mm, Eigen::Vector3d(2, 2, 5) * mm};  // holds the walls
   NBuffer zmap = NBuffer::zmap(stock, 0.075 * mm);
-  const std::vector<Pose> path = random_turning_passes(rng);
+  const std::vector<Pose> path = random_turning_passes(rng, min_tilt_deg, max_tilt_deg);
   CutOptions options;
   options.orientation_tolerance_m = 0.5e-6;  // coarse: the errors are large enough to see
   const CutStatistics stats = zmap.cut(tool, path, options);
@@ -58,7 +60,7 @@ void expect_within_orientation_tolerance(const Tool& tool, std::uint32_t seed) {
   for (std::size_t i = 0; i + 1 < path.size(); ++i) {
     detail::split_segment(tool, path[i], path[i + 1], reference_tolerance_m, sweeps);
   }
-  ASSERT_GT(sweeps.size(), 10 * stats.sub_segments);  // (far finer than the production)
+  EXPECT_GT(sweeps.size(), 10 * stats.sub_segments);  // (far finer than the production)
   const double z0 = stock.min_W_m.z(), top = stock.max_W_m.z() - z0;
   std::vector<double> reference(static_cast<std::size_t>(zmap.nu()) * zmap.nv(), top);
   for (int j = 0; j < zmap.nv(); ++j) {
@@ -99,6 +101,7 @@ void expect_within_orientation_tolerance(const Tool& tool, std::uint32_t seed) {
   EXPECT_LE(worst_ratio, 1.0) << "seed " << seed;
   EXPECT_GT(cut, 300) << "seed " << seed;
   EXPECT_GT(compared, (zmap.nu() - 2) * (zmap.nv() - 2) * 3 / 4) << "seed " << seed;
+  return stats;
 }
 
 TEST(NBufferFiveAxis, FlatEndWithinOrientationToleranceOfTheWholeTool) {
@@ -110,6 +113,11 @@ TEST(NBufferFiveAxis, FlatEndWithinOrientationToleranceOfTheWholeTool) {
 TEST(NBufferFiveAxis, BullNoseWithinOrientationToleranceOfTheWholeTool) {
   const Tool bull = make_tool(ToolType::bull, 1.6, 0.3, 10);
   for (std::uint32_t seed : {4u, 5u}) expect_within_orientation_tolerance(bull, seed);
+  // Small tilts: the sub-steps (along the tip's line) are chained across the turns.
+  for (std::uint32_t seed : {6u, 7u}) {
+    const CutStatistics stats = expect_within_orientation_tolerance(bull, seed, 6.0, 12.0);
+    EXPECT_GT(stats.chained_turning, stats.sub_segments / 2) << "seed " << seed;
+  }
 }
 
 }  // namespace

@@ -104,6 +104,53 @@ TEST(NBufferChains, SectionLowestPointMatchesBruteForce) {
   EXPECT_GT(exact_heights, 200);
 }
 
+// The points of a section where the entry's x-slope is `slope` (section_point_x, the chains'
+// junction boundaries where the tool turns), cold and warm-started along the rows, against
+// the brute force: the static tool's entry on a dense grid along the row, its slope by finite
+// differences. Beyond x_hi the slope is at least `slope`, before x_lo at most it, and the
+// interval is tight.
+TEST(NBufferChains, SectionSlopePointsMatchBruteForce) {
+  std::mt19937 rng(8);
+  std::uniform_real_distribution<double> unit(0.0, 1.0);
+  int checked = 0, warm_checked = 0;
+  for (int trial = 0; trial < 16; ++trial) {
+    const double rho = (1.0 + 2.0 * unit(rng)) * mm, r = (0.3 + unit(rng)) * mm, ell = (2.0 + 6.0 * unit(rng)) * mm;
+    const Eigen::Vector3d a = random_axis(rng);
+    const detail::Sweep s = detail::make_sweep(Eigen::Vector3d::Zero(), Eigen::Vector3d::Zero(), a, rho, r, ell);
+    const double slope = (trial % 2 == 0 ? 1.0 : -1.0) * std::pow(10.0, -3.0 + 1.5 * unit(rng));
+    detail::SectionWarm warm;
+    const double y_start = s.lo.y() + (0.2 + 0.3 * unit(rng)) * (s.hi.y() - s.lo.y());
+    for (int row = 0; row < 30; ++row) {
+      const double y = y_start + row * 10e-6;  // rows 10 um apart: the warm start's case
+      double cold_lo = 0.0, cold_hi = 0.0, x_lo = 0.0, x_hi = 0.0;
+      ASSERT_TRUE(detail::section_point_x(s, y, slope, cold_lo, cold_hi)) << trial;
+      ASSERT_TRUE(detail::section_point_x(s, y, slope, x_lo, x_hi, &warm)) << trial;
+      for (const auto& [lo, hi] : {std::pair{cold_lo, cold_hi}, std::pair{x_lo, x_hi}}) {
+        EXPECT_LT(hi - lo, 1e-7) << trial << " row " << row;
+        const double h = 2e-6;  // finite-difference step [m]
+        for (double d : {3e-6, 3e-5, 3e-4}) {
+          const double beyond = (static_entry(s, hi + d + h, y) - static_entry(s, hi + d - h, y)) / (2 * h);
+          const double before = (static_entry(s, lo - d + h, y) - static_entry(s, lo - d - h, y)) / (2 * h);
+          if (std::isfinite(beyond)) {
+            EXPECT_GE(beyond, slope - 1e-6) << trial << " row " << row << " d " << d;
+          }
+          if (std::isfinite(before)) {
+            EXPECT_LE(before, slope + 1e-6) << trial << " row " << row << " d " << d;
+          }
+        }
+        // Tight: just inside the interval's ends the slope is already near `slope`.
+        const double mid = 0.5 * (lo + hi);
+        const double at = (static_entry(s, mid + h, y) - static_entry(s, mid - h, y)) / (2 * h);
+        EXPECT_NEAR(at, slope, 1e-3) << trial << " row " << row;
+      }
+      ++checked;
+      warm_checked += std::isfinite(warm.u);
+    }
+  }
+  EXPECT_EQ(checked, 16 * 30);
+  EXPECT_GT(warm_checked, 16 * 28);
+}
+
 // Random passes along x with one tilted axis each: segments of random length, sometimes a
 // reversal or a stop (both end a chain), a step in y between passes.
 std::vector<Pose> random_chains(std::mt19937& rng, double z_mm) {
@@ -144,6 +191,65 @@ void expect_chains_exact(const Tool& tool, std::uint32_t seed, double tolerance_
   const auto difference = compare_lines(zmap, general, 5 * mm);
   EXPECT_LT(difference.worst_m, tolerance_m) << "seed " << seed;
   EXPECT_GT(difference.lowered, 300u) << "seed " << seed;
+}
+
+// Passes along x with the axis precessing about z at a small tilt (bull-nose orientation
+// sub-steps in chains), segments of random length, reversals, stops, steps in y between passes.
+std::vector<Pose> random_turning_chains(std::mt19937& rng, double z_mm) {
+  std::uniform_real_distribution<double> unit(0.0, 1.0);
+  std::vector<Pose> path;
+  const double tilt = (7.0 + 5.0 * unit(rng)) * M_PI / 180.0;
+  double phase = 2.0 * M_PI * unit(rng);
+  for (int pass = 0; pass < 3; ++pass) {
+    double x = -1.5 + 3.0 * unit(rng), dir = unit(rng) < 0.5 ? 1.0 : -1.0;
+    const double y = -1.0 + 0.9 * pass + 0.2 * unit(rng);
+    for (int k = 0; k < 14; ++k) {
+      const Eigen::Vector3d a(std::sin(tilt) * std::cos(phase), std::sin(tilt) * std::sin(phase), std::cos(tilt));
+      path.push_back(Pose{Eigen::Vector3d(x, y, z_mm) * mm, a});
+      const double u = unit(rng);
+      if (u < 0.1) dir = -dir;  // reversal
+      if (u > 0.93) continue;   // stop: the same pose twice
+      phase += (unit(rng) < 0.2 ? -1.0 : 1.0) * (0.5e-3 + 3e-3 * unit(rng));
+      x += dir * (0.05 + 0.25 * unit(rng));
+      if (std::abs(x) > 2.0) dir = -dir;
+    }
+  }
+  return path;
+}
+
+// The Z-map with the chains across turning sub-steps against the same sub-steps cut as general
+// lines (no chains, every line through line_interval): the junction boundaries lose nothing
+// against the sub-steps, so they agree to the bull-nose's 1e-11 m; and cutting never adds
+// material. Batches of 9 end inside chains; `stop_after_batches` interrupts one.
+void expect_turning_chains_exact(std::uint32_t seed, int stop_after_batches) {
+  std::mt19937 rng(seed);
+  const Tool bull = make_tool(ToolType::bull, 3, 0.6, 3);
+  const Box stock{Eigen::Vector3d(-3, -3, 0) * mm, Eigen::Vector3d(3, 3, 5) * mm};
+  NBuffer zmap = NBuffer::zmap(stock, 0.08 * mm);
+  NBuffer general = general_lines_like(zmap);
+  const std::vector<Pose> path = random_turning_chains(rng, 4.9);
+  CutOptions options;
+  options.batch_segments = 9;
+  options.orientation_tolerance_m = 0.05e-6;  // several sub-steps a segment
+  int batches = 0;
+  if (stop_after_batches > 0) options.interrupted = [&](double) { return ++batches >= stop_after_batches; };
+  const std::vector<double> before = zmap.lengths();
+  const CutStatistics stats = zmap.cut(bull, path, options);
+  batches = 0;
+  general.cut(bull, path, options);
+  EXPECT_EQ(stats.interrupted, stop_after_batches > 0);
+  EXPECT_GT(stats.chained_turning, stats.sub_segments / 2) << "seed " << seed;  // (the chains are used)
+  EXPECT_GT(stats.sub_segments, 2 * stats.segments) << "seed " << seed;
+  const auto difference = compare_lines(zmap, general, 5 * mm);
+  EXPECT_LT(difference.worst_m, 1e-11) << "seed " << seed;
+  EXPECT_GT(difference.lowered, 300u) << "seed " << seed;
+  const std::vector<double> after = zmap.lengths();
+  for (std::size_t k = 0; k < after.size(); ++k) ASSERT_LE(after[k], before[k]) << "seed " << seed;
+}
+
+TEST(NBufferChains, TurningBullChainsEqualGeneralLines) {
+  for (std::uint32_t seed : {11u, 12u}) expect_turning_chains_exact(seed, 0);
+  expect_turning_chains_exact(13, 4);  // stopped in the middle of a chain
 }
 
 TEST(NBufferChains, FlatChainsEqualGeneralLines) {

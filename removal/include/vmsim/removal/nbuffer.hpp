@@ -27,7 +27,9 @@
 //    at distance <= sqrt(ell^2 + rho^2) from c moves by at most that times theta / (2 n), theta
 //    the angle between a0 and a1, and n is chosen so that this stays under
 //    CutOptions::orientation_tolerance_m (the ball of a ball-end mill turns about its centre and
-//    has no such error). ell is the part of the tool that can reach the material: above the
+//    has no such error; a bull-nose's sub-steps move its tip along the tip's line, c = tip + r a
+//    of the sub-step's axis, which adds r to that distance and r (1 - cos(theta / 2)) to the
+//    bound, detail::SubStepPath). ell is the part of the tool that can reach the material: above the
 //    box that holds every line's material no pose of the segment can cut, so the tool is taken
 //    as ending there (exactly the same cut inside the box; far fewer sub-steps for a long tool).
 //    The bound is on the distance between the true and the modelled swept volumes; along a
@@ -87,6 +89,9 @@ struct CutStatistics {
   std::size_t sub_segments = 0;    ///< after the orientation sub-steps
   std::size_t tiles_visited = 0;   ///< (tile, sub-segment) pairs not culled by the tile bounds
   std::size_t lines_lowered = 0;   ///< line updates that lowered a line
+  /// Z-map chains (removal/README.md): sub-segments that left lines to the next one across a
+  /// junction where the tool differs (the axis turned, or the move is not exactly along x).
+  std::size_t chained_turning = 0;
   bool interrupted = false;
 };
 
