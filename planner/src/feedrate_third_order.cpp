@@ -312,7 +312,8 @@ class ThirdOrderLp {
     const int end = dir > 0 ? 0 : 1;
     const RestLimits rest = rest_limits(p_.rows2(segment, end), p_.n2, p_.rows3(segment, end), p_.n3);
     double phase = stretch_m / 12.0;
-    if (rest.sdd_max > 0.0 && std::isfinite(rest.sdd_max)) phase = std::min(phase, rest.ramp_distance_m());
+    const double ramp_m = rest.ramp_distance_m();  // 0 where the rows bound neither
+    if (ramp_m > 0.0) phase = std::min(phase, ramp_m);
     const double cap = p_.cap_end[2 * segment + static_cast<std::size_t>(1 - end)];  // its other end
     if (std::isfinite(cap) && std::isfinite(rest.sddd_max) && rest.sddd_max > 0.0) {
       phase = std::min(phase, std::pow(cap, 0.75) / (6.0 * std::sqrt(rest.sddd_max)));
