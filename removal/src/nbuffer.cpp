@@ -484,7 +484,12 @@ SectionRows section_rows_for(const Sweep& s, double y0, double sp, int nv, const
   };
   auto walk = [&](int iv_first, int step, bool stop_at_first, std::vector<Row>& out) {
     detail::SectionWarm warm0, warm_lead, warm_trail;
-    double radius_lead = s.r + s.rho / std::max(s.tilt_sin, 1e-3), radius_trail = radius_lead;  // [m]
+    // The shifts t from the section's curvature radius at the walk's first row (how far the
+    // point of the slope lay from the lowest point), then kept: one slope for the whole walk,
+    // so each row's point is warm-started from the rows before on the same curve. A short
+    // strip; any t is exact.
+    const double radius_guess = s.r + s.rho / std::max(s.tilt_sin, 1e-3);  // [m]
+    double shift_lead = std::nan(""), shift_trail = std::nan("");
     for (int iv = iv_first; iv >= 0 && iv < nv; iv += step) {
       const double y = y0 + iv * sp;  // (as cut_zmap_tile computes it)
       const double eta = y - t.c_y;   // from c0
@@ -511,24 +516,27 @@ SectionRows section_rows_for(const Sweep& s, double y0, double sp, int nv, const
         if (!std::isfinite(w.u)) w = warm0;  // start from this row's lowest point
         return w;
       };
-      // The shift t from the section's curvature radius in the last row (how far the point of
-      // the last slope lay from the lowest point): a short strip; any t is exact.
+      auto radius = [](double offset, double slope) { return std::clamp(offset / slope, 1e-5, 1.0); };
       row.lead = dir * detail::kInf;  // (no point found: nothing left ahead)
       if (general_lead) {
-        double shift = lead->shift_for(radius_lead);
+        double shift = std::isfinite(shift_lead) ? shift_lead : lead->shift_for(radius_guess);
         const double slope = lead->slope(true, shift);
         if (detail::section_point_x(s, y - s.c1.y(), dir * slope, lo, hi, &seeded(warm_lead))) {
           row.lead = forward ? hi + shift : lo - shift;
-          if (slope > 0.0) radius_lead = std::clamp((forward ? hi - row.lo : row.hi - lo) / slope, 1e-5, 1.0);
+          if (slope > 0.0 && !std::isfinite(shift_lead)) {
+            shift_lead = lead->shift_for(radius(forward ? hi - row.lo : row.hi - lo, slope));
+          }
         }
       }
       row.trail = -dir * detail::kInf;  // (nothing skipped behind)
       if (general_trail) {
-        double shift = trail->shift_for(radius_trail);
+        double shift = std::isfinite(shift_trail) ? shift_trail : trail->shift_for(radius_guess);
         const double slope = trail->slope(false, shift);
         if (detail::section_point_x(s, eta, -dir * slope, lo, hi, &seeded(warm_trail))) {
           row.trail = forward ? lo - shift : hi + shift;
-          if (slope > 0.0) radius_trail = std::clamp((forward ? row.hi - lo : hi - row.lo) / slope, 1e-5, 1.0);
+          if (slope > 0.0 && !std::isfinite(shift_trail)) {
+            shift_trail = trail->shift_for(radius(forward ? row.hi - lo : hi - row.lo, slope));
+          }
         }
       }
       out.push_back(row);
