@@ -324,9 +324,9 @@ bool level_along_x(const Sweep& s) { return along_x(s) && s.c0.y() == s.c1.y() &
 
 // Where two sweeps of a chain meet with different tools (the axis turned, or the core length
 // differs) or one does not move exactly along x. Their tools at the meeting point differ by a
-// rotation about c and a change of length, so each lies within D = sqrt(rho^2 + ell^2) angle +
-// |ell - ell'| of the other (Hausdorff), and one contains the other eroded by D: the core (+)
-// Ball(r - D), c fixed. On a line where the first tool's lowest point p = K + r n (K in the
+// rotation (about c, or about the tip: `chains`), a jump of that centre and a change of length,
+// so each lies within D (for c: sqrt(rho^2 + ell^2) angle + jump + |ell - ell'|) of the other
+// (Hausdorff), and one contains the other eroded by D: the core (+) Ball(r - D), c fixed. On a line where the first tool's lowest point p = K + r n (K in the
 // core) is below `top`, the eroded ball about K enters at most delta = u / (r nu + sqrt(r^2 nu^2
 // - u)) above p, u = 2 r D - D^2, nu = (lowest core z - top) / r <= |n_z| (so the y-slope of the
 // entry is at most sqrt(1 - nu^2) / nu). Moved by t along x (its move's y and z over t are
@@ -386,8 +386,14 @@ bool chains(const Sweep& s, const Sweep& next, double top, Junction* junction = 
   if (!(s.a == next.a && s.ell == next.ell && jump == 0.0 && level_along_x(s) && level_along_x(next))) {
     if (!(s.r > 0.0)) return false;  // (a flat-end has no ball to erode, nor a bounded y-slope)
     const double angle = std::atan2(s.a.cross(next.a).norm(), s.a.dot(next.a));
-    const double extent = std::hypot(s.rho, std::max(s.ell, next.ell));
-    j.turn_m = extent * angle + std::abs(s.ell - next.ell) + jump;
+    // The rotation about c moves the core's points (at most sqrt(rho^2 + ell^2) from c) by that
+    // times the angle, and c by the jump; about the tip c - r a (which sub-steps along the
+    // tip's line share) by sqrt(rho^2 + (r + ell)^2) times the angle and the tip's jump: less
+    // there, since the tip's jump is ~0 where c's is r times the axis step.
+    const double longest = std::max(s.ell, next.ell);
+    const double tip_jump = ((next.c0 - s.r * next.a) - (s.c1 - s.r * s.a)).norm();
+    j.turn_m = std::min(std::hypot(s.rho, longest) * angle + jump, std::hypot(s.rho, s.r + longest) * angle + tip_jump) +
+               std::abs(s.ell - next.ell);
     const double core_low =
         std::min({s.c0.z(), s.c1.z(), next.c1.z()}) - s.rho * std::max(s.tilt_sin, next.tilt_sin);
     const double nu = (core_low - top) / s.r;
