@@ -348,16 +348,18 @@ struct Junction {
   // upper bounds).
   double lead_drift = 0.0, trail_drift = 0.0, lead_min_slope = 0.0, trail_min_slope = 0.0;
   double lead_max_shift_m = 0.0, trail_max_shift_m = 0.0;
-  // How much higher a tool eroded by d can enter a line whose entry is below the top [m].
-  double delta(double d) const {
+  // How much higher a tool eroded by d can enter a line whose entry is below the top [m], for
+  // entries whose normals have |n_z| >= r_nu_row / r (the junction's r_nu, or a row's).
+  double delta(double d, double r_nu_row) const {
     d = d * (1.0 + 1e-9) + 1e-15;
     const double u = (2.0 * r - d) * d;
-    if (!(r_nu * r_nu > 2.0 * u)) return detail::kInf;
-    return u / (r_nu + std::sqrt(r_nu * r_nu - u)) * (1.0 + 1e-9) + 1e-15;
+    if (!(r_nu_row * r_nu_row > 2.0 * u)) return detail::kInf;
+    return u / (r_nu_row + std::sqrt(r_nu_row * r_nu_row - u)) * (1.0 + 1e-9) + 1e-15;
   }
+  double delta(double d) const { return delta(d, r_nu); }
   // The boundary's x-slope for a shift t (lead: the next sweep t into its move; trail: the sweep
   // before t before its end); t is clamped to its upper bound.
-  double slope(bool lead, double& t) const {
+  double slope(bool lead, double& t, double r_nu_row) const {
     const double max_t = lead ? lead_max_shift_m : trail_max_shift_m;
     const double min_slope = lead ? lead_min_slope : trail_min_slope;
     if (!(turn_m > 0.0)) {
@@ -365,12 +367,27 @@ struct Junction {
       return min_slope;
     }
     t = std::min(t, max_t);
-    return std::max(min_slope, delta(turn_m + t * (lead ? lead_drift : trail_drift)) / t * (1.0 + 1e-9));
+    return std::max(min_slope, delta(turn_m + t * (lead ? lead_drift : trail_drift), r_nu_row) / t * (1.0 + 1e-9));
   }
+  double slope(bool lead, double& t) const { return slope(lead, t, r_nu); }
   // A first t: near sqrt(delta R) for a curvature radius R of the section, which makes the
   // strip end about as far beyond the point of slope 0 as t itself. Any t in (0, length] is
   // exact; this one only keeps the strips short.
   double shift_for(double radius_m) const { return std::sqrt(delta(turn_m) * radius_m); }
+  // The least shift t for which `slope` suffices (slope(lead, t, r_nu_row) <= slope), or NaN
+  // (none up to the move's length, or no turn): delta(D + t drift) / t = slope by fixed-point
+  // steps from t = 0 (rising), then checked.
+  double shift_for_slope(bool lead, double slope_wanted, double r_nu_row) const {
+    if (!(turn_m > 0.0) || !(slope_wanted > 0.0)) return std::nan("");
+    const double drift = lead ? lead_drift : trail_drift;
+    double t = 0.0;
+    for (int k = 0; k < (drift > 0.0 ? 4 : 1); ++k) t = delta(turn_m + t * drift, r_nu_row) / slope_wanted * (1.0 + 2e-9);
+    double checked = t;
+    if (!(t <= (lead ? lead_max_shift_m : trail_max_shift_m)) || !(slope(lead, checked, r_nu_row) <= slope_wanted)) {
+      return std::nan("");
+    }
+    return t;
+  }
 };
 
 // Whether `next` continues `s` in a chain, and how (`top`: no line's material above it [m]).
@@ -490,18 +507,51 @@ SectionRows section_rows_for(const Sweep& s, double y0, double sp, int nv, const
   };
   auto walk = [&](int iv_first, int step, bool stop_at_first, std::vector<Row>& out) {
     detail::SectionWarm warm0, warm_lead, warm_trail;
-    // The shifts t from the section's curvature radius at the walk's first row (how far the
-    // point of the slope lay from the lowest point), then kept: one slope for the whole walk,
-    // so each row's point is warm-started from the rows before on the same curve. A short
-    // strip; any t is exact.
+    // The junction boundaries' slopes, one for the whole walk so that each row's point is
+    // warm-started from the rows before on the same curve: from the section's curvature radius
+    // at the walk's first row that meets the tool (how far the point of a first slope lies from
+    // the lowest point: a shift t near sqrt(delta R), a short strip; any t is exact). Taken
+    // there whatever the material, so the boundaries depend on the trajectory only.
     const double radius_guess = s.r + s.rho / std::max(s.tilt_sin, 1e-3);  // [m]
-    double shift_lead = std::nan(""), shift_trail = std::nan("");
+    double slope_lead = std::nan(""), slope_trail = std::nan("");
     for (int iv = iv_first; iv >= 0 && iv < nv; iv += step) {
       const double y = y0 + iv * sp;  // (as cut_zmap_tile computes it)
       const double eta = y - t.c_y;   // from c0
       Row row{iv, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, false};
       row.hit = detail::section_point_x(s, eta, 0.0, row.lo, row.hi, &warm0, &row.z_low, &row.z_point);
       if (!t.level) row.z_point = std::nan("");  // (the height of lines passed over holds for level moves only)
+      // A junction boundary of this row (lead side: lines beyond it are left to the next sweep;
+      // trail side: lines behind it were cut by the sweep before), or false.
+      auto boundary = [&](const Junction& j, bool lead_side, detail::SectionWarm& w, double& walk_slope, double& x) {
+        double slope = walk_slope;
+        double shift = j.shift_for_slope(lead_side, walk_slope, j.r_nu);
+        if (!std::isfinite(shift)) {  // (the walk's first row, or that slope needs too long a shift)
+          shift = j.shift_for(radius_guess);
+          slope = j.slope(lead_side, shift);
+        }
+        if (!std::isfinite(w.u)) w = warm0;  // start from this row's lowest point
+        double lo = 0.0, hi = 0.0;
+        // (The lead from c1, the trail from c0.)
+        if (!detail::section_point_x(s, lead_side ? y - s.c1.y() : eta, (lead_side ? dir : -dir) * slope, lo, hi, &w)) {
+          return false;
+        }
+        const bool upper = lead_side == forward;  // the boundary is beyond the point in +x
+        x = upper ? hi + shift : lo - shift;
+        if (!std::isfinite(walk_slope)) {
+          const double offset = upper ? hi - row.lo : row.hi - lo;
+          shift = j.shift_for(slope > 0.0 ? std::clamp(offset / slope, 1e-5, 1.0) : radius_guess);
+          walk_slope = j.slope(lead_side, shift);
+        }
+        return true;
+      };
+      row.lead = dir * detail::kInf;    // (no point found: nothing left ahead)
+      row.trail = -dir * detail::kInf;  // (nothing skipped behind)
+      auto junction_boundaries = [&] {
+        if (general_lead && !boundary(*lead, true, warm_lead, slope_lead, row.lead)) row.lead = dir * detail::kInf;
+        if (general_trail && !boundary(*trail, false, warm_trail, slope_trail, row.trail)) row.trail = -dir * detail::kInf;
+      };
+      const bool first_hit = row.hit && ((general_lead && !std::isfinite(slope_lead)) || (general_trail && !std::isfinite(slope_trail)));
+      if (first_hit) junction_boundaries();  // (the walk's slopes, whatever the material)
       // Above the top here and in every row farther out, for the tool anywhere along the move:
       // its core point drifts by dy across the rows, where the section's lowest z changes by
       // at most |dy| |tan b| (b the lowest point's normal angle; convex, growing outwards).
@@ -517,34 +567,7 @@ SectionRows section_rows_for(const Sweep& s, double y0, double sp, int nv, const
         out.push_back(row);
         continue;
       }
-      double lo = 0.0, hi = 0.0;
-      auto seeded = [&](detail::SectionWarm& w) -> detail::SectionWarm& {
-        if (!std::isfinite(w.u)) w = warm0;  // start from this row's lowest point
-        return w;
-      };
-      auto radius = [](double offset, double slope) { return std::clamp(offset / slope, 1e-5, 1.0); };
-      row.lead = dir * detail::kInf;  // (no point found: nothing left ahead)
-      if (general_lead) {
-        double shift = std::isfinite(shift_lead) ? shift_lead : lead->shift_for(radius_guess);
-        const double slope = lead->slope(true, shift);
-        if (detail::section_point_x(s, y - s.c1.y(), dir * slope, lo, hi, &seeded(warm_lead))) {
-          row.lead = forward ? hi + shift : lo - shift;
-          if (slope > 0.0 && !std::isfinite(shift_lead)) {
-            shift_lead = lead->shift_for(radius(forward ? hi - row.lo : row.hi - lo, slope));
-          }
-        }
-      }
-      row.trail = -dir * detail::kInf;  // (nothing skipped behind)
-      if (general_trail) {
-        double shift = std::isfinite(shift_trail) ? shift_trail : trail->shift_for(radius_guess);
-        const double slope = trail->slope(false, shift);
-        if (detail::section_point_x(s, eta, -dir * slope, lo, hi, &seeded(warm_trail))) {
-          row.trail = forward ? lo - shift : hi + shift;
-          if (slope > 0.0 && !std::isfinite(shift_trail)) {
-            shift_trail = trail->shift_for(radius(forward ? row.hi - lo : hi - row.lo, slope));
-          }
-        }
-      }
+      if (!first_hit) junction_boundaries();
       out.push_back(row);
     }
   };
