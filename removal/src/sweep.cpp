@@ -383,16 +383,25 @@ bool section_point_x(const Sweep& s, double eta, double slope, double& x_lo, dou
       }
     } else {
       Point p = point(b);
+      double last_step = 0.0;
       for (int k = 0; k < 4; ++k) {
         const double f = mid_y(p) - eta;
         if (std::abs(f) <= 0.25 * half_width() / std::abs(rate)) break;
         const double next = std::clamp(b - f * rate, -end, end);
+        // Secant steps: the error after this one about the product of this step and the one
+        // before (times y'' / 2 y', taken up to 1e3): when that is far inside the bracket, its
+        // bracket is tried before evaluating the point itself.
+        if (k > 0 && 1e3 * std::abs(next - b) * last_step <= 0.25 * half_width() && accept(next)) {
+          b = next;
+          break;
+        }
         const Point q = point(next);
         const double dy = mid_y(q) - mid_y(p);
         if (dy != 0.0 && next != b) rate = (next - b) / dy;
+        last_step = std::abs(next - b);
         b = next, p = q;
       }
-      accept(b);
+      if (!bracketed) accept(b);
     }
     if (bracketed) {
       warm->u_before = warm->u, warm->eta_before = warm->eta;
