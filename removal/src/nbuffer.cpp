@@ -324,9 +324,9 @@ bool level_along_x(const Sweep& s) { return along_x(s) && s.c0.y() == s.c1.y() &
 
 // Where two sweeps of a chain meet with different tools (the axis turned, or the core length
 // differs) or one does not move exactly along x. Their tools at the meeting point differ by a
-// rotation about c and a change of length, so each lies within D = sqrt(rho^2 + ell^2) angle +
-// |ell - ell'| of the other (Hausdorff), and one contains the other eroded by D: the core (+)
-// Ball(r - D), c fixed. On a line where the first tool's lowest point p = K + r n (K in the
+// rotation (about c, or about the tip: `chains`), a jump of that centre and a change of length,
+// so each lies within D (for c: sqrt(rho^2 + ell^2) angle + jump + |ell - ell'|) of the other
+// (Hausdorff), and one contains the other eroded by D: the core (+) Ball(r - D), c fixed. On a line where the first tool's lowest point p = K + r n (K in the
 // core) is below `top`, the eroded ball about K enters at most delta = u / (r nu + sqrt(r^2 nu^2
 // - u)) above p, u = 2 r D - D^2, nu = (lowest core z - top) / r <= |n_z| (so the y-slope of the
 // entry is at most sqrt(1 - nu^2) / nu). Moved by t along x (its move's y and z over t are
@@ -348,16 +348,18 @@ struct Junction {
   // upper bounds).
   double lead_drift = 0.0, trail_drift = 0.0, lead_min_slope = 0.0, trail_min_slope = 0.0;
   double lead_max_shift_m = 0.0, trail_max_shift_m = 0.0;
-  // How much higher a tool eroded by d can enter a line whose entry is below the top [m].
-  double delta(double d) const {
+  // How much higher a tool eroded by d can enter a line whose entry is below the top [m], for
+  // entries whose normals have |n_z| >= r_nu_row / r (the junction's r_nu, or a row's).
+  double delta(double d, double r_nu_row) const {
     d = d * (1.0 + 1e-9) + 1e-15;
     const double u = (2.0 * r - d) * d;
-    if (!(r_nu * r_nu > 2.0 * u)) return detail::kInf;
-    return u / (r_nu + std::sqrt(r_nu * r_nu - u)) * (1.0 + 1e-9) + 1e-15;
+    if (!(r_nu_row * r_nu_row > 2.0 * u)) return detail::kInf;
+    return u / (r_nu_row + std::sqrt(r_nu_row * r_nu_row - u)) * (1.0 + 1e-9) + 1e-15;
   }
+  double delta(double d) const { return delta(d, r_nu); }
   // The boundary's x-slope for a shift t (lead: the next sweep t into its move; trail: the sweep
   // before t before its end); t is clamped to its upper bound.
-  double slope(bool lead, double& t) const {
+  double slope(bool lead, double& t, double r_nu_row) const {
     const double max_t = lead ? lead_max_shift_m : trail_max_shift_m;
     const double min_slope = lead ? lead_min_slope : trail_min_slope;
     if (!(turn_m > 0.0)) {
@@ -365,12 +367,27 @@ struct Junction {
       return min_slope;
     }
     t = std::min(t, max_t);
-    return std::max(min_slope, delta(turn_m + t * (lead ? lead_drift : trail_drift)) / t * (1.0 + 1e-9));
+    return std::max(min_slope, delta(turn_m + t * (lead ? lead_drift : trail_drift), r_nu_row) / t * (1.0 + 1e-9));
   }
+  double slope(bool lead, double& t) const { return slope(lead, t, r_nu); }
   // A first t: near sqrt(delta R) for a curvature radius R of the section, which makes the
   // strip end about as far beyond the point of slope 0 as t itself. Any t in (0, length] is
   // exact; this one only keeps the strips short.
   double shift_for(double radius_m) const { return std::sqrt(delta(turn_m) * radius_m); }
+  // The least shift t for which `slope` suffices (slope(lead, t, r_nu_row) <= slope), or NaN
+  // (none up to the move's length, or no turn): delta(D + t drift) / t = slope by fixed-point
+  // steps from t = 0 (rising), then checked.
+  double shift_for_slope(bool lead, double slope_wanted, double r_nu_row) const {
+    if (!(turn_m > 0.0) || !(slope_wanted > 0.0)) return std::nan("");
+    const double drift = lead ? lead_drift : trail_drift;
+    double t = 0.0;
+    for (int k = 0; k < (drift > 0.0 ? 4 : 1); ++k) t = delta(turn_m + t * drift, r_nu_row) / slope_wanted * (1.0 + 2e-9);
+    double checked = t;
+    if (!(t <= (lead ? lead_max_shift_m : trail_max_shift_m)) || !(slope(lead, checked, r_nu_row) <= slope_wanted)) {
+      return std::nan("");
+    }
+    return t;
+  }
 };
 
 // Whether `next` continues `s` in a chain, and how (`top`: no line's material above it [m]).
@@ -386,8 +403,14 @@ bool chains(const Sweep& s, const Sweep& next, double top, Junction* junction = 
   if (!(s.a == next.a && s.ell == next.ell && jump == 0.0 && level_along_x(s) && level_along_x(next))) {
     if (!(s.r > 0.0)) return false;  // (a flat-end has no ball to erode, nor a bounded y-slope)
     const double angle = std::atan2(s.a.cross(next.a).norm(), s.a.dot(next.a));
-    const double extent = std::hypot(s.rho, std::max(s.ell, next.ell));
-    j.turn_m = extent * angle + std::abs(s.ell - next.ell) + jump;
+    // The rotation about c moves the core's points (at most sqrt(rho^2 + ell^2) from c) by that
+    // times the angle, and c by the jump; about the tip c - r a (which sub-steps along the
+    // tip's line share) by sqrt(rho^2 + (r + ell)^2) times the angle and the tip's jump: less
+    // there, since the tip's jump is ~0 where c's is r times the axis step.
+    const double longest = std::max(s.ell, next.ell);
+    const double tip_jump = ((next.c0 - s.r * next.a) - (s.c1 - s.r * s.a)).norm();
+    j.turn_m = std::min(std::hypot(s.rho, longest) * angle + jump, std::hypot(s.rho, s.r + longest) * angle + tip_jump) +
+               std::abs(s.ell - next.ell);
     const double core_low =
         std::min({s.c0.z(), s.c1.z(), next.c1.z()}) - s.rho * std::max(s.tilt_sin, next.tilt_sin);
     const double nu = (core_low - top) / s.r;
@@ -484,13 +507,51 @@ SectionRows section_rows_for(const Sweep& s, double y0, double sp, int nv, const
   };
   auto walk = [&](int iv_first, int step, bool stop_at_first, std::vector<Row>& out) {
     detail::SectionWarm warm0, warm_lead, warm_trail;
-    double radius_lead = s.r + s.rho / std::max(s.tilt_sin, 1e-3), radius_trail = radius_lead;  // [m]
+    // The junction boundaries' slopes, one for the whole walk so that each row's point is
+    // warm-started from the rows before on the same curve: from the section's curvature radius
+    // at the walk's first row that meets the tool (how far the point of a first slope lies from
+    // the lowest point: a shift t near sqrt(delta R), a short strip; any t is exact). Taken
+    // there whatever the material, so the boundaries depend on the trajectory only.
+    const double radius_guess = s.r + s.rho / std::max(s.tilt_sin, 1e-3);  // [m]
+    double slope_lead = std::nan(""), slope_trail = std::nan("");
     for (int iv = iv_first; iv >= 0 && iv < nv; iv += step) {
       const double y = y0 + iv * sp;  // (as cut_zmap_tile computes it)
       const double eta = y - t.c_y;   // from c0
       Row row{iv, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, false};
       row.hit = detail::section_point_x(s, eta, 0.0, row.lo, row.hi, &warm0, &row.z_low, &row.z_point);
       if (!t.level) row.z_point = std::nan("");  // (the height of lines passed over holds for level moves only)
+      // A junction boundary of this row (lead side: lines beyond it are left to the next sweep;
+      // trail side: lines behind it were cut by the sweep before), or false.
+      auto boundary = [&](const Junction& j, bool lead_side, detail::SectionWarm& w, double& walk_slope, double& x) {
+        double slope = walk_slope;
+        double shift = j.shift_for_slope(lead_side, walk_slope, j.r_nu);
+        if (!std::isfinite(shift)) {  // (the walk's first row, or that slope needs too long a shift)
+          shift = j.shift_for(radius_guess);
+          slope = j.slope(lead_side, shift);
+        }
+        if (!std::isfinite(w.u)) w = warm0;  // start from this row's lowest point
+        double lo = 0.0, hi = 0.0;
+        // (The lead from c1, the trail from c0.)
+        if (!detail::section_point_x(s, lead_side ? y - s.c1.y() : eta, (lead_side ? dir : -dir) * slope, lo, hi, &w)) {
+          return false;
+        }
+        const bool upper = lead_side == forward;  // the boundary is beyond the point in +x
+        x = upper ? hi + shift : lo - shift;
+        if (!std::isfinite(walk_slope)) {
+          const double offset = upper ? hi - row.lo : row.hi - lo;
+          shift = j.shift_for(slope > 0.0 ? std::clamp(offset / slope, 1e-5, 1.0) : radius_guess);
+          walk_slope = j.slope(lead_side, shift);
+        }
+        return true;
+      };
+      row.lead = dir * detail::kInf;    // (no point found: nothing left ahead)
+      row.trail = -dir * detail::kInf;  // (nothing skipped behind)
+      auto junction_boundaries = [&] {
+        if (general_lead && !boundary(*lead, true, warm_lead, slope_lead, row.lead)) row.lead = dir * detail::kInf;
+        if (general_trail && !boundary(*trail, false, warm_trail, slope_trail, row.trail)) row.trail = -dir * detail::kInf;
+      };
+      const bool first_hit = row.hit && ((general_lead && !std::isfinite(slope_lead)) || (general_trail && !std::isfinite(slope_trail)));
+      if (first_hit) junction_boundaries();  // (the walk's slopes, whatever the material)
       // Above the top here and in every row farther out, for the tool anywhere along the move:
       // its core point drifts by dy across the rows, where the section's lowest z changes by
       // at most |dy| |tan b| (b the lowest point's normal angle; convex, growing outwards).
@@ -506,31 +567,7 @@ SectionRows section_rows_for(const Sweep& s, double y0, double sp, int nv, const
         out.push_back(row);
         continue;
       }
-      double lo = 0.0, hi = 0.0;
-      auto seeded = [&](detail::SectionWarm& w) -> detail::SectionWarm& {
-        if (!std::isfinite(w.u)) w = warm0;  // start from this row's lowest point
-        return w;
-      };
-      // The shift t from the section's curvature radius in the last row (how far the point of
-      // the last slope lay from the lowest point): a short strip; any t is exact.
-      row.lead = dir * detail::kInf;  // (no point found: nothing left ahead)
-      if (general_lead) {
-        double shift = lead->shift_for(radius_lead);
-        const double slope = lead->slope(true, shift);
-        if (detail::section_point_x(s, y - s.c1.y(), dir * slope, lo, hi, &seeded(warm_lead))) {
-          row.lead = forward ? hi + shift : lo - shift;
-          if (slope > 0.0) radius_lead = std::clamp((forward ? hi - row.lo : row.hi - lo) / slope, 1e-5, 1.0);
-        }
-      }
-      row.trail = -dir * detail::kInf;  // (nothing skipped behind)
-      if (general_trail) {
-        double shift = trail->shift_for(radius_trail);
-        const double slope = trail->slope(false, shift);
-        if (detail::section_point_x(s, eta, -dir * slope, lo, hi, &seeded(warm_trail))) {
-          row.trail = forward ? lo - shift : hi + shift;
-          if (slope > 0.0) radius_trail = std::clamp((forward ? row.hi - lo : hi - row.lo) / slope, 1e-5, 1.0);
-        }
-      }
+      if (!first_hit) junction_boundaries();
       out.push_back(row);
     }
   };

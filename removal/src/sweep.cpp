@@ -371,18 +371,37 @@ bool section_point_x(const Sweep& s, double eta, double slope, double& x_lo, dou
       bracketed = b1 > -end && b2 < end && p1.y_high < eta - tau && p2.y_low > eta + tau;
       return bracketed;
     };
-    {
+    auto mid_y = [](const Point& p) { return 0.5 * (p.y_low + p.y_high); };
+    // Away from the lowest point only bounds of x are wanted (the bracket is worth 1e-8 m of
+    // x): the guess's error is far below that width, so its bracket is tried before any
+    // evaluation; the bracket's ends give the rate and the root for the next row.
+    if (slope != 0.0 && accept(b)) {
+      const double dy = mid_y(p2) - mid_y(p1);
+      if (dy > 0.0) {
+        rate = (b2 - b1) / dy;
+        b = std::clamp(b1 + (eta - mid_y(p1)) * rate, b1, b2);
+      }
+    } else {
       Point p = point(b);
+      double last_step = 0.0;
       for (int k = 0; k < 4; ++k) {
-        const double f = 0.5 * (p.y_low + p.y_high) - eta;
+        const double f = mid_y(p) - eta;
         if (std::abs(f) <= 0.25 * half_width() / std::abs(rate)) break;
         const double next = std::clamp(b - f * rate, -end, end);
+        // Secant steps: the error after this one about the product of this step and the one
+        // before (times y'' / 2 y', taken up to 1e3): when that is far inside the bracket, its
+        // bracket is tried before evaluating the point itself.
+        if (k > 0 && 1e3 * std::abs(next - b) * last_step <= 0.25 * half_width() && accept(next)) {
+          b = next;
+          break;
+        }
         const Point q = point(next);
-        const double dy = 0.5 * (q.y_low + q.y_high) - 0.5 * (p.y_low + p.y_high);
+        const double dy = mid_y(q) - mid_y(p);
         if (dy != 0.0 && next != b) rate = (next - b) / dy;
+        last_step = std::abs(next - b);
         b = next, p = q;
       }
-      accept(b);
+      if (!bracketed) accept(b);
     }
     if (bracketed) {
       warm->u_before = warm->u, warm->eta_before = warm->eta;

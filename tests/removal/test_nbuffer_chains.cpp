@@ -151,6 +151,38 @@ TEST(NBufferChains, SectionSlopePointsMatchBruteForce) {
   EXPECT_GT(warm_checked, 16 * 28);
 }
 
+// The lowest points warm-started along rows 10 um apart (Newton from the rows before, a
+// bracket tried before evaluating its centre) against the cold bisection: the same point and
+// height.
+TEST(NBufferChains, SectionLowestPointWarmEqualsCold) {
+  std::mt19937 rng(12);
+  std::uniform_real_distribution<double> unit(0.0, 1.0);
+  int heights = 0, warm_rows = 0;
+  for (int trial = 0; trial < 16; ++trial) {
+    const double rho = (1.0 + 2.0 * unit(rng)) * mm, r = (0.3 + unit(rng)) * mm, ell = (2.0 + 6.0 * unit(rng)) * mm;
+    const detail::Sweep s = detail::make_sweep(Eigen::Vector3d::Zero(), Eigen::Vector3d::Zero(), random_axis(rng), rho, r, ell);
+    detail::SectionWarm warm;
+    const double y_start = s.lo.y() + (0.1 + 0.3 * unit(rng)) * (s.hi.y() - s.lo.y());
+    for (int row = 0; row < 200; ++row) {
+      const double y = y_start + row * 10e-6;
+      double cold_lo = 0.0, cold_hi = 0.0, cold_low = 0.0, cold_z = 0.0, lo = 0.0, hi = 0.0, low = 0.0, z = 0.0;
+      ASSERT_TRUE(detail::section_point_x(s, y, 0.0, cold_lo, cold_hi, nullptr, &cold_low, &cold_z)) << trial;
+      ASSERT_TRUE(detail::section_point_x(s, y, 0.0, lo, hi, &warm, &low, &z)) << trial;
+      EXPECT_LE(lo, cold_hi) << trial << " row " << row;
+      EXPECT_GE(hi, cold_lo) << trial << " row " << row;
+      EXPECT_LT(hi - lo, 1e-6) << trial << " row " << row;
+      EXPECT_NEAR(low, cold_low, 1e-12) << trial << " row " << row;
+      if (std::isfinite(z) && std::isfinite(cold_z)) {
+        EXPECT_NEAR(z, cold_z, 2e-13) << trial << " row " << row;
+        ++heights;
+      }
+      warm_rows += std::isfinite(warm.u);
+    }
+  }
+  EXPECT_GT(heights, 16 * 150);
+  EXPECT_GT(warm_rows, 16 * 195);
+}
+
 // Random passes along x with one tilted axis each: segments of random length, sometimes a
 // reversal or a stop (both end a chain), a step in y between passes.
 std::vector<Pose> random_chains(std::mt19937& rng, double z_mm) {
