@@ -29,6 +29,14 @@ Eigen::Vector3d random_axis(std::mt19937& rng) {
   return Eigen::Vector3d((sign(rng) < 0.0 ? -1.0 : 1.0) * ax(rng), sign(rng) < -0.5 ? 0.0 : ay(rng), 1.0).normalized();
 }
 
+// A bull-nose standing at the origin (no motion): random radii and length, a random tilt.
+detail::Sweep random_static_bull(std::mt19937& rng) {
+  std::uniform_real_distribution<double> unit(0.0, 1.0);
+  const double rho = (1.0 + 2.0 * unit(rng)) * mm, r = (0.3 + unit(rng)) * mm, ell = (2.0 + 6.0 * unit(rng)) * mm;
+  const Eigen::Vector3d a = random_axis(rng);
+  return detail::make_sweep(Eigen::Vector3d::Zero(), Eigen::Vector3d::Zero(), a, rho, r, ell);
+}
+
 // The static tool's entry on the vertical line (x, y) [m], +inf where it misses.
 double static_entry(const detail::Sweep& s, double x, double y) {
   double t0 = 0.0, t1 = 0.0;
@@ -114,9 +122,7 @@ TEST(NBufferChains, SectionSlopePointsMatchBruteForce) {
   std::uniform_real_distribution<double> unit(0.0, 1.0);
   int checked = 0, warm_checked = 0;
   for (int trial = 0; trial < 16; ++trial) {
-    const double rho = (1.0 + 2.0 * unit(rng)) * mm, r = (0.3 + unit(rng)) * mm, ell = (2.0 + 6.0 * unit(rng)) * mm;
-    const Eigen::Vector3d a = random_axis(rng);
-    const detail::Sweep s = detail::make_sweep(Eigen::Vector3d::Zero(), Eigen::Vector3d::Zero(), a, rho, r, ell);
+    const detail::Sweep s = random_static_bull(rng);
     const double slope = (trial % 2 == 0 ? 1.0 : -1.0) * std::pow(10.0, -3.0 + 1.5 * unit(rng));
     detail::SectionWarm warm;
     const double y_start = s.lo.y() + (0.2 + 0.3 * unit(rng)) * (s.hi.y() - s.lo.y());
@@ -159,8 +165,7 @@ TEST(NBufferChains, SectionLowestPointWarmEqualsCold) {
   std::uniform_real_distribution<double> unit(0.0, 1.0);
   int heights = 0, warm_rows = 0;
   for (int trial = 0; trial < 16; ++trial) {
-    const double rho = (1.0 + 2.0 * unit(rng)) * mm, r = (0.3 + unit(rng)) * mm, ell = (2.0 + 6.0 * unit(rng)) * mm;
-    const detail::Sweep s = detail::make_sweep(Eigen::Vector3d::Zero(), Eigen::Vector3d::Zero(), random_axis(rng), rho, r, ell);
+    const detail::Sweep s = random_static_bull(rng);
     detail::SectionWarm warm;
     const double y_start = s.lo.y() + (0.1 + 0.3 * unit(rng)) * (s.hi.y() - s.lo.y());
     for (int row = 0; row < 200; ++row) {
