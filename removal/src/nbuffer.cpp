@@ -514,6 +514,12 @@ SectionRows section_rows_for(const Sweep& s, double y0, double sp, int nv, const
     // there whatever the material, so the boundaries depend on the trajectory only.
     const double radius_guess = s.r + s.rho / std::max(s.tilt_sin, 1e-3);  // [m]
     double slope_lead = std::nan(""), slope_trail = std::nan("");
+    // Once a walk's slope is set, the shift and slope of its boundaries are the same on every
+    // row (they depend on the junction and that slope only): found once per side.
+    struct Shift {
+      bool known = false;
+      double shift = 0.0, slope = 0.0;
+    } shift_lead, shift_trail;
     for (int iv = iv_first; iv >= 0 && iv < nv; iv += step) {
       const double y = y0 + iv * sp;  // (as cut_zmap_tile computes it)
       const double eta = y - t.c_y;   // from c0
@@ -522,12 +528,18 @@ SectionRows section_rows_for(const Sweep& s, double y0, double sp, int nv, const
       if (!t.level) row.z_point = std::nan("");  // (the height of lines passed over holds for level moves only)
       // A junction boundary of this row (lead side: lines beyond it are left to the next sweep;
       // trail side: lines behind it were cut by the sweep before), or false.
-      auto boundary = [&](const Junction& j, bool lead_side, detail::SectionWarm& w, double& walk_slope, double& x) {
-        double slope = walk_slope;
-        double shift = j.shift_for_slope(lead_side, walk_slope, j.r_nu);
-        if (!std::isfinite(shift)) {  // (the walk's first row, or that slope needs too long a shift)
-          shift = j.shift_for(radius_guess);
-          slope = j.slope(lead_side, shift);
+      auto boundary = [&](const Junction& j, bool lead_side, detail::SectionWarm& w, double& walk_slope, Shift& walk_shift,
+                          double& x) {
+        double slope = walk_slope, shift = 0.0;
+        if (walk_shift.known) {
+          shift = walk_shift.shift, slope = walk_shift.slope;
+        } else {
+          shift = j.shift_for_slope(lead_side, walk_slope, j.r_nu);
+          if (!std::isfinite(shift)) {  // (the walk's first row, or that slope needs too long a shift)
+            shift = j.shift_for(radius_guess);
+            slope = j.slope(lead_side, shift);
+          }
+          walk_shift = {std::isfinite(walk_slope), shift, slope};
         }
         if (!std::isfinite(w.u)) w = warm0;  // start from this row's lowest point
         double lo = 0.0, hi = 0.0;
@@ -547,8 +559,8 @@ SectionRows section_rows_for(const Sweep& s, double y0, double sp, int nv, const
       row.lead = dir * detail::kInf;    // (no point found: nothing left ahead)
       row.trail = -dir * detail::kInf;  // (nothing skipped behind)
       auto junction_boundaries = [&] {
-        if (general_lead && !boundary(*lead, true, warm_lead, slope_lead, row.lead)) row.lead = dir * detail::kInf;
-        if (general_trail && !boundary(*trail, false, warm_trail, slope_trail, row.trail)) row.trail = -dir * detail::kInf;
+        if (general_lead && !boundary(*lead, true, warm_lead, slope_lead, shift_lead, row.lead)) row.lead = dir * detail::kInf;
+        if (general_trail && !boundary(*trail, false, warm_trail, slope_trail, shift_trail, row.trail)) row.trail = -dir * detail::kInf;
       };
       const bool first_hit = row.hit && ((general_lead && !std::isfinite(slope_lead)) || (general_trail && !std::isfinite(slope_trail)));
       if (first_hit) junction_boundaries();  // (the walk's slopes, whatever the material)

@@ -346,9 +346,12 @@ bool section_point_x(const Sweep& s, double eta, double slope, double& x_lo, dou
   const double perp_min = std::sqrt(std::max(0.0, (1.0 - na_max) * (1.0 + na_max)));
   if (!(perp_min > 0.0)) return false;
   const double lip = 2.0 * std::sqrt(1.0 + slope * slope) * (s.rho / perp_min + s.r);  // |dx_core / du|, |dz_core / du|
-  // Bracket width (in u): worth 0.1 kSectionZError for the lowest point (its height is used),
-  // 1e-8 m of x for the other slopes (only bounds of x are).
-  const double width = (slope == 0.0 ? 0.1 * kSectionZError : 1e-8) / lip;
+  // Bracket width (in u): 1e-8 m of x for slopes other than 0 (only bounds of x are used). For
+  // the lowest point its height is used too: with a corner radius the height follows from the
+  // bracket's end to second order (below), so a bracket of a few nm of y is enough; without one,
+  // the width is worth 0.1 kSectionZError of z.
+  const double lowest_width_m = s.r > 0.0 ? std::sqrt(0.1 * kSectionZError * s.r * kSectionCos3) : 0.1 * kSectionZError;
+  const double width = (slope == 0.0 ? lowest_width_m : 1e-8) / lip;
   const double end = 1.0;  // u at b = pi / 2
   double b1 = 0.0, b2 = 0.0;
   Point p1, p2;
@@ -375,7 +378,7 @@ bool section_point_x(const Sweep& s, double eta, double slope, double& x_lo, dou
     // Away from the lowest point only bounds of x are wanted (the bracket is worth 1e-8 m of
     // x): the guess's error is far below that width, so its bracket is tried before any
     // evaluation; the bracket's ends give the rate and the root for the next row.
-    if (slope != 0.0 && accept(b)) {
+    if ((slope != 0.0 || s.r > 0.0) && accept(b)) {
       const double dy = mid_y(p2) - mid_y(p1);
       if (dy > 0.0) {
         rate = (b2 - b1) / dy;
@@ -450,10 +453,40 @@ bool section_point_x(const Sweep& s, double eta, double slope, double& x_lo, dou
   const double spread = 0.5 * lip * (b2 - b1) + 1e-12;
   const double na_reach = std::sqrt(1.0 + slope * slope) * (b2 - b1) + 1e-9;
   // (The top end's z is higher by ell a_z > 0: the bottom's bounds the point from below.)
-  if (z_low) *z_low = std::min(p1.z_core, p2.z_core) - spread;
-  if (z_point) {  // (z_core within lip (b2 - b1) of the bracket's end)
+  if (z_low) {
+    *z_low = std::min(p1.z_core, p2.z_core) - spread;
+    if (slope == 0.0) {
+      // Each end's normal n(b) = (0, sin b, -cos b) gives a supporting plane, n . p <= n . p_end,
+      // so on the plane y = eta every point has z >= z_end + tan b (eta - y_end).
+      for (const auto& [p, u] : {std::pair{p1, b1}, std::pair{p2, b2}}) {
+        if (!(std::abs(u) < 1.0)) continue;
+        const double tan_b = 2.0 * u / ((1.0 - u) * (1.0 + u));
+        // (y, z) of a support point: the segment's top end where n . a > 0.
+        const double lift = p.na > 0.0 ? s.ell : 0.0;
+        const double y_support = p.y_core + lift * ay, z_support = p.z_core + lift * az;
+        *z_low = std::max(*z_low, z_support + tan_b * (eta - y_support) - 1e-15 * (1.0 + std::abs(tan_b)));
+      }
+    }
+  }
+  if (z_point) {
     const bool off_flank = !(s.ell > 0.0) || std::max(p1.na, p2.na) < -na_reach;
-    *z_point = off_flank && lip * (b2 - b1) <= kSectionZError ? p1.z_core : std::nan("");
+    *z_point = std::nan("");
+    if (off_flank && s.r > 0.0) {
+      // Along the curve of the lowest points (normals n = (0, sin b, -cos b)) z is convex in y
+      // with dz / dy = tan b, and dy / db >= r cos b (the core's support point moves along
+      // dn / db, the ball's by r), so 0 <= d2z / dy2 <= 1 / (r cos^3 b): from the bracket's low
+      // end (y1 < eta) the height at eta is z1 + tan b1 (eta - y1) + [0, (eta - y1)^2 / (2 r cos^3 b)].
+      auto cos_b = [](double u) { return (1.0 - u * u) / (1.0 + u * u); };
+      const double cos_min = std::min(cos_b(b1), cos_b(b2));
+      const double dy = eta - p1.y_core;
+      if (cos_min > 0.0 && dy >= 0.0) {
+        const double spread_z = dy * dy / (2.0 * s.r * cos_min * cos_min * cos_min);
+        const double tan_b1 = 2.0 * b1 / ((1.0 - b1) * (1.0 + b1));
+        if (spread_z <= 0.5 * kSectionZError) *z_point = p1.z_core + tan_b1 * dy + 0.5 * spread_z;
+      }
+    } else if (off_flank && lip * (b2 - b1) <= kSectionZError) {  // (z_core within lip (b2 - b1) of the bracket's end)
+      *z_point = p1.z_core;
+    }
   }
   x_lo = std::min(p1.x_core, p2.x_core) - spread;
   x_hi = std::max(p1.x_core, p2.x_core) + spread;

@@ -91,6 +91,9 @@ struct SectionWarm {
 bool section_point_x(const Sweep& s, double eta, double slope, double& x_lo, double& x_hi, SectionWarm* warm = nullptr,
                      double* z_low = nullptr, double* z_point = nullptr);
 inline constexpr double kSectionZError = 1e-13;
+/// The lowest points' brackets are sized for normals with cos^3 b above this (b up to ~48 deg);
+/// steeper ones get no height (NaN) unless their bracket happens to be narrow enough.
+inline constexpr double kSectionCos3 = 0.3;
 inline constexpr double kSectionMinAx = 0.01;
 
 /// Bull-nose sweep (r > 0, rho > 0) and a line: the entry t0 to ~1e-13 m (regula falsi on the
