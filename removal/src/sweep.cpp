@@ -327,13 +327,13 @@ bool section_point_x(const Sweep& s, double eta, double slope, double& x_lo, dou
       nx = slope * cb * inv, ny = sb * inv, nz = -cb * inv;
     }
     const double na = nx * ax + ny * ay + nz * az;
-    const double perp = std::sqrt(std::max(0.0, (1.0 - na) * (1.0 + na)));
+    const double rho_perp = s.rho / std::sqrt(std::max(0.0, (1.0 - na) * (1.0 + na)));
     Point p;
     p.na = na;
-    p.x_core = s.rho * (nx - na * ax) / perp + s.r * nx;
-    const double y = s.rho * (ny - na * ay) / perp + s.r * ny;
+    p.x_core = (nx - na * ax) * rho_perp + s.r * nx;
+    const double y = (ny - na * ay) * rho_perp + s.r * ny;
     p.y_core = y;
-    p.z_core = s.rho * (nz - na * az) / perp + s.r * nz;
+    p.z_core = (nz - na * az) * rho_perp + s.r * nz;
     const double y_top = y + s.ell * ay;
     const bool both = std::abs(na) <= 1e-9;
     const double y_one = na > 0.0 ? y_top : y;
@@ -342,24 +342,84 @@ bool section_point_x(const Sweep& s, double eta, double slope, double& x_lo, dou
     return p;
   };
   constexpr double tau = 1e-15;  // [m] far above the rounding of y (~1e-17 m)
-  const double na_max = std::abs(slope * ax) + std::sqrt(std::max(0.0, (1.0 - ax) * (1.0 + ax)));
-  const double perp_min = std::sqrt(std::max(0.0, (1.0 - na_max) * (1.0 + na_max)));
-  if (!(perp_min > 0.0)) return false;
-  const double lip = 2.0 * std::sqrt(1.0 + slope * slope) * (s.rho / perp_min + s.r);  // |dx_core / du|, |dz_core / du|
-  // Bracket width (in u): 1e-8 m of x for slopes other than 0 (only bounds of x are used). For
-  // the lowest point its height is used too: with a corner radius the height follows from the
-  // bracket's end to second order (below), so a bracket of a few nm of y is enough; without one,
-  // the width is worth 0.1 kSectionZError of z.
-  const double lowest_width_m = s.r > 0.0 ? std::sqrt(0.1 * kSectionZError * s.r * kSectionCos3) : 0.1 * kSectionZError;
-  const double width = (slope == 0.0 ? lowest_width_m : 1e-8) / lip;
+  // The constants of this tool section and slope (a chain of square roots and divisions: kept in
+  // `warm` for the rows after the first; they depend on a_x, rho, r and the slope only).
+  SectionWarm::Constants constants;
+  const SectionWarm::Constants* known = warm ? &warm->constants : nullptr;
+  if (known && known->slope == slope && known->ax == ax && known->rho == s.rho && known->r == s.r) {
+    constants = *known;
+  } else {
+    const double na_max = std::abs(slope * ax) + std::sqrt(std::max(0.0, (1.0 - ax) * (1.0 + ax)));
+    const double perp_min = std::sqrt(std::max(0.0, (1.0 - na_max) * (1.0 + na_max)));
+    if (!(perp_min > 0.0)) return false;
+    constants.slope = slope, constants.ax = ax, constants.rho = s.rho, constants.r = s.r;
+    constants.lip = 2.0 * std::sqrt(1.0 + slope * slope) * (s.rho / perp_min + s.r);  // |dx_core / du|, |dz_core / du|
+    // Bracket width (in u): 1e-8 m of x for slopes other than 0 (only bounds of x are used).
+    // For the lowest point its height is used too: with a corner radius the height follows
+    // from the bracket's end to second order (below), so a bracket of a few nm of y is enough;
+    // without one, the width is worth 0.1 kSectionZError of z.
+    const double lowest_width_m = s.r > 0.0 ? std::sqrt(0.4 * kSectionZError * s.r * kSectionCos3) : 0.1 * kSectionZError;
+    constants.width = (slope == 0.0 ? lowest_width_m : 1e-8) / constants.lip;
+    if (warm) warm->constants = constants;
+  }
+  const double lip = constants.lip, width = constants.width;
   const double end = 1.0;  // u at b = pi / 2
   double b1 = 0.0, b2 = 0.0;
   Point p1, p2;
   bool bracketed = false;
+  // One-sided bracket (the lowest point of a bull-nose): on the normals (0, sin b, -cos b) the
+  // support point's y grows with dy / du >= 2 r cos b / (1 + u^2) (see z_point below), so one
+  // point p(u) at |y - eta| = e holds the root within e / that bound on one side: a single
+  // evaluation per row once the Newton guess is close. p1 = p2 = that point.
+  bool one_sided = false;
+  double u_p1 = 0.0;  // where p1 was evaluated
+  auto cos_b = [](double u) { return (1.0 - u * u) / (1.0 + u * u); };
+  if (slope == 0.0 && s.r > 0.0 && warm && std::isfinite(warm->u) && std::isfinite(warm->du_deta) &&
+      warm->du_deta != 0.0) {
+    double rate = warm->du_deta;
+    const double step = eta - warm->eta, back = warm->eta_before - warm->eta;
+    double bend = 0.0;
+    if (std::isfinite(warm->u_before) && back != 0.0) bend = (warm->u_before - warm->u - rate * back) / (back * back);
+    double b = std::clamp(warm->u + step * rate + step * step * bend, -end, end);
+    double b_before = 0.0, f_before = 0.0;
+    for (int k = 0; k < 3; ++k) {
+      const Point p = point(b);
+      if (!(p.na < -1e-6)) break;  // near the flank's segment (y not one value): two-sided
+      const double f = p.y_core - eta;
+      const double l_min = s.r * cos_b(b) / (1.0 + b * b);  // half the bound at b: room for its change
+      const double w = (std::abs(f) + tau) / l_min;
+      const double far = std::abs(b) + w, cos_far = cos_b(far);
+      // Accepted when x is known within 5e-8 m (a line that near is left to the exact test) and the height within
+      // 0.4 kSectionZError (z_point below: e^2 / (2 r cos^3 b)).
+      if (l_min > 0.0 && lip * w <= 5e-8 && far < end && 2.0 * s.r * cos_far / (1.0 + far * far) >= l_min &&
+          f * f <= 0.8 * kSectionZError * s.r * cos_far * cos_far * cos_far && p.na < -(2.0 * w + 1e-9)) {
+        b1 = f < 0.0 ? b : b - w;
+        b2 = f < 0.0 ? b + w : b;
+        p1 = p2 = p;
+        u_p1 = b;
+        one_sided = bracketed = true;
+        // The next row's warm start: the root's estimate and the slope of u over the rows
+        // (the parabola through this row and the two before).
+        const double root = std::clamp(b - f * rate, b1, b2);
+        double rate_here = (root - warm->u) / step;
+        if (std::isfinite(warm->u_before) && back != 0.0 && step != back) {
+          const double e0 = warm->eta_before, e1 = warm->eta, e2 = eta;
+          rate_here = warm->u_before * (e2 - e1) / ((e0 - e1) * (e0 - e2)) + warm->u * (e2 - e0) / ((e1 - e0) * (e1 - e2)) +
+                      root * (2.0 * e2 - e0 - e1) / ((e2 - e0) * (e2 - e1));
+        }
+        warm->u_before = warm->u, warm->eta_before = warm->eta;
+        warm->u = root, warm->du_deta = std::isfinite(rate_here) && rate_here != 0.0 ? rate_here : rate, warm->eta = eta;
+        break;
+      }
+      if (k > 0 && f != f_before) rate = (b - b_before) / (f - f_before);
+      b_before = b, f_before = f;
+      b = std::clamp(b - f * rate, -end, end);
+    }
+  }
   // Warm start (neighbouring row): Newton steps on y(u) = eta with the rate du / deta of the
   // neighbours, then a bracket of the width around the root, accepted only when both ends
   // check (y monotone in b): a few evaluations instead of two bisections.
-  if (warm && std::isfinite(warm->u) && std::isfinite(warm->du_deta) && warm->du_deta != 0.0) {
+  if (!one_sided && warm && std::isfinite(warm->u) && std::isfinite(warm->du_deta) && warm->du_deta != 0.0) {
     double rate = warm->du_deta;
     // The guess: the neighbour's tangent, bent through the row before it (second order).
     const double step = eta - warm->eta, back = warm->eta_before - warm->eta;
@@ -448,17 +508,20 @@ bool section_point_x(const Sweep& s, double eta, double slope, double& x_lo, dou
       warm->du_deta = dy != 0.0 ? (std::min(end, b + h) - std::max(-end, b - h)) / dy : std::nan("");
     }
   }
-  // Over [b1, b2] (in u): x_core within lip (b2 - b1) / 2 of the nearer end; the top end's ell
-  // a_x where n . a may reach 0 (|d(n . a) / du| <= |dn / du| <= 2 sqrt(1 + slope^2)).
-  const double spread = 0.5 * lip * (b2 - b1) + 1e-12;
-  const double na_reach = std::sqrt(1.0 + slope * slope) * (b2 - b1) + 1e-9;
+  if (!one_sided) u_p1 = b1;
+  // Over [b1, b2] (in u): x_core within lip (b2 - b1) / 2 of the nearer end (of the one end
+  // evaluated, one-sided); the top end's ell a_x where n . a may reach 0 (|d(n . a) / du| <=
+  // |dn / du| <= 2 sqrt(1 + slope^2)).
+  const double reach_u = one_sided ? 2.0 * (b2 - b1) : b2 - b1;
+  const double spread = 0.5 * lip * reach_u + 1e-12;
+  const double na_reach = std::sqrt(1.0 + slope * slope) * reach_u + 1e-9;
   // (The top end's z is higher by ell a_z > 0: the bottom's bounds the point from below.)
   if (z_low) {
     *z_low = std::min(p1.z_core, p2.z_core) - spread;
     if (slope == 0.0) {
       // Each end's normal n(b) = (0, sin b, -cos b) gives a supporting plane, n . p <= n . p_end,
       // so on the plane y = eta every point has z >= z_end + tan b (eta - y_end).
-      for (const auto& [p, u] : {std::pair{p1, b1}, std::pair{p2, b2}}) {
+      for (const auto& [p, u] : {std::pair{p1, u_p1}, std::pair{p2, one_sided ? u_p1 : b2}}) {
         if (!(std::abs(u) < 1.0)) continue;
         const double tan_b = 2.0 * u / ((1.0 - u) * (1.0 + u));
         // (y, z) of a support point: the segment's top end where n . a > 0.
@@ -475,13 +538,13 @@ bool section_point_x(const Sweep& s, double eta, double slope, double& x_lo, dou
       // Along the curve of the lowest points (normals n = (0, sin b, -cos b)) z is convex in y
       // with dz / dy = tan b, and dy / db >= r cos b (the core's support point moves along
       // dn / db, the ball's by r), so 0 <= d2z / dy2 <= 1 / (r cos^3 b): from the bracket's low
-      // end (y1 < eta) the height at eta is z1 + tan b1 (eta - y1) + [0, (eta - y1)^2 / (2 r cos^3 b)].
-      auto cos_b = [](double u) { return (1.0 - u * u) / (1.0 + u * u); };
+      // point p1 (y1 within the bracket's y of eta) the height at eta is z1 + tan b1 (eta - y1) +
+      // [0, (eta - y1)^2 / (2 r cos^3 b)], b over the bracket.
       const double cos_min = std::min(cos_b(b1), cos_b(b2));
       const double dy = eta - p1.y_core;
-      if (cos_min > 0.0 && dy >= 0.0) {
+      if (cos_min > 0.0) {
         const double spread_z = dy * dy / (2.0 * s.r * cos_min * cos_min * cos_min);
-        const double tan_b1 = 2.0 * b1 / ((1.0 - b1) * (1.0 + b1));
+        const double tan_b1 = 2.0 * u_p1 / ((1.0 - u_p1) * (1.0 + u_p1));
         if (spread_z <= 0.5 * kSectionZError) *z_point = p1.z_core + tan_b1 * dy + 0.5 * spread_z;
       }
     } else if (off_flank && lip * (b2 - b1) <= kSectionZError) {  // (z_core within lip (b2 - b1) of the bracket's end)

@@ -79,6 +79,11 @@ bool section_lowest_x(const Sweep& s, double eta, double& x_lo, double& x_hi, do
 struct SectionWarm {
   double u = std::numeric_limits<double>::quiet_NaN(), du_deta = std::numeric_limits<double>::quiet_NaN(), eta = 0.0;
   double u_before = std::numeric_limits<double>::quiet_NaN(), eta_before = 0.0;  // the row before (second order)
+  /// Constants of the last tool section and slope solved for (recomputed when any differs).
+  struct Constants {
+    double slope = std::numeric_limits<double>::quiet_NaN(), ax = 0.0, rho = 0.0, r = 0.0;  // (the key)
+    double lip = 0.0, width = 0.0;  // |dx / du| bound; bracket width in u
+  } constants;
   /// tan b: for the lowest point (slope 0) the y-slope of the section's lowest z over the rows.
   double tan_b() const { return 2.0 * u / ((1.0 - u) * (1.0 + u)); }
 };
