@@ -807,8 +807,6 @@ VerticalEntry::Result VerticalEntry::entry_off_bottom(double x, double y, double
     }
     return Result::undecided;
   }
-  const double bound = capsule_bound();
-  if (bound >= top) return Result::above;
   // Bull-nose: the rim direction extrapolated from the neighbours found before (unit complex
   // numbers: a turn repeated is a ratio): along the row (two to the left), across the rows
   // (left, up and up-left; or two up), else the nearest one, else the last one found.
@@ -841,6 +839,15 @@ VerticalEntry::Result VerticalEntry::entry_off_bottom(double x, double y, double
       dir = left ? *left : *up;
     }
   }
+  // With a direction from the neighbours the rim search comes first (it certifies its entry,
+  // above the top or not): the capsule's bound only rejects lines off the tool's footprint, and
+  // costs a distance and a root on every line the sweep cuts. Without one, the bound first.
+  const bool from_neighbours = dir.allFinite();
+  double bound = std::nan("");
+  if (!from_neighbours) {
+    bound = capsule_bound();
+    if (bound >= top) return Result::above;
+  }
   double hn = 0.0;
   if (bull_rim(x, y, bound, dir, z, &n, &hn)) {
     Warm::Found& f = warm.found[slot(row, col)];
@@ -850,6 +857,7 @@ VerticalEntry::Result VerticalEntry::entry_off_bottom(double x, double y, double
     return z > floor ? Result::exact : Result::undecided;
   }
   warm.last = Eigen::Vector2d::Constant(std::numeric_limits<double>::quiet_NaN());
+  if (from_neighbours && capsule_bound() >= top) return Result::above;
   return Result::undecided;
 }
 
