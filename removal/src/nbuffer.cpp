@@ -456,6 +456,10 @@ struct SectionRows {
   std::vector<double> z_point;  // that point's z where known within kSectionZError, else NaN
   std::vector<char> hit;
   std::vector<double> lead_x, trail_x;  // (general junctions only)
+  // The section points the junction boundaries were found from (relative to c1.x, c0.x) and
+  // their x-slopes' magnitudes (0: none): beyond (behind) them the tool standing at c1 (c0)
+  // enters a row at least z_low + slope * distance.
+  std::vector<double> lead_point_x, lead_slope, trail_point_x, trail_slope;
   bool same_family(const Sweep& s) const {
     return !own && a == s.a && rho == s.rho && r == s.r && ell == s.ell && c_y == s.c0.y() && c_z == s.c0.z();
   }
@@ -504,6 +508,7 @@ SectionRows section_rows_for(const Sweep& s, double y0, double sp, int nv, const
     int iv;
     double lo, hi, z_low, z_point, lead, trail;
     bool hit;
+    double lead_point = 0.0, lead_slope = 0.0, trail_point = 0.0, trail_slope = 0.0;  // (SectionRows)
   };
   auto walk = [&](int iv_first, int step, bool stop_at_first, std::vector<Row>& out) {
     detail::SectionWarm warm0, warm_lead, warm_trail;
@@ -529,7 +534,7 @@ SectionRows section_rows_for(const Sweep& s, double y0, double sp, int nv, const
       // A junction boundary of this row (lead side: lines beyond it are left to the next sweep;
       // trail side: lines behind it were cut by the sweep before), or false.
       auto boundary = [&](const Junction& j, bool lead_side, detail::SectionWarm& w, double& walk_slope, Shift& walk_shift,
-                          double& x) {
+                          double& x, double& point_x, double& point_slope) {
         double slope = walk_slope, shift = 0.0;
         if (walk_shift.known) {
           shift = walk_shift.shift, slope = walk_shift.slope;
@@ -549,6 +554,7 @@ SectionRows section_rows_for(const Sweep& s, double y0, double sp, int nv, const
         }
         const bool upper = lead_side == forward;  // the boundary is beyond the point in +x
         x = upper ? hi + shift : lo - shift;
+        point_x = upper ? hi : lo, point_slope = slope;
         if (!std::isfinite(walk_slope)) {
           const double offset = upper ? hi - row.lo : row.hi - lo;
           shift = j.shift_for(slope > 0.0 ? std::clamp(offset / slope, 1e-5, 1.0) : radius_guess);
@@ -559,8 +565,15 @@ SectionRows section_rows_for(const Sweep& s, double y0, double sp, int nv, const
       row.lead = dir * detail::kInf;    // (no point found: nothing left ahead)
       row.trail = -dir * detail::kInf;  // (nothing skipped behind)
       auto junction_boundaries = [&] {
-        if (general_lead && !boundary(*lead, true, warm_lead, slope_lead, shift_lead, row.lead)) row.lead = dir * detail::kInf;
-        if (general_trail && !boundary(*trail, false, warm_trail, slope_trail, shift_trail, row.trail)) row.trail = -dir * detail::kInf;
+        if (general_lead && !boundary(*lead, true, warm_lead, slope_lead, shift_lead, row.lead, row.lead_point, row.lead_slope)) {
+          row.lead = dir * detail::kInf;
+          row.lead_slope = 0.0;
+        }
+        if (general_trail &&
+            !boundary(*trail, false, warm_trail, slope_trail, shift_trail, row.trail, row.trail_point, row.trail_slope)) {
+          row.trail = -dir * detail::kInf;
+          row.trail_slope = 0.0;
+        }
       };
       const bool first_hit = row.hit && ((general_lead && !std::isfinite(slope_lead)) || (general_trail && !std::isfinite(slope_trail)));
       if (first_hit) junction_boundaries();  // (the walk's slopes, whatever the material)
@@ -600,8 +613,16 @@ SectionRows section_rows_for(const Sweep& s, double y0, double sp, int nv, const
     t.hi.push_back(row.hi);
     t.z_low.push_back(row.z_low);
     t.z_point.push_back(row.z_point);
-    if (general_lead) t.lead_x.push_back(row.lead);
-    if (general_trail) t.trail_x.push_back(row.trail);
+    if (general_lead) {
+      t.lead_x.push_back(row.lead);
+      t.lead_point_x.push_back(row.lead_point);
+      t.lead_slope.push_back(row.hit ? row.lead_slope : 0.0);
+    }
+    if (general_trail) {
+      t.trail_x.push_back(row.trail);
+      t.trail_point_x.push_back(row.trail_point);
+      t.trail_slope.push_back(row.hit ? row.trail_slope : 0.0);
+    }
   }
   return t;
 }
@@ -651,6 +672,16 @@ CutStatistics NBuffer::cut(const Tool& tool, std::span<const Pose> trajectory, c
   SectionRows carried_rows;  // the last sweep's table when it leaves lines at a general junction
   const double sp = spacing_;
   const double slack = 1e-9;  // [m] widening of the row ranges against rounding: the exact test decides
+  // The lines of row k that the lowest point of the sweep's section passes over (a chain sweep
+  // moving exactly along x, its height known): they get that height (cut_zmap_tile). False when none.
+  auto over_zone_lines = [&](const Sweep& s, const SectionRows& t, int k, int& first, int& last) {
+    const std::size_t kk = static_cast<std::size_t>(k);
+    if (!std::isfinite(t.z_point[kk])) return false;
+    const double x_start = std::min(s.c0.x(), s.c1.x()), x_end = std::max(s.c0.x(), s.c1.x());
+    first = static_cast<int>(std::ceil((x_start + t.hi[kk] + slack - origin0_.x()) / sp));
+    last = static_cast<int>(std::floor((x_end + t.lo[kk] - slack - origin0_.x()) / sp));
+    return first <= last;
+  };
 
   for (std::size_t first = 0; first < segments; first += batch) {
     const std::size_t last = std::min(segments, first + batch);
@@ -772,6 +803,80 @@ CutStatistics NBuffer::cut(const Tool& tool, std::span<const Pose> trajectory, c
           t.trail_x[i] = forward ? std::min(t.trail_x[i], lead) : std::max(t.trail_x[i], lead);
         }
       }
+      // Over-zone coverage at general junctions (level chains, heights known). A line in the
+      // over zone of another sweep j of the chain gets j's section height m_j from j. Ahead of
+      // the slope point P (slope sigma) of a sweep's tool standing at its end, its entry is at
+      // least z_low + sigma * distance past P (convex along the row, and never below the row's
+      // lowest point): where that is at or above m_j, the sweep need not test the line (j gives
+      // it at most the sweep's own entry). The same behind the start. Lines so covered next to
+      // the junction boundary move it (lines only: the boundary lands between two of them). A
+      // base case: it does not rely on any other sweep's boundaries.
+      auto cover = [&](std::size_t k, bool lead_side) {
+        const Sweep& s = sweeps[k];
+        SectionRows& t = section_rows[static_cast<std::size_t>(roles[k].rows)];
+        std::vector<double>& boundary = lead_side ? t.lead_x : t.trail_x;
+        const std::vector<double>& point_x = lead_side ? t.lead_point_x : t.trail_point_x;
+        const std::vector<double>& point_slope = lead_side ? t.lead_slope : t.trail_slope;
+        if (!t.level || boundary.empty()) return;
+        const bool forward = s.c1.x() > s.c0.x();
+        // Lines grow away from the sweep on its side: +x for the lead of a forward sweep.
+        const bool away_up = lead_side == forward;
+        const double anchor = lead_side ? s.c1.x() : s.c0.x();
+        const double ox = origin0_.x();
+        struct Covered {
+          int first, last;
+        };
+        Covered covered[3];
+        for (std::size_t i = 0; i < boundary.size(); ++i) {
+          const double sigma = point_slope[i];
+          if (!t.hit[i] || !(sigma > 0.0) || !std::isfinite(boundary[i])) continue;
+          const int iv = t.iv0 + static_cast<int>(i);
+          int own_first = 0, own_last = 0;
+          if (!over_zone_lines(s, t, static_cast<int>(i), own_first, own_last)) continue;
+          const double m_low = s.c0.z() + t.z_low[i];
+          const double p_abs = anchor + point_x[i];
+          int n = 0;
+          for (int step = 1; step <= 3; ++step) {
+            const std::size_t j = lead_side ? k + step : k - step;
+            if (lead_side ? j >= sweeps.size() || !roles[j - 1].leave_ahead : k < static_cast<std::size_t>(step) || !roles[j + 1].skip_behind) break;
+            if (roles[j].rows < 0) break;
+            const SectionRows& tj = section_rows[static_cast<std::size_t>(roles[j].rows)];
+            const int kj = tj.row(iv);
+            int a = 0, b = 0;
+            if (!tj.level || kj < 0 || !over_zone_lines(sweeps[j], tj, kj, a, b)) continue;
+            const double m_j = sweeps[j].c0.z() + tj.z_point[static_cast<std::size_t>(kj)];
+            const double need = (m_j + 1e-14 - m_low) / sigma;  // distance past P [m]
+            if (need > 0.0) {
+              if (away_up) a = std::max(a, static_cast<int>(std::ceil((p_abs + need - ox) / sp)));
+              else b = std::min(b, static_cast<int>(std::floor((p_abs - need - ox) / sp)));
+            }
+            if (a <= b) covered[n++] = {a, b};
+          }
+          if (n == 0) continue;
+          // The first line not tested (in the direction away), as cut_zmap_tile rounds the strip.
+          const double edge = anchor + boundary[i];
+          int line = away_up ? static_cast<int>(std::floor((edge + slack - ox) / sp)) + 1
+                             : static_cast<int>(std::ceil((edge - slack - ox) / sp)) - 1;
+          for (bool moved = true; moved;) {
+            moved = false;
+            for (int c = 0; c < n; ++c) {
+              const int toward = away_up ? line - 1 : line + 1;  // the last line tested
+              if (covered[c].first <= toward && toward <= covered[c].last) {
+                line = away_up ? covered[c].first : covered[c].last;
+                moved = true;
+              }
+            }
+          }
+          // (The sweep keeps its own over zone.)
+          line = away_up ? std::max(line, own_last + 1) : std::min(line, own_first - 1);
+          boundary[i] = (away_up ? line - 0.5 : line + 0.5) * sp + ox - anchor;
+        }
+      };
+      for (std::size_t k = 0; k < sweeps.size(); ++k) {
+        if (roles[k].rows < 0) continue;
+        if (roles[k].leave_ahead && roles[k].ahead.general) cover(k, true);
+        if (roles[k].skip_behind && roles[k].behind.general) cover(k, false);
+      }
       const ChainRole& last_role = roles.back();
       carried_rows = last_role.leave_ahead && last_role.ahead.general ? section_rows[static_cast<std::size_t>(last_role.rows)]
                                                                           : SectionRows{};
@@ -885,13 +990,7 @@ CutStatistics NBuffer::cut(const Tool& tool, std::span<const Pose> trajectory, c
             strip_a -= slack;
             strip_b += slack;
             if (strip_a > tile_x_hi || strip_b < tile_x_lo) continue;
-            if (std::isfinite(chain_rows->z_point[kk])) {
-              const double lo = chain_rows->lo[kk], hi = chain_rows->hi[kk];
-              const double x_start = std::min(s.c0.x(), s.c1.x()), x_end = std::max(s.c0.x(), s.c1.x());
-              over_a = static_cast<int>(std::ceil((x_start + hi + slack - origin0_.x()) / sp));
-              over_b = static_cast<int>(std::floor((x_end + lo - slack - origin0_.x()) / sp));
-              over_t0 = s.c0.z() + chain_rows->z_point[kk] - z0;
-            }
+            if (over_zone_lines(s, *chain_rows, k, over_a, over_b)) over_t0 = s.c0.z() + chain_rows->z_point[kk] - z0;
           }
           double xa = 0.0, xb = 0.0;
           if (!capsule_row(s.c0.x(), s.c0.y(), s.c1.x(), s.c1.y(), reach + slack, y, xa, xb)) continue;
