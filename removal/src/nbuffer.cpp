@@ -460,6 +460,8 @@ struct SectionRows {
   // their x-slopes' magnitudes (0: none): beyond (behind) them the tool standing at c1 (c0)
   // enters a row at least z_low + slope * distance.
   std::vector<double> lead_point_x, lead_slope, trail_point_x, trail_slope;
+  // Own tables: each row's over-zone lines (NBuffer::cut's over_zone_lines; first > last: none).
+  std::vector<int> over_first, over_last;
   bool same_family(const Sweep& s) const {
     return !own && a == s.a && rho == s.rho && r == s.r && ell == s.ell && c_y == s.c0.y() && c_z == s.c0.z();
   }
@@ -682,6 +684,12 @@ CutStatistics NBuffer::cut(const Tool& tool, std::span<const Pose> trajectory, c
     last = static_cast<int>(std::floor((x_end + t.lo[kk] - slack - origin0_.x()) / sp));
     return first <= last;
   };
+  // (Own tables keep them: the junction boundaries look them up for up to six neighbours.)
+  auto over_zone_lines_cached = [&](const Sweep& s, const SectionRows& t, int k, int& first, int& last) {
+    if (t.over_first.empty()) return over_zone_lines(s, t, k, first, last);
+    first = t.over_first[static_cast<std::size_t>(k)], last = t.over_last[static_cast<std::size_t>(k)];
+    return first <= last;
+  };
 
   for (std::size_t first = 0; first < segments; first += batch) {
     const std::size_t last = std::min(segments, first + batch);
@@ -784,7 +792,15 @@ CutStatistics NBuffer::cut(const Tool& tool, std::span<const Pose> trajectory, c
       arena.execute([&] {
         tbb::parallel_for(std::size_t{0}, own_tables.size(), [&](std::size_t i) {
           const std::size_t k = own_tables[i];
-          section_rows[static_cast<std::size_t>(roles[k].rows)] = build_rows(sweeps[k], roles[k], true);
+          SectionRows& t = section_rows[static_cast<std::size_t>(roles[k].rows)];
+          t = build_rows(sweeps[k], roles[k], true);
+          t.over_first.assign(t.hit.size(), 0);
+          t.over_last.assign(t.hit.size(), -1);
+          for (std::size_t row = 0; row < t.hit.size(); ++row) {
+            if (!over_zone_lines(sweeps[k], t, static_cast<int>(row), t.over_first[row], t.over_last[row])) {
+              t.over_first[row] = 0, t.over_last[row] = -1;
+            }
+          }
         });
       });
       // At a general junction the two tables differ: lines the sweep before leaves must not lie
@@ -832,7 +848,7 @@ CutStatistics NBuffer::cut(const Tool& tool, std::span<const Pose> trajectory, c
           if (!t.hit[i] || !(sigma > 0.0) || !std::isfinite(boundary[i])) continue;
           const int iv = t.iv0 + static_cast<int>(i);
           int own_first = 0, own_last = 0;
-          if (!over_zone_lines(s, t, static_cast<int>(i), own_first, own_last)) continue;
+          if (!over_zone_lines_cached(s, t, static_cast<int>(i), own_first, own_last)) continue;
           const double m_low = s.c0.z() + t.z_low[i];
           const double p_abs = anchor + point_x[i];
           int n = 0;
@@ -843,7 +859,7 @@ CutStatistics NBuffer::cut(const Tool& tool, std::span<const Pose> trajectory, c
             const SectionRows& tj = section_rows[static_cast<std::size_t>(roles[j].rows)];
             const int kj = tj.row(iv);
             int a = 0, b = 0;
-            if (!tj.level || kj < 0 || !over_zone_lines(sweeps[j], tj, kj, a, b)) continue;
+            if (!tj.level || kj < 0 || !over_zone_lines_cached(sweeps[j], tj, kj, a, b)) continue;
             const double m_j = sweeps[j].c0.z() + tj.z_point[static_cast<std::size_t>(kj)];
             const double need = (m_j + 1e-14 - m_low) / sigma;  // distance past P [m]
             if (need > 0.0) {

@@ -353,7 +353,8 @@ bool section_point_x(const Sweep& s, double eta, double slope, double& x_lo, dou
     const double perp_min = std::sqrt(std::max(0.0, (1.0 - na_max) * (1.0 + na_max)));
     if (!(perp_min > 0.0)) return false;
     constants.slope = slope, constants.ax = ax, constants.rho = s.rho, constants.r = s.r;
-    constants.lip = 2.0 * std::sqrt(1.0 + slope * slope) * (s.rho / perp_min + s.r);  // |dx_core / du|, |dz_core / du|
+    constants.slope_norm = std::sqrt(1.0 + slope * slope);
+    constants.lip = 2.0 * constants.slope_norm * (s.rho / perp_min + s.r);  // |dx_core / du|, |dz_core / du|
     // Bracket width (in u): 1e-8 m of x for slopes other than 0 (only bounds of x are used).
     // For the lowest point its height is used too: with a corner radius the height follows
     // from the bracket's end to second order (below), so a bracket of a few nm of y is enough;
@@ -367,15 +368,19 @@ bool section_point_x(const Sweep& s, double eta, double slope, double& x_lo, dou
   double b1 = 0.0, b2 = 0.0;
   Point p1, p2;
   bool bracketed = false;
-  // One-sided bracket (the lowest point of a bull-nose): on the normals (0, sin b, -cos b) the
-  // support point's y grows with dy / du >= 2 r cos b / (1 + u^2) (see z_point below), so one
-  // point p(u) at |y - eta| = e holds the root within e / that bound on one side: a single
-  // evaluation per row once the Newton guess is close. p1 = p2 = that point.
+  // One-sided bracket (a bull-nose, off the flank's segment): the normals n(b) run over a
+  // great circle in the plane of y and (slope, 0, -1); the tool's projection on that plane is
+  // convex with curvature radius >= r, so the support point's y grows with its normal's angle
+  // theta in that plane as dy / dtheta >= r cos theta, which gives dy / du >= 2 r cos b / ((1 +
+  // u^2) sqrt(1 + slope^2)) (for slope 0: the core's support point moves along dn / db, the
+  // ball's by r). So one point p(u) at |y - eta| = e holds the root within e / that bound on one
+  // side: a single evaluation per row once the Newton guess is close. p1 = p2 = that point.
   bool one_sided = false;
   double u_p1 = 0.0;  // where p1 was evaluated
   auto cos_b = [](double u) { return (1.0 - u * u) / (1.0 + u * u); };
-  if (slope == 0.0 && s.r > 0.0 && warm && std::isfinite(warm->u) && std::isfinite(warm->du_deta) &&
-      warm->du_deta != 0.0) {
+  const double slope_norm = constants.slope_norm, r_norm = s.r / slope_norm;
+  double cos_min_one_sided = 0.0;  // the least cos b over a one-sided bracket
+  if (s.r > 0.0 && warm && std::isfinite(warm->u) && std::isfinite(warm->du_deta) && warm->du_deta != 0.0) {
     double rate = warm->du_deta;
     const double step = eta - warm->eta, back = warm->eta_before - warm->eta;
     double bend = 0.0;
@@ -386,13 +391,18 @@ bool section_point_x(const Sweep& s, double eta, double slope, double& x_lo, dou
       const Point p = point(b);
       if (!(p.na < -1e-6)) break;  // near the flank's segment (y not one value): two-sided
       const double f = p.y_core - eta;
-      const double l_min = s.r * cos_b(b) / (1.0 + b * b);  // half the bound at b: room for its change
+      // l_min: half the bound at b, room for its change over the bracket (cos b = (1 - u^2) /
+      // (1 + u^2); the tests below are multiplied out: no division).
+      const double q_b = 1.0 + b * b, l_min = r_norm * (1.0 - b * b) / (q_b * q_b);
       const double w = (std::abs(f) + tau) / l_min;
-      const double far = std::abs(b) + w, cos_far = cos_b(far);
-      // Accepted when x is known within 5e-8 m (a line that near is left to the exact test) and the height within
-      // 0.4 kSectionZError (z_point below: e^2 / (2 r cos^3 b)).
-      if (l_min > 0.0 && lip * w <= 5e-8 && far < end && 2.0 * s.r * cos_far / (1.0 + far * far) >= l_min &&
-          f * f <= 0.8 * kSectionZError * s.r * cos_far * cos_far * cos_far && p.na < -(2.0 * w + 1e-9)) {
+      const double far = std::abs(b) + w, q_far = 1.0 + far * far, c_far = 1.0 - far * far;  // cos = c / q
+      // Accepted when x is known within 5e-8 m (a line that near is left to the exact test)
+      // and, for the lowest point, the height within 0.4 kSectionZError (z_point below: e^2 /
+      // (2 r cos^3 b)).
+      if (l_min > 0.0 && lip * w <= 5e-8 && far < end && 2.0 * r_norm * c_far >= l_min * q_far * q_far &&
+          (slope != 0.0 || f * f * q_far * q_far * q_far <= 0.8 * kSectionZError * s.r * c_far * c_far * c_far) &&
+          p.na < -(2.0 * slope_norm * w + 1e-9)) {
+        cos_min_one_sided = c_far / q_far;
         b1 = f < 0.0 ? b : b - w;
         b2 = f < 0.0 ? b + w : b;
         p1 = p2 = p;
@@ -514,14 +524,16 @@ bool section_point_x(const Sweep& s, double eta, double slope, double& x_lo, dou
   // |dn / du| <= 2 sqrt(1 + slope^2)).
   const double reach_u = one_sided ? 2.0 * (b2 - b1) : b2 - b1;
   const double spread = 0.5 * lip * reach_u + 1e-12;
-  const double na_reach = std::sqrt(1.0 + slope * slope) * reach_u + 1e-9;
+  const double na_reach = slope_norm * reach_u + 1e-9;
   // (The top end's z is higher by ell a_z > 0: the bottom's bounds the point from below.)
   if (z_low) {
     *z_low = std::min(p1.z_core, p2.z_core) - spread;
     if (slope == 0.0) {
       // Each end's normal n(b) = (0, sin b, -cos b) gives a supporting plane, n . p <= n . p_end,
       // so on the plane y = eta every point has z >= z_end + tan b (eta - y_end).
-      for (const auto& [p, u] : {std::pair{p1, u_p1}, std::pair{p2, one_sided ? u_p1 : b2}}) {
+      for (int end_index = 0; end_index < (one_sided ? 1 : 2); ++end_index) {  // (one-sided: one point)
+        const Point& p = end_index == 0 ? p1 : p2;
+        const double u = end_index == 0 ? u_p1 : b2;
         if (!(std::abs(u) < 1.0)) continue;
         const double tan_b = 2.0 * u / ((1.0 - u) * (1.0 + u));
         // (y, z) of a support point: the segment's top end where n . a > 0.
@@ -540,7 +552,7 @@ bool section_point_x(const Sweep& s, double eta, double slope, double& x_lo, dou
       // dn / db, the ball's by r), so 0 <= d2z / dy2 <= 1 / (r cos^3 b): from the bracket's low
       // point p1 (y1 within the bracket's y of eta) the height at eta is z1 + tan b1 (eta - y1) +
       // [0, (eta - y1)^2 / (2 r cos^3 b)], b over the bracket.
-      const double cos_min = std::min(cos_b(b1), cos_b(b2));
+      const double cos_min = one_sided ? cos_min_one_sided : std::min(cos_b(b1), cos_b(b2));
       const double dy = eta - p1.y_core;
       if (cos_min > 0.0) {
         const double spread_z = dy * dy / (2.0 * s.r * cos_min * cos_min * cos_min);

@@ -83,6 +83,7 @@ struct SectionWarm {
   struct Constants {
     double slope = std::numeric_limits<double>::quiet_NaN(), ax = 0.0, rho = 0.0, r = 0.0;  // (the key)
     double lip = 0.0, width = 0.0;  // |dx / du| bound; bracket width in u
+    double slope_norm = 1.0;        // sqrt(1 + slope^2)
   } constants;
   /// tan b: for the lowest point (slope 0) the y-slope of the section's lowest z over the rows.
   double tan_b() const { return 2.0 * u / ((1.0 - u) * (1.0 + u)); }
