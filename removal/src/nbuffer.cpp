@@ -937,10 +937,30 @@ CutStatistics NBuffer::cut(const Tool& tool, std::span<const Pose> trajectory, c
           // Only tiles within the planar reach at which the sweep gets below the material's top.
           const double reach = detail::reach_below(s, material.max_W_m.z());
           if (!(reach >= 0.0)) continue;
-          const double x_lo = std::max(s.lo.x(), std::min(s.c0.x(), s.c1.x()) - reach);
-          const double x_hi = std::min(s.hi.x(), std::max(s.c0.x(), s.c1.x()) + reach);
-          const double y_lo = std::max(s.lo.y(), std::min(s.c0.y(), s.c1.y()) - reach);
-          const double y_hi = std::min(s.hi.y(), std::max(s.c0.y(), s.c1.y()) + reach);
+          double x_lo = std::max(s.lo.x(), std::min(s.c0.x(), s.c1.x()) - reach);
+          double x_hi = std::min(s.hi.x(), std::max(s.c0.x(), s.c1.x()) + reach);
+          double y_lo = std::max(s.lo.y(), std::min(s.c0.y(), s.c1.y()) - reach);
+          double y_hi = std::min(s.hi.y(), std::max(s.c0.y(), s.c1.y()) + reach);
+          if (roles[j].rows >= 0) {
+            // In a chain, only the rows its table can cut and the hull of their strips
+            // (chain_may_cut then tests each tile's rows).
+            const SectionRows& t = section_rows[static_cast<std::size_t>(roles[j].rows)];
+            double strips_lo = detail::kInf, strips_hi = -detail::kInf;
+            int first_row = -1, last_row = -1;
+            for (int k = 0; k < static_cast<int>(t.hit.size()); ++k) {
+              if (!t.hit[static_cast<std::size_t>(k)]) continue;
+              double lo = 0.0, hi = 0.0;
+              chain_strip(s, roles[j], t, k, lo, hi);
+              strips_lo = std::min(strips_lo, lo), strips_hi = std::max(strips_hi, hi);
+              if (first_row < 0) first_row = k;
+              last_row = k;
+            }
+            if (first_row < 0) continue;
+            x_lo = std::max(x_lo, strips_lo - slack), x_hi = std::min(x_hi, strips_hi + slack);
+            y_lo = std::max(y_lo, origin0_.y() + (t.iv0 + first_row) * sp - slack);
+            y_hi = std::min(y_hi, origin0_.y() + (t.iv0 + last_row) * sp + slack);
+            if (!(x_lo <= x_hi && y_lo <= y_hi)) continue;
+          }
           int u0, u1, v0, v1;
           tile_range(x_lo, x_hi, origin0_.x(), tiles_u_, u0, u1);
           tile_range(y_lo, y_hi, origin0_.y(), tiles_v_, v0, v1);
