@@ -838,7 +838,7 @@ CutStatistics NBuffer::cut(const Tool& tool, std::span<const Pose> trajectory, c
         // Lines grow away from the sweep on its side: +x for the lead of a forward sweep.
         const bool away_up = lead_side == forward;
         const double anchor = lead_side ? s.c1.x() : s.c0.x();
-        const double ox = origin0_.x();
+        const double ox = origin0_.x(), inv_sp = 1.0 / sp;
         struct Covered {
           int first, last;
         };
@@ -850,7 +850,7 @@ CutStatistics NBuffer::cut(const Tool& tool, std::span<const Pose> trajectory, c
           int own_first = 0, own_last = 0;
           if (!over_zone_lines_cached(s, t, static_cast<int>(i), own_first, own_last)) continue;
           const double m_low = s.c0.z() + t.z_low[i];
-          const double p_abs = anchor + point_x[i];
+          const double p_abs = anchor + point_x[i], inv_sigma = 1.0 / sigma;
           int n = 0;
           for (int step = 1; step <= 3; ++step) {
             const std::size_t j = lead_side ? k + step : k - step;
@@ -861,10 +861,11 @@ CutStatistics NBuffer::cut(const Tool& tool, std::span<const Pose> trajectory, c
             int a = 0, b = 0;
             if (!tj.level || kj < 0 || !over_zone_lines_cached(sweeps[j], tj, kj, a, b)) continue;
             const double m_j = sweeps[j].c0.z() + tj.z_point[static_cast<std::size_t>(kj)];
-            const double need = (m_j + 1e-14 - m_low) / sigma;  // distance past P [m]
+            // (The margin, 1e-14 m of z, is worth far more than the rounding of the lines' x.)
+            const double need = (m_j + 1e-14 - m_low) * inv_sigma;  // distance past P [m]
             if (need > 0.0) {
-              if (away_up) a = std::max(a, static_cast<int>(std::ceil((p_abs + need - ox) / sp)));
-              else b = std::min(b, static_cast<int>(std::floor((p_abs - need - ox) / sp)));
+              if (away_up) a = std::max(a, static_cast<int>(std::ceil((p_abs + need - ox) * inv_sp)));
+              else b = std::min(b, static_cast<int>(std::floor((p_abs - need - ox) * inv_sp)));
             }
             if (a <= b) covered[n++] = {a, b};
           }
