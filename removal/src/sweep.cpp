@@ -320,12 +320,11 @@ bool section_point_x(const Sweep& s, double eta, double slope, double& x_lo, dou
     double x_core, y_core, z_core, y_low, y_high, na;  // y over the support set (a segment when n . a ~ 0)
   };
   auto point = [&](double u) {
-    const double q = 1.0 / (1.0 + u * u), sb = 2.0 * u * q, cb = (1.0 - u * u) * q;
-    double nx = 0.0, ny = sb, nz = -cb;
-    if (slope != 0.0) {
-      const double inv = 1.0 / std::sqrt(1.0 + slope * slope * cb * cb);
-      nx = slope * cb * inv, ny = sb * inv, nz = -cb * inv;
-    }
+    // n = m / |m|, m = (slope (1 - u^2), 2 u, -(1 - u^2)) (the normal times 1 + u^2): one
+    // root and one division.
+    const double uu = u * u, c = 1.0 - uu, q = 1.0 + uu;
+    const double inv = slope == 0.0 ? 1.0 / q : 1.0 / std::sqrt(q * q + slope * slope * c * c);
+    const double nx = slope * c * inv, ny = 2.0 * u * inv, nz = -c * inv;
     const double na = nx * ax + ny * ay + nz * az;
     const double rho_perp = s.rho / std::sqrt(std::max(0.0, (1.0 - na) * (1.0 + na)));
     Point p;
@@ -379,12 +378,16 @@ bool section_point_x(const Sweep& s, double eta, double slope, double& x_lo, dou
   double u_p1 = 0.0;  // where p1 was evaluated
   auto cos_b = [](double u) { return (1.0 - u * u) / (1.0 + u * u); };
   const double slope_norm = constants.slope_norm, r_norm = s.r / slope_norm;
-  double cos_min_one_sided = 0.0;  // the least cos b over a one-sided bracket
+  double cos_far_c = 0.0, cos_far_q = 1.0;  // the least cos b over a one-sided bracket: c / q
+  constexpr double kOneSidedX = 5e-8;        // [m] the x precision of a one-sided bracket
   if (s.r > 0.0 && warm && std::isfinite(warm->u) && std::isfinite(warm->du_deta) && warm->du_deta != 0.0) {
     double rate = warm->du_deta;
     const double step = eta - warm->eta, back = warm->eta_before - warm->eta;
     double bend = 0.0;
-    if (std::isfinite(warm->u_before) && back != 0.0) bend = (warm->u_before - warm->u - rate * back) / (back * back);
+    if (std::isfinite(warm->u_before) && back != 0.0) {
+      if (back != warm->back) warm->back = back, warm->inv_back2 = 1.0 / (back * back);  // (rows equally apart: once)
+      bend = (warm->u_before - warm->u - rate * back) * warm->inv_back2;
+    }
     double b = std::clamp(warm->u + step * rate + step * step * bend, -end, end);
     double b_before = 0.0, f_before = 0.0;
     for (int k = 0; k < 3; ++k) {
@@ -393,16 +396,19 @@ bool section_point_x(const Sweep& s, double eta, double slope, double& x_lo, dou
       const double f = p.y_core - eta;
       // l_min: half the bound at b, room for its change over the bracket (cos b = (1 - u^2) /
       // (1 + u^2); the tests below are multiplied out: no division).
-      const double q_b = 1.0 + b * b, l_min = r_norm * (1.0 - b * b) / (q_b * q_b);
-      const double w = (std::abs(f) + tau) / l_min;
-      const double far = std::abs(b) + w, q_far = 1.0 + far * far, c_far = 1.0 - far * far;  // cos = c / q
-      // Accepted when x is known within 5e-8 m (a line that near is left to the exact test)
-      // and, for the lowest point, the height within 0.4 kSectionZError (z_point below: e^2 /
-      // (2 r cos^3 b)).
-      if (l_min > 0.0 && lip * w <= 5e-8 && far < end && 2.0 * r_norm * c_far >= l_min * q_far * q_far &&
+      const double q_b = 1.0 + b * b, l_min_q = r_norm * (1.0 - b * b), l_min = l_min_q / (q_b * q_b);
+      // Accepted when x is known within 5e-8 m (lip w <= 5e-8, w = (|f| + tau) / l_min: a line
+      // that near is left to the exact test) and, for the lowest point, the height within 0.4
+      // kSectionZError (z_point below: e^2 / (2 r cos^3 b)); the bracket's far end |u| + w is
+      // taken at its largest, |u| + 5e-8 / lip, so that no test waits for the division.
+      const double e = std::abs(f) + tau;
+      const double far = std::abs(b) + kOneSidedX / lip, q_far = 1.0 + far * far, c_far = 1.0 - far * far;  // cos = c / q
+      if (l_min_q > 0.0 && lip * e * q_b * q_b <= kOneSidedX * l_min_q && far < end &&
+          2.0 * r_norm * c_far >= l_min * q_far * q_far &&
           (slope != 0.0 || f * f * q_far * q_far * q_far <= 0.8 * kSectionZError * s.r * c_far * c_far * c_far) &&
-          p.na < -(2.0 * slope_norm * w + 1e-9)) {
-        cos_min_one_sided = c_far / q_far;
+          p.na * l_min < -(2.0 * slope_norm * e + 1e-9 * l_min)) {
+        const double w = e / l_min;
+        cos_far_c = c_far, cos_far_q = q_far;
         b1 = f < 0.0 ? b : b - w;
         b2 = f < 0.0 ? b + w : b;
         p1 = p2 = p;
@@ -434,7 +440,10 @@ bool section_point_x(const Sweep& s, double eta, double slope, double& x_lo, dou
     // The guess: the neighbour's tangent, bent through the row before it (second order).
     const double step = eta - warm->eta, back = warm->eta_before - warm->eta;
     double bend = 0.0;
-    if (std::isfinite(warm->u_before) && back != 0.0) bend = (warm->u_before - warm->u - rate * back) / (back * back);
+    if (std::isfinite(warm->u_before) && back != 0.0) {
+      if (back != warm->back) warm->back = back, warm->inv_back2 = 1.0 / (back * back);  // (rows equally apart: once)
+      bend = (warm->u_before - warm->u - rate * back) * warm->inv_back2;
+    }
     double b = std::clamp(warm->u + step * rate + step * step * bend, -end, end);
     auto half_width = [&] { return std::max(0.5 * width, 1.5 * tau * std::abs(rate)); };
     auto accept = [&](double root) {
@@ -552,7 +561,7 @@ bool section_point_x(const Sweep& s, double eta, double slope, double& x_lo, dou
       // dn / db, the ball's by r), so 0 <= d2z / dy2 <= 1 / (r cos^3 b): from the bracket's low
       // point p1 (y1 within the bracket's y of eta) the height at eta is z1 + tan b1 (eta - y1) +
       // [0, (eta - y1)^2 / (2 r cos^3 b)], b over the bracket.
-      const double cos_min = one_sided ? cos_min_one_sided : std::min(cos_b(b1), cos_b(b2));
+      const double cos_min = one_sided ? cos_far_c / cos_far_q : std::min(cos_b(b1), cos_b(b2));
       const double dy = eta - p1.y_core;
       if (cos_min > 0.0) {
         const double spread_z = dy * dy / (2.0 * s.r * cos_min * cos_min * cos_min);
