@@ -383,9 +383,12 @@ bool section_point_x(const Sweep& s, double eta, double slope, double& x_lo, dou
   if (s.r > 0.0 && warm && std::isfinite(warm->u) && std::isfinite(warm->du_deta) && warm->du_deta != 0.0) {
     double rate = warm->du_deta;
     const double step = eta - warm->eta, back = warm->eta_before - warm->eta;
+    // (The rows lie equally apart: 1 / step and 1 / back^2 are kept, to 1e-9, which only the
+    // guesses use.)
+    if (!(std::abs(step - warm->step) <= 1e-9 * std::abs(step))) warm->step = step, warm->inv_step = 1.0 / step;
     double bend = 0.0;
     if (std::isfinite(warm->u_before) && back != 0.0) {
-      if (back != warm->back) warm->back = back, warm->inv_back2 = 1.0 / (back * back);  // (rows equally apart: once)
+      if (!(std::abs(back - warm->back) <= 1e-9 * std::abs(back))) warm->back = back, warm->inv_back2 = 1.0 / (back * back);
       bend = (warm->u_before - warm->u - rate * back) * warm->inv_back2;
     }
     double b = std::clamp(warm->u + step * rate + step * step * bend, -end, end);
@@ -396,18 +399,18 @@ bool section_point_x(const Sweep& s, double eta, double slope, double& x_lo, dou
       const double f = p.y_core - eta;
       // l_min: half the bound at b, room for its change over the bracket (cos b = (1 - u^2) /
       // (1 + u^2); the tests below are multiplied out: no division).
-      const double q_b = 1.0 + b * b, l_min_q = r_norm * (1.0 - b * b), l_min = l_min_q / (q_b * q_b);
+      const double q_b = 1.0 + b * b, q_b2 = q_b * q_b, l_min_q = r_norm * (1.0 - b * b);  // l_min = l_min_q / q_b2
       // Accepted when x is known within 5e-8 m (lip w <= 5e-8, w = (|f| + tau) / l_min: a line
       // that near is left to the exact test) and, for the lowest point, the height within 0.4
       // kSectionZError (z_point below: e^2 / (2 r cos^3 b)); the bracket's far end |u| + w is
       // taken at its largest, |u| + 5e-8 / lip, so that no test waits for the division.
       const double e = std::abs(f) + tau;
       const double far = std::abs(b) + kOneSidedX / lip, q_far = 1.0 + far * far, c_far = 1.0 - far * far;  // cos = c / q
-      if (l_min_q > 0.0 && lip * e * q_b * q_b <= kOneSidedX * l_min_q && far < end &&
-          2.0 * r_norm * c_far >= l_min * q_far * q_far &&
+      if (l_min_q > 0.0 && lip * e * q_b2 <= kOneSidedX * l_min_q && far < end &&
+          2.0 * r_norm * c_far * q_b2 >= l_min_q * q_far * q_far &&
           (slope != 0.0 || f * f * q_far * q_far * q_far <= 0.8 * kSectionZError * s.r * c_far * c_far * c_far) &&
-          p.na * l_min < -(2.0 * slope_norm * e + 1e-9 * l_min)) {
-        const double w = e / l_min;
+          p.na * l_min_q < -(2.0 * slope_norm * e * q_b2 + 1e-9 * l_min_q)) {
+        const double w = e * q_b2 / l_min_q;
         cos_far_c = c_far, cos_far_q = q_far;
         b1 = f < 0.0 ? b : b - w;
         b2 = f < 0.0 ? b + w : b;
@@ -417,8 +420,10 @@ bool section_point_x(const Sweep& s, double eta, double slope, double& x_lo, dou
         // The next row's warm start: the root's estimate and the slope of u over the rows
         // (the parabola through this row and the two before).
         const double root = std::clamp(b - f * rate, b1, b2);
-        double rate_here = (root - warm->u) / step;
-        if (std::isfinite(warm->u_before) && back != 0.0 && step != back) {
+        double rate_here = (root - warm->u) * warm->inv_step;
+        if (std::isfinite(warm->u_before) && std::abs(step + back) <= 1e-9 * std::abs(step)) {  // (equally apart)
+          rate_here = (3.0 * root - 4.0 * warm->u + warm->u_before) * (0.5 * warm->inv_step);
+        } else if (std::isfinite(warm->u_before) && back != 0.0 && step != back) {
           const double e0 = warm->eta_before, e1 = warm->eta, e2 = eta;
           rate_here = warm->u_before * (e2 - e1) / ((e0 - e1) * (e0 - e2)) + warm->u * (e2 - e0) / ((e1 - e0) * (e1 - e2)) +
                       root * (2.0 * e2 - e0 - e1) / ((e2 - e0) * (e2 - e1));

@@ -80,6 +80,7 @@ struct SectionWarm {
   double u = std::numeric_limits<double>::quiet_NaN(), du_deta = std::numeric_limits<double>::quiet_NaN(), eta = 0.0;
   double u_before = std::numeric_limits<double>::quiet_NaN(), eta_before = 0.0;  // the row before (second order)
   double back = 0.0, inv_back2 = 0.0;  // eta_before - eta and 1 / its square (kept: the rows are equally apart)
+  double step = 0.0, inv_step = 0.0;   // the last step in eta and its inverse
   /// Constants of the last tool section and slope solved for (recomputed when any differs).
   struct Constants {
     double slope = std::numeric_limits<double>::quiet_NaN(), ax = 0.0, rho = 0.0, r = 0.0;  // (the key)
