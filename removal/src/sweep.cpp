@@ -946,7 +946,7 @@ bool VerticalEntry::capsule_low(double x, double y, const Eigen::Vector3d& w, do
   const double perp2 = cross * cross * inv_dd_;
   if (perp2 > r * r) return false;
   const double ez = e1_.z();
-  const double along = slope_ * std::sqrt(r * r - perp2);
+  const double along = slope_ == 0.0 ? 0.0 : slope_ * std::sqrt(r * r - perp2);  // (0 for a level move: no root)
   sigma = std::clamp((d0x * e1_.x() + d0y * e1_.y()) * inv_dd_ - along, 0.0, 1.0);
   const double ex = d0x - sigma * e1_.x(), ey = d0y - sigma * e1_.y();
   const double q = r * r - ex * ex - ey * ey;
