@@ -1027,10 +1027,17 @@ CutStatistics NBuffer::cut(const Tool& tool, std::span<const Pose> trajectory, c
             strip_a -= slack;
             strip_b += slack;
             if (strip_a > tile_x_hi || strip_b < tile_x_lo) continue;
-            if (over_zone_lines(s, *chain_rows, k, over_a, over_b)) over_t0 = s.c0.z() + chain_rows->z_point[kk] - z0;
+            if (over_zone_lines_cached(s, *chain_rows, k, over_a, over_b)) over_t0 = s.c0.z() + chain_rows->z_point[kk] - z0;
           }
           double xa = 0.0, xb = 0.0;
-          if (!capsule_row(s.c0.x(), s.c0.y(), s.c1.x(), s.c1.y(), reach + slack, y, xa, xb)) continue;
+          if (std::isfinite(strip_a) && std::isfinite(strip_b)) {
+            // A sweep inside a chain: its strip, near the sections' lowest points, bounds the
+            // lines (the planar reach would only drop lines its exact tests reject; three roots
+            // a row and tile saved).
+            xa = strip_a, xb = strip_b;
+          } else if (!capsule_row(s.c0.x(), s.c0.y(), s.c1.x(), s.c1.y(), reach + slack, y, xa, xb)) {
+            continue;
+          }
           if (tilted) keep_positive(s.a.y() * y - s.amin + s.a.z() * top + slack, s.a.x(), xa, xb);
           if (behind) keep_positive((y - s.c0.y()) * dy - s.c0.x() * dx + slack, dx, xa, xb);
           xa = std::max(xa, strip_a);
