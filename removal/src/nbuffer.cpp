@@ -874,18 +874,20 @@ CutStatistics NBuffer::cut(const Tool& tool, std::span<const Pose> trajectory, c
           const double edge = anchor + boundary[i];
           int line = away_up ? static_cast<int>(std::floor((edge + slack - ox) / sp)) + 1
                              : static_cast<int>(std::ceil((edge - slack - ox) / sp)) - 1;
+          const int before = line;
           for (bool moved = true; moved;) {
             moved = false;
             for (int c = 0; c < n; ++c) {
-              const int toward = away_up ? line - 1 : line + 1;  // the last line tested
+              const int toward = away_up ? line - 1 : line + 1;  // the nearest line tested
               if (covered[c].first <= toward && toward <= covered[c].last) {
                 line = away_up ? covered[c].first : covered[c].last;
                 moved = true;
               }
             }
           }
-          // (The sweep keeps its own over zone.)
-          line = away_up ? std::max(line, own_last + 1) : std::min(line, own_first - 1);
+          line = away_up ? std::max(line, own_last + 1) : std::min(line, own_first - 1);  // (its own over zone stays)
+          if (line == before) continue;
+          stats.junction_rows_covered += away_up ? line < before : line > before;
           boundary[i] = (away_up ? line - 0.5 : line + 0.5) * sp + ox - anchor;
         }
       };

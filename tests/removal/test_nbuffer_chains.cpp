@@ -276,6 +276,7 @@ void expect_turning_chains_exact(std::uint32_t seed, int stop_after_batches) {
   general.cut(bull, path, options);
   EXPECT_EQ(stats.interrupted, stop_after_batches > 0);
   EXPECT_GT(stats.chained_turning, stats.sub_segments / 2) << "seed " << seed;  // (the chains are used)
+  EXPECT_GT(stats.junction_rows_covered, 20u) << "seed " << seed;               // (and the coverage)
   EXPECT_GT(stats.sub_segments, 2 * stats.segments) << "seed " << seed;
   const auto difference = compare_lines(zmap, general, 5 * mm);
   EXPECT_LT(difference.worst_m, 1e-11) << "seed " << seed;

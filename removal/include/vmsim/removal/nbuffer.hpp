@@ -92,6 +92,9 @@ struct CutStatistics {
   /// Z-map chains (removal/README.md): sub-segments that left lines to the next one across a
   /// junction where the tool differs (the axis turned, or the move is not exactly along x).
   std::size_t chained_turning = 0;
+  /// Of those junctions, the rows whose boundary moved over lines that other sweeps' section
+  /// lowest points pass over (the over-zone coverage, removal/README.md).
+  std::size_t junction_rows_covered = 0;
   bool interrupted = false;
 };
 
