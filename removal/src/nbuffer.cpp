@@ -602,12 +602,23 @@ SectionRows section_rows_for(const Sweep& s, double y0, double sp, int nv, const
   const double y_lowest = t.c_y + s.rho * s.a.z() * s.a.y() / s.tilt_sin;
   const int iv_up = static_cast<int>(std::ceil((y_lowest + 1e-12 - y0) / sp));
   std::vector<Row> up, down;
+  // (The rows a tool can span from its lowest point, either way: no reallocation on the walks.)
+  const std::size_t rows_guess = static_cast<std::size_t>(std::min<double>(nv, 2.0 * (s.rho + s.r) / sp + 2.0));
+  up.reserve(rows_guess), down.reserve(2 * rows_guess);
   walk(std::max(0, iv_up), 1, true, up);  // rows at or beyond the lowest point's y: monotone
   // Rows below: the first one may lie within 1e-12 m of that y (either side): never stop there.
   walk(std::min(nv - 1, iv_up - 1), -1, false, down);
   std::reverse(down.begin(), down.end());
   down.insert(down.end(), up.begin(), up.end());
   t.iv0 = down.empty() ? 0 : down.front().iv;
+  for (std::vector<double>* v : {&t.lo, &t.hi, &t.z_low, &t.z_point}) v->reserve(down.size());
+  t.hit.reserve(down.size());
+  if (general_lead) {
+    for (std::vector<double>* v : {&t.lead_x, &t.lead_point_x, &t.lead_slope}) v->reserve(down.size());
+  }
+  if (general_trail) {
+    for (std::vector<double>* v : {&t.trail_x, &t.trail_point_x, &t.trail_slope}) v->reserve(down.size());
+  }
   for (const Row& row : down) {
     if (row.iv != t.iv0 + static_cast<int>(t.hit.size())) break;  // (contiguous by construction)
     t.hit.push_back(row.hit);
