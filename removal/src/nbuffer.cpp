@@ -862,6 +862,10 @@ CutStatistics NBuffer::cut(const Tool& tool, std::span<const Pose> trajectory, c
           if (!over_zone_lines_cached(s, t, static_cast<int>(i), own_first, own_last)) continue;
           const double m_low = s.c0.z() + t.z_low[i];
           const double p_abs = anchor + point_x[i], inv_sigma = 1.0 / sigma;
+          // The first line not tested (in the direction away), as cut_zmap_tile rounds the strip.
+          const double edge = anchor + boundary[i];
+          int line = away_up ? static_cast<int>(std::floor((edge + slack - ox) / sp)) + 1
+                             : static_cast<int>(std::ceil((edge - slack - ox) / sp)) - 1;
           int n = 0;
           for (int step = 1; step <= 3; ++step) {
             const std::size_t j = lead_side ? k + step : k - step;
@@ -871,6 +875,7 @@ CutStatistics NBuffer::cut(const Tool& tool, std::span<const Pose> trajectory, c
             const int kj = tj.row(iv);
             int a = 0, b = 0;
             if (!tj.level || kj < 0 || !over_zone_lines_cached(sweeps[j], tj, kj, a, b)) continue;
+            if (away_up ? a > line - 1 : b < line + 1) break;  // (this and the farther ones lie beyond the boundary)
             const double m_j = sweeps[j].c0.z() + tj.z_point[static_cast<std::size_t>(kj)];
             // (The margin, 1e-14 m of z, is worth far more than the rounding of the lines' x.)
             const double need = (m_j + 1e-14 - m_low) * inv_sigma;  // distance past P [m]
@@ -881,10 +886,6 @@ CutStatistics NBuffer::cut(const Tool& tool, std::span<const Pose> trajectory, c
             if (a <= b) covered[n++] = {a, b};
           }
           if (n == 0) continue;
-          // The first line not tested (in the direction away), as cut_zmap_tile rounds the strip.
-          const double edge = anchor + boundary[i];
-          int line = away_up ? static_cast<int>(std::floor((edge + slack - ox) / sp)) + 1
-                             : static_cast<int>(std::ceil((edge - slack - ox) / sp)) - 1;
           const int before = line;
           for (bool moved = true; moved;) {
             moved = false;
