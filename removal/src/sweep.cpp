@@ -851,16 +851,19 @@ VerticalEntry::Result VerticalEntry::entry_off_bottom(double x, double y, double
   Eigen::Vector2d dir = warm.last;
   const Eigen::Vector2d* left = at(row, col - 1);
   const Eigen::Vector2d* left2 = left ? at(row, col - 2) : nullptr;
+  // (Products of unit numbers: one Newton step of 1 / |d| restores the unit length to rounding,
+  // no root.)
+  auto unit = [](const Eigen::Vector2d& d) { return Eigen::Vector2d(d * (1.5 - 0.5 * d.squaredNorm())); };
   if (left && left2) {
-    dir = div(mul(*left, *left), *left2).normalized();
+    dir = unit(div(mul(*left, *left), *left2));
   } else {
     const Eigen::Vector2d* up = at(row - 1, col);
     const Eigen::Vector2d* up_left = left && up ? at(row - 1, col - 1) : nullptr;
     const Eigen::Vector2d* up2 = up && !up_left ? at(row - 2, col) : nullptr;
     if (up_left) {
-      dir = div(mul(*left, *up), *up_left).normalized();
+      dir = unit(div(mul(*left, *up), *up_left));
     } else if (up2) {
-      dir = div(mul(*up, *up), *up2).normalized();
+      dir = unit(div(mul(*up, *up), *up2));
     } else if (left || up) {
       dir = left ? *left : *up;
     }
