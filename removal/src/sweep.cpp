@@ -446,7 +446,7 @@ bool section_point_x(const Sweep& s, double eta, double slope, double& x_lo, dou
     const double step = eta - warm->eta, back = warm->eta_before - warm->eta;
     double bend = 0.0;
     if (std::isfinite(warm->u_before) && back != 0.0) {
-      if (back != warm->back) warm->back = back, warm->inv_back2 = 1.0 / (back * back);  // (rows equally apart: once)
+      if (!(std::abs(back - warm->back) <= 1e-9 * std::abs(back))) warm->back = back, warm->inv_back2 = 1.0 / (back * back);
       bend = (warm->u_before - warm->u - rate * back) * warm->inv_back2;
     }
     double b = std::clamp(warm->u + step * rate + step * step * bend, -end, end);
