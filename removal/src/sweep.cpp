@@ -380,18 +380,23 @@ bool section_point_x(const Sweep& s, double eta, double slope, double& x_lo, dou
   const double slope_norm = constants.slope_norm, r_norm = s.r / slope_norm;
   double cos_far_c = 0.0, cos_far_q = 1.0;  // the least cos b over a one-sided bracket: c / q
   constexpr double kOneSidedX = 5e-8;        // [m] the x precision of a one-sided bracket
-  if (s.r > 0.0 && warm && std::isfinite(warm->u) && std::isfinite(warm->du_deta) && warm->du_deta != 0.0) {
-    double rate = warm->du_deta;
+  // The guess from the neighbouring rows (warm): their tangent, bent through the row before
+  // (second order). The rows lie equally apart, so 1 / step and 1 / back^2 are kept, to 1e-9
+  // (only the guesses use them).
+  auto warm_guess = [&](double rate) {
     const double step = eta - warm->eta, back = warm->eta_before - warm->eta;
-    // (The rows lie equally apart: 1 / step and 1 / back^2 are kept, to 1e-9, which only the
-    // guesses use.)
     if (!(std::abs(step - warm->step) <= 1e-9 * std::abs(step))) warm->step = step, warm->inv_step = 1.0 / step;
     double bend = 0.0;
     if (std::isfinite(warm->u_before) && back != 0.0) {
       if (!(std::abs(back - warm->back) <= 1e-9 * std::abs(back))) warm->back = back, warm->inv_back2 = 1.0 / (back * back);
       bend = (warm->u_before - warm->u - rate * back) * warm->inv_back2;
     }
-    double b = std::clamp(warm->u + step * rate + step * step * bend, -end, end);
+    return std::clamp(warm->u + step * rate + step * step * bend, -end, end);
+  };
+  if (s.r > 0.0 && warm && std::isfinite(warm->u) && std::isfinite(warm->du_deta) && warm->du_deta != 0.0) {
+    double rate = warm->du_deta;
+    const double step = eta - warm->eta, back = warm->eta_before - warm->eta;
+    double b = warm_guess(rate);
     double b_before = 0.0, f_before = 0.0;
     for (int k = 0; k < 3; ++k) {
       const Point p = point(b);
@@ -442,14 +447,7 @@ bool section_point_x(const Sweep& s, double eta, double slope, double& x_lo, dou
   // check (y monotone in b): a few evaluations instead of two bisections.
   if (!one_sided && warm && std::isfinite(warm->u) && std::isfinite(warm->du_deta) && warm->du_deta != 0.0) {
     double rate = warm->du_deta;
-    // The guess: the neighbour's tangent, bent through the row before it (second order).
-    const double step = eta - warm->eta, back = warm->eta_before - warm->eta;
-    double bend = 0.0;
-    if (std::isfinite(warm->u_before) && back != 0.0) {
-      if (!(std::abs(back - warm->back) <= 1e-9 * std::abs(back))) warm->back = back, warm->inv_back2 = 1.0 / (back * back);
-      bend = (warm->u_before - warm->u - rate * back) * warm->inv_back2;
-    }
-    double b = std::clamp(warm->u + step * rate + step * step * bend, -end, end);
+    double b = warm_guess(rate);
     auto half_width = [&] { return std::max(0.5 * width, 1.5 * tau * std::abs(rate)); };
     auto accept = [&](double root) {
       const double w = half_width();
