@@ -702,13 +702,16 @@ CutStatistics NBuffer::cut(const Tool& tool, std::span<const Pose> trajectory, c
     return first <= last;
   };
 
-  for (std::size_t first = 0; first < segments; first += batch) {
-    const std::size_t last = std::min(segments, first + batch);
+  const std::size_t turning_cap = std::max<std::size_t>(1, options.batch_turning_sweeps);
+  for (std::size_t first = 0, last = 0; first < segments; first = last) {
     sweeps.clear();
-    for (std::size_t i = first; i < last; ++i) {
-      const Pose& p0 = trajectory[i];
-      const Pose& p1 = trajectory.size() == 1 ? trajectory[0] : trajectory[i + 1];
+    std::size_t turning = 0;  // sub-segments whose axis differs from the one before
+    for (last = first; last < std::min(segments, first + batch) && turning < turning_cap; ++last) {
+      const Pose& p0 = trajectory[last];
+      const Pose& p1 = trajectory.size() == 1 ? trajectory[0] : trajectory[last + 1];
+      const std::size_t before = sweeps.size();
       detail::split_segment(tool, p0, p1, options.orientation_tolerance_m, sweeps, &material, detail::SubStepPath::tip);
+      for (std::size_t k = std::max<std::size_t>(before, 1); k < sweeps.size(); ++k) turning += sweeps[k].a != sweeps[k - 1].a;
     }
     const Sweep last_before = previous;
     const bool have_before = have_previous;

@@ -320,22 +320,26 @@ bool section_point_x(const Sweep& s, double eta, double slope, double& x_lo, dou
     double x_core, y_core, z_core, y_low, y_high, na;  // y over the support set (a segment when n . a ~ 0)
   };
   auto point = [&](double u) {
-    // n = m / |m|, m = (slope (1 - u^2), 2 u, -(1 - u^2)) (the normal times 1 + u^2): one
-    // root and one division.
+    // n = m / M, m = (slope (1 - u^2), 2 u, -(1 - u^2)) (the normal times 1 + u^2), M = |m|.
+    // With ma = m . a: n - (n . a) a = (m - ma a) / M and |n - (n . a) a| = sqrt(M^2 - ma^2) / M,
+    // so the disc's term is rho (m - ma a) / sqrt(M^2 - ma^2): its root and 1 / M do not wait
+    // for each other (the rows' walks are latency-bound).
     const double uu = u * u, c = 1.0 - uu, q = 1.0 + uu;
-    const double inv = slope == 0.0 ? 1.0 / q : 1.0 / std::sqrt(q * q + slope * slope * c * c);
-    const double nx = slope * c * inv, ny = 2.0 * u * inv, nz = -c * inv;
-    const double na = nx * ax + ny * ay + nz * az;
-    const double rho_perp = s.rho / std::sqrt(std::max(0.0, (1.0 - na) * (1.0 + na)));
+    const double mx = slope * c, my = 2.0 * u, mz = -c;
+    const double m2 = slope == 0.0 ? q * q : q * q + mx * mx;
+    const double ma = mx * ax + my * ay + mz * az;
+    const double inv = slope == 0.0 ? 1.0 / q : 1.0 / std::sqrt(m2);
+    const double rho_perp = s.rho / std::sqrt(std::max(0.0, m2 - ma * ma));
+    const double r_inv = s.r * inv;
     Point p;
-    p.na = na;
-    p.x_core = (nx - na * ax) * rho_perp + s.r * nx;
-    const double y = (ny - na * ay) * rho_perp + s.r * ny;
+    p.na = ma * inv;
+    p.x_core = (mx - ma * ax) * rho_perp + r_inv * mx;
+    const double y = (my - ma * ay) * rho_perp + r_inv * my;
     p.y_core = y;
-    p.z_core = (nz - na * az) * rho_perp + s.r * nz;
+    p.z_core = (mz - ma * az) * rho_perp + r_inv * mz;
     const double y_top = y + s.ell * ay;
-    const bool both = std::abs(na) <= 1e-9;
-    const double y_one = na > 0.0 ? y_top : y;
+    const bool both = std::abs(p.na) <= 1e-9;
+    const double y_one = p.na > 0.0 ? y_top : y;
     p.y_low = both ? std::min(y, y_top) : y_one;
     p.y_high = both ? std::max(y, y_top) : y_one;
     return p;
@@ -423,8 +427,9 @@ bool section_point_x(const Sweep& s, double eta, double slope, double& x_lo, dou
         u_p1 = b;
         one_sided = bracketed = true;
         // The next row's warm start: the root's estimate and the slope of u over the rows
-        // (the parabola through this row and the two before).
-        const double root = std::clamp(b - f * rate, b1, b2);
+        // (the parabola through this row and the two before). (Not clamped to the bracket:
+        // any guess is rigorous, and the next row then need not wait for w's division.)
+        const double root = std::clamp(b - f * rate, -end, end);
         double rate_here = (root - warm->u) * warm->inv_step;
         if (std::isfinite(warm->u_before) && std::abs(step + back) <= 1e-9 * std::abs(step)) {  // (equally apart)
           rate_here = (3.0 * root - 4.0 * warm->u + warm->u_before) * (0.5 * warm->inv_step);

@@ -258,7 +258,7 @@ std::vector<Pose> random_turning_chains(std::mt19937& rng, double z_mm) {
 // lines (no chains, every line through line_interval): the junction boundaries lose nothing
 // against the sub-steps, so they agree to the bull-nose's 1e-11 m; and cutting never adds
 // material. Batches of 9 end inside chains; `stop_after_batches` interrupts one.
-void expect_turning_chains_exact(std::uint32_t seed, int stop_after_batches) {
+void expect_turning_chains_exact(std::uint32_t seed, int stop_after_batches, std::size_t turning_cap = 1000) {
   std::mt19937 rng(seed);
   const Tool bull = make_tool(ToolType::bull, 3, 0.6, 3);
   const Box stock{Eigen::Vector3d(-3, -3, 0) * mm, Eigen::Vector3d(3, 3, 5) * mm};
@@ -267,11 +267,18 @@ void expect_turning_chains_exact(std::uint32_t seed, int stop_after_batches) {
   const std::vector<Pose> path = random_turning_chains(rng, 4.9);
   CutOptions options;
   options.batch_segments = 9;
-  options.orientation_tolerance_m = 0.05e-6;  // several sub-steps a segment
+  options.batch_turning_sweeps = turning_cap;  // (1000: batches of 9 segments, whatever the sub-steps)
+  options.orientation_tolerance_m = 0.05e-6;   // several sub-steps a segment
   int batches = 0;
-  if (stop_after_batches > 0) options.interrupted = [&](double) { return ++batches >= stop_after_batches; };
+  options.interrupted = [&](double) { return ++batches == stop_after_batches; };
   const std::vector<double> before = zmap.lengths();
   const CutStatistics stats = zmap.cut(bull, path, options);
+  if (stop_after_batches == 0) {
+    // Each batch ends after 9 segments or `turning_cap` sub-steps that turn, whichever is first.
+    const std::size_t by_segments = (stats.segments + 8) / 9;
+    if (turning_cap >= 1000) EXPECT_EQ(batches, static_cast<int>(by_segments));
+    else EXPECT_GT(batches, static_cast<int>(by_segments));
+  }
   batches = 0;
   general.cut(bull, path, options);
   EXPECT_EQ(stats.interrupted, stop_after_batches > 0);
@@ -287,6 +294,7 @@ void expect_turning_chains_exact(std::uint32_t seed, int stop_after_batches) {
 
 TEST(NBufferChains, TurningBullChainsEqualGeneralLines) {
   for (std::uint32_t seed : {11u, 12u}) expect_turning_chains_exact(seed, 0);
+  expect_turning_chains_exact(14, 0, 5);  // batches ended by the turning sub-steps
   expect_turning_chains_exact(13, 4);  // stopped in the middle of a chain
 }
 
