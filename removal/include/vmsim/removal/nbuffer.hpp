@@ -79,7 +79,7 @@ struct CutOptions {
   /// Segments cut together (one parallel pass over the tiles per batch).
   std::size_t batch_segments = 512;
   /// A batch also ends once it holds this many sub-segments whose tool axis differs from the
-  /// one before (turning 5-axis moves): each gets its own table of section points (~60 kB for
+  /// one before (turning 5-axis moves): each gets its own table of section points (~55 kB for
   /// a D10 bull-nose on a 10 um grid), which the tiles' cut reads again and again, so a batch's
   /// tables should stay in the cache (32: about 2 MB).
   std::size_t batch_turning_sweeps = 32;
