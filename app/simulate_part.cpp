@@ -14,6 +14,7 @@
 #include "chain_inputs.hpp"
 #include "part_file.hpp"
 #include "surface_views.hpp"
+#include "validity_checks.hpp"
 #include "vmsim/common/errors.hpp"
 #include "vmsim/common/files.hpp"
 #include "vmsim/common/trace.hpp"
@@ -56,6 +57,7 @@ struct Run {
   std::vector<removal::NBuffer> buffers;  ///< one per surface view (Context::views)
   std::vector<removal::CutStatistics> cuts;  ///< one per surface view
   std::map<std::string, double> stage_seconds;
+  std::vector<ValidityCheck> checks;    ///< set points on the path and within travel, actual positions
 };
 
 // The servo samples a chord of at most `max_chord_m` at the feed, at a whole multiple of every
@@ -221,6 +223,21 @@ Run simulate_run(const Context& context, const std::string& name, double feed_m_
       context.progress(name + ": warning: third-order planning failed, jerk limits not applied");
     }
   }
+  // The set points are checked before anything is simulated on them: within the travel, and on
+  // the programmed path (through the direct kinematics, independently of the planner's spline).
+  run.checks.push_back(check_setpoints_within_travel(machine, context.inputs.path, context.path.s_m,
+                                                     run.plan.setpoints, context.inputs.block_names, name));
+  run.checks.push_back(check_setpoints_on_path(machine, context.inputs.path, context.path.s_m,
+                                               context.inputs.tool_length_m, run.plan.setpoints,
+                                               context.inputs.block_names, name,
+                                               context.options.setpoint_path_tolerance_m));
+  for (const ValidityCheck& check : run.checks) {
+    context.progress(check_line(check));
+    if (check.status == CheckStatus::failed) {
+      throw InfeasibleError(check.title + ": " + check_line(check) +
+                            " -- the simulation would run on set points the program does not ask for");
+    }
+  }
   const double record_s = record_period_s(machine, feed_m_per_s, context.options.max_sample_chord_m);
   if (context.options.perfect_drives) {
     StageTimer timer(run, "perfect drives", context.progress);
@@ -251,6 +268,8 @@ Run simulate_run(const Context& context, const std::string& name, double feed_m_
         run.q_actual.col(static_cast<Eigen::Index>(k)) = q;
       }
     }
+    run.checks.push_back(check_actual_within_travel(machine, run.t_s, run.q_actual, name));
+    context.progress(check_line(run.checks.back()));
     std::vector<removal::Pose> poses(run.samples);
     for (std::size_t k = 0; k < run.samples; ++k) {
       const kinematics::ToolPose pose = kinematics::forward_kinematics(
@@ -527,6 +546,30 @@ std::string html_report(const Json& report, const std::vector<std::string>& imag
   html << "<p>Machine: " << html_escape(report["machine"].get<std::string>())
        << "; method: " << report["method"].get<std::string>() << "; grid "
        << report["surface"]["grid_um"].get<double>() << " um.</p>\n";
+  if (report.contains("validity_checks")) {
+    // First: whether the figures below can be trusted.
+    html << "<h2>Validity checks</h2><table><tr><th>check</th><th>found</th><th>limit</th><th>result</th>"
+            "<th>where</th></tr>\n";
+    for (const auto& check : report["validity_checks"]) {
+      const std::string status = check["status"].get<std::string>();
+      const char* colour = status == "ok" ? "#060" : status == "not done" ? "#666" : "#b00";
+      html << "<tr><td>" << html_escape(check["check"].get<std::string>()) << "</td><td>";
+      if (check.contains("value")) {
+        if (check["value"].is_number()) {
+          html << round_to(check["value"].get<double>(), 0.001);
+        } else {
+          html << html_escape(check["value"].get<std::string>());
+        }
+        html << " " << html_escape(check["unit"].get<std::string>()) << "</td><td>"
+             << round_to(check["limit"].get<double>(), 0.001);
+      } else {
+        html << "-</td><td>-";
+      }
+      html << "</td><td style=\"color:" << colour << ";font-weight:bold\">" << html_escape(status) << "</td><td>"
+           << html_escape(check["detail"].get<std::string>()) << "</td></tr>\n";
+    }
+    html << "</table>\n";
+  }
   html << "<h2>Runs</h2><table><tr><th>run</th><th>feed [mm/min]</th><th>T [s]</th><th>T_lb [s]</th>"
           "<th>following error peaks</th></tr>\n";
   for (const char* name : {"production", "reference"}) {
@@ -959,8 +1002,12 @@ Json simulate_part(const SimulatePartOptions& options, const ProgressSink& progr
     stage_seconds["method_comparison"] = seconds_since(stage_clock);
   }
 
+  std::vector<ValidityCheck> checks = reference.checks;
+  checks.insert(checks.end(), production.checks.begin(), production.checks.end());
   if (options.commanded_check) {
     // The reference against the commanded tool path's own surface: what the low feed changes.
+    // A reference that differs from it by more than the mark threshold is no reference: marks
+    // (or a path error common to both runs) could hide in it.
     stage_clock = Clock::now();
     progress("commanded tool path surface (check of the reference) ...");
     std::vector<removal::Pose> poses;
@@ -968,16 +1015,42 @@ Json simulate_part(const SimulatePartOptions& options, const ProgressSink& progr
     removal::CutOptions cut_options;
     cut_options.threads = options.threads;
     double worst = 0.0;
+    Eigen::Vector3d worst_at = Eigen::Vector3d::Zero();
     for (std::size_t v = 0; v < context.views.size(); ++v) {
       removal::NBuffer commanded = context.uncut[v];
       commanded.cut(context.tool, poses, cut_options);
       std::vector<double> reference_vs_commanded = removal::difference(reference.buffers[v], commanded);
       exclude_steep_lines(commanded, options.grid_m, reference_vs_commanded);
-      for (double d : reference_vs_commanded) worst = std::max(worst, std::abs(d));
+      for (std::size_t line = 0; line < reference_vs_commanded.size(); ++line) {
+        if (!(std::abs(reference_vs_commanded[line]) <= worst)) {
+          worst = std::isnan(reference_vs_commanded[line]) ? std::numeric_limits<double>::infinity()
+                                                           : std::abs(reference_vs_commanded[line]);
+          const int nu = commanded.nu();
+          worst_at = commanded.surface_point(static_cast<int>(line % static_cast<std::size_t>(nu)),
+                                             static_cast<int>(line / static_cast<std::size_t>(nu)));
+        }
+      }
     }
     surface["reference_vs_commanded_max_um"] = worst * 1e6;
     stage_seconds["commanded_check"] = seconds_since(stage_clock);
+    checks.push_back(check_reference_against_commanded(worst, worst_at, options.mark_threshold_m));
+    progress(check_line(checks.back()));
+    if (checks.back().status == CheckStatus::failed) {
+      throw InfeasibleError(
+          "the reference run is not a valid reference: " + check_line(checks.back()) +
+          ". Its surface must match the commanded tool path's own surface to within the mark threshold, "
+          "or marks would hide in it; lower the reference feed (--reference-feed-mm-per-min) or look for "
+          "the cause at that place");
+    }
+  } else {
+    checks.push_back({"reference_vs_commanded", "reference surface against the surface the commanded tool path cuts",
+                      0.0, options.mark_threshold_m * 1e6, "um", CheckStatus::not_done,
+                      "--no-commanded-check: the reference was not checked"});
+    progress(check_line(checks.back()));
   }
+  Json check_list = Json::array();
+  for (const ValidityCheck& check : checks) check_list.push_back(check_json(check));
+  report["validity_checks"] = check_list;
 
   report["part"] = {{"name", context.part.name}, {"description", context.part.description},
                     {"file", context.part.file}};

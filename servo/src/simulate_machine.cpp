@@ -63,6 +63,27 @@ Trace simulate_machine(const kinematics::MachineModel& machine, const Trace& set
                                          machine.name));
   }
 
+  // A set point beyond an end stop is not a motion the machine can make: refused before anything
+  // is simulated (the drive model has no end stops and would follow it without a word).
+  for (int j : simulated) {
+    const kinematics::Axis& axis = machine.axes[static_cast<std::size_t>(j)];
+    if (axis.type == kinematics::AxisType::rotary && axis.continuous) continue;
+    const double scale = trace_scale(axis);
+    const std::vector<double>& column = setpoints.column(axis.name + ".cmd");
+    const double low = axis.travel_min * scale, high = axis.travel_max * scale;
+    const double slack = 1e-9 * std::max(1.0, high - low);  // the file's decimal rounding
+    for (std::size_t i = 0; i < column.size(); ++i) {
+      if (!(column[i] >= low - slack && column[i] <= high + slack)) {
+        const char* unit = axis.type == kinematics::AxisType::linear ? "mm" : "deg";
+        throw InfeasibleError(located_message(
+            setpoints_file, line_of(i), 0,
+            axis.name + ".cmd = " + format_double(column[i]) + " " + unit + " (row " + std::to_string(i + 1) +
+                ") is outside the travel of axis " + axis.name + " [" + format_double(low) + ", " +
+                format_double(high) + "] " + unit + " in " + machine.source_file));
+      }
+    }
+  }
+
   Trace out;
   out.metadata = {{"source", "vmsim servo (feed drive simulation)"},
                   {"machine", machine.source_file},

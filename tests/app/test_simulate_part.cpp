@@ -11,6 +11,7 @@
 #include <sstream>
 
 #include <numbers>
+#include <set>
 
 #include "chain_inputs.hpp"
 #include "cli_runner.hpp"
@@ -112,6 +113,19 @@ TEST(SimulatePart, TheReferenceRunMatchesTheCommandedSurface) {
   // Every stage was timed.
   EXPECT_GT(report["stage_seconds"]["total"].get<double>(), 0.0);
   EXPECT_TRUE(report["stage_seconds"]["production"].contains("servo"));
+  // Every validity check is in the report, with its figure, and passed.
+  std::set<std::string> ids;
+  for (const auto& check : report["validity_checks"]) {
+    ids.insert(check["id"].get<std::string>());
+    EXPECT_EQ(check["status"], "ok") << check.dump();
+    EXPECT_TRUE(check.contains("value")) << check.dump();
+  }
+  for (const char* id : {"setpoints_on_path.production", "setpoints_on_path.reference",
+                         "setpoints_within_travel.production", "actual_within_travel.reference",
+                         "reference_vs_commanded"}) {
+    EXPECT_EQ(ids.count(id), 1u) << id;
+  }
+  EXPECT_NE(read_file(options.out_dir + "/report.html").find("Validity checks"), std::string::npos);
 }
 
 // The box [-12, 16] x [-5, -4.5] x [0, 40] mm of small_part as an ASCII STL: 12 outward

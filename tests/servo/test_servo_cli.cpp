@@ -77,5 +77,23 @@ TEST(ServoCli, BadSetPointsExitThreeWithFileAndLine) {
   EXPECT_FALSE(std::filesystem::exists(folder / "p.csv"));
 }
 
+// A set point 1 km beyond the travel was simulated without a word: now exit 4 before any
+// simulation, naming the file, line, axis, value and travel; no output.
+TEST(ServoCli, ASetPointOutsideTheTravelExitsFour) {
+  const auto folder = test::fresh_folder("servo_cli_travel");
+  std::string text = "t,X.cmd\n";  // data from line 2 on: row k is line k + 2
+  for (int k = 0; k <= 200; ++k) {
+    text += std::to_string(k * 1e-3) + "," + (k == 151 ? std::string("1000000") : std::string("0")) + "\n";
+  }
+  write(folder / "far.csv", text);
+  const auto run = test::run_vmsim("servo --machine " + kBench + " --setpoints " +
+                                   (folder / "far.csv").string() + " --out " + (folder / "out.csv").string());
+  EXPECT_EQ(run.exit_code, 4) << run.output;
+  for (const char* needle : {"far.csv:153", "X.cmd = 1e+06 mm", "outside the travel of axis X"}) {
+    EXPECT_NE(run.output.find(needle), std::string::npos) << needle << " in " << run.output;
+  }
+  EXPECT_FALSE(std::filesystem::exists(folder / "out.csv"));
+}
+
 }  // namespace
 }  // namespace vmsim::servo

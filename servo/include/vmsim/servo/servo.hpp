@@ -134,7 +134,8 @@ AxisSignals simulate_axis(const AxisServoModel& model, const AxisInput& input,
 /// Throws vmsim::InputError naming `setpoints_file` when there is no `.cmd` column, fewer than
 /// two samples, or a period that is not uniform (relative tolerance 1e-6; the message gives the
 /// first offending line). `row_lines`, optional, gives the file line of each data row (the trace
-/// does not keep them) so that messages can name the line.
+/// does not keep them) so that messages can name the line. Throws vmsim::InfeasibleError naming
+/// the file, line, axis and value when a set point lies outside its axis's travel.
 Trace simulate_machine(const kinematics::MachineModel& machine, const Trace& setpoints,
                        const std::string& setpoints_file, const SimulationOptions& options = {},
                        const std::vector<int>& row_lines = {});

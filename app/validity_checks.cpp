@@ -1,0 +1,206 @@
+#include "validity_checks.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <limits>
+#include <numbers>
+#include <sstream>
+
+#include "vmsim/common/files.hpp"
+#include "vmsim/kinematics/kinematics.hpp"
+
+namespace vmsim::app {
+namespace {
+
+double distance_to_segment(const Eigen::Vector3d& point, const Eigen::Vector3d& a, const Eigen::Vector3d& b) {
+  const Eigen::Vector3d ab = b - a;
+  const double length_squared = ab.squaredNorm();
+  const double f = length_squared > 0.0 ? std::clamp((point - a).dot(ab) / length_squared, 0.0, 1.0) : 0.0;
+  return (a + f * ab - point).norm();
+}
+
+bool has_travel(const kinematics::Axis& axis) {
+  return !(axis.type == kinematics::AxisType::rotary && axis.continuous) && std::isfinite(axis.travel_min) &&
+         std::isfinite(axis.travel_max);
+}
+
+// A joint value in the unit users read: mm for a linear axis, deg for a rotary one.
+double user_value(const kinematics::Axis& axis, double joint_value_si) {
+  return axis.type == kinematics::AxisType::linear ? joint_value_si * 1e3 : joint_value_si * 180.0 / std::numbers::pi;
+}
+const char* user_unit(const kinematics::Axis& axis) {
+  return axis.type == kinematics::AxisType::linear ? "mm" : "deg";
+}
+
+// "block file:line N.. (s = .. mm)" for the path segment that holds s.
+std::string where_on_path(const std::vector<kinematics::PathPose>& path, const std::vector<double>& path_s_m,
+                          const std::vector<std::string>& block_names, double s_m) {
+  const std::size_t i = std::min(path_segment_at(path_s_m, s_m) + 1, path.size() - 1);
+  std::string where = "s = " + format_double(std::round(s_m * 1e6) / 1e3) + " mm";
+  const int block = path[i].block;
+  if (block >= 0 && static_cast<std::size_t>(block) < block_names.size()) {
+    where = "block " + block_names[static_cast<std::size_t>(block)] + ", " + where;
+  }
+  return where;
+}
+
+std::string rounded(double value, int digits) {
+  std::ostringstream text;
+  text.setf(std::ios::fixed);
+  text.precision(digits);
+  text << value;
+  return text.str();
+}
+
+}  // namespace
+
+std::size_t path_segment_at(const std::vector<double>& path_s_m, double s_m) {
+  if (path_s_m.size() < 2) return 0;
+  const auto it = std::upper_bound(path_s_m.begin(), path_s_m.end(), s_m);
+  const std::size_t after = static_cast<std::size_t>(it - path_s_m.begin());
+  return std::min(after == 0 ? 0 : after - 1, path_s_m.size() - 2);
+}
+
+ValidityCheck check_setpoints_on_path(const kinematics::MachineModel& machine,
+                                      const std::vector<kinematics::PathPose>& path,
+                                      const std::vector<double>& path_s_m, double tool_length_m,
+                                      const planner::SetPoints& setpoints,
+                                      const std::vector<std::string>& block_names,
+                                      const std::string& run_name, double tolerance_m) {
+  ValidityCheck check{"setpoints_on_path." + run_name,
+                      run_name + " set points on the programmed path (tool tip to the polyline through the "
+                                 "path points)",
+                      0.0, tolerance_m * 1e6, "um", CheckStatus::passed, ""};
+  if (path.size() < 2 || setpoints.q.cols() == 0) return check;
+  double worst_m = 0.0, worst_s_m = 0.0;
+  for (Eigen::Index k = 0; k < setpoints.q.cols(); ++k) {
+    const double s = setpoints.s_m[static_cast<std::size_t>(k)];
+    const Eigen::Vector3d tip = kinematics::forward_kinematics(machine, setpoints.q.col(k), tool_length_m).tip_W_m;
+    const std::size_t i = path_segment_at(path_s_m, s);
+    double distance = std::numeric_limits<double>::infinity();
+    // The neighbours too: the set point's s and the polyline's own arc length may differ a little.
+    for (std::size_t j = (i > 0 ? i - 1 : 0); j <= std::min(i + 1, path.size() - 2); ++j) {
+      distance = std::min(distance, distance_to_segment(tip, path[j].pose.tip_W_m, path[j + 1].pose.tip_W_m));
+    }
+    if (!(distance <= worst_m)) {  // NaN counts as the worst
+      worst_m = std::isnan(distance) ? std::numeric_limits<double>::infinity() : distance;
+      worst_s_m = s;
+    }
+  }
+  check.value = worst_m * 1e6;
+  check.detail = "largest at " + where_on_path(path, path_s_m, block_names, worst_s_m);
+  if (!(worst_m <= tolerance_m)) check.status = CheckStatus::failed;
+  return check;
+}
+
+ValidityCheck check_setpoints_within_travel(const kinematics::MachineModel& machine,
+                                            const std::vector<kinematics::PathPose>& path,
+                                            const std::vector<double>& path_s_m,
+                                            const planner::SetPoints& setpoints,
+                                            const std::vector<std::string>& block_names,
+                                            const std::string& run_name) {
+  ValidityCheck check{"setpoints_within_travel." + run_name, run_name + " set points within the axes' travel",
+                      0.0, 0.0, "mm (deg for a rotary axis) beyond", CheckStatus::passed, ""};
+  double worst_beyond = 0.0;  // user units
+  std::string smallest_margin;
+  double smallest_margin_fraction = std::numeric_limits<double>::infinity();
+  for (std::size_t j = 0; j < machine.axes.size(); ++j) {
+    const kinematics::Axis& axis = machine.axes[j];
+    if (!has_travel(axis)) continue;
+    const auto row = setpoints.q.row(static_cast<Eigen::Index>(j));
+    for (Eigen::Index k = 0; k < row.size(); ++k) {
+      const double q = row[k];
+      const double beyond = std::isnan(q) ? std::numeric_limits<double>::infinity()
+                                          : std::max(axis.travel_min - q, q - axis.travel_max);
+      if (beyond > 0.0 && user_value(axis, beyond) > worst_beyond) {
+        worst_beyond = user_value(axis, beyond);
+        check.status = CheckStatus::failed;
+        check.detail = "axis " + axis.name + " at " + format_double(user_value(axis, q)) + " " + user_unit(axis) +
+                       ", outside its travel [" + format_double(user_value(axis, axis.travel_min)) + ", " +
+                       format_double(user_value(axis, axis.travel_max)) + "] " + user_unit(axis) + ", at " +
+                       where_on_path(path, path_s_m, block_names, setpoints.s_m[static_cast<std::size_t>(k)]);
+      }
+    }
+    if (row.size() == 0) continue;
+    const double margin = std::min(row.minCoeff() - axis.travel_min, axis.travel_max - row.maxCoeff());
+    const double fraction = margin / (axis.travel_max - axis.travel_min);
+    if (fraction < smallest_margin_fraction) {
+      smallest_margin_fraction = fraction;
+      smallest_margin = "smallest margin: axis " + axis.name + " " + rounded(user_value(axis, margin), 3) + " " +
+                        user_unit(axis) + " from an end of its travel";
+    }
+  }
+  check.value = worst_beyond;
+  if (check.status == CheckStatus::passed) check.detail = smallest_margin;
+  return check;
+}
+
+ValidityCheck check_actual_within_travel(const kinematics::MachineModel& machine,
+                                         const std::vector<double>& t_s, const Eigen::MatrixXd& q_actual,
+                                         const std::string& run_name) {
+  ValidityCheck check{"actual_within_travel." + run_name,
+                      run_name + " simulated axis positions within the axes' travel", 0.0, 0.0,
+                      "mm (deg for a rotary axis) beyond",
+                      CheckStatus::passed, ""};
+  for (std::size_t j = 0; j < machine.axes.size(); ++j) {
+    const kinematics::Axis& axis = machine.axes[j];
+    if (!has_travel(axis)) continue;
+    const auto row = q_actual.row(static_cast<Eigen::Index>(j));
+    for (Eigen::Index k = 0; k < row.size(); ++k) {
+      const double beyond = std::max(axis.travel_min - row[k], row[k] - axis.travel_max);
+      if (beyond > 0.0 && user_value(axis, beyond) > check.value) {
+        check.value = user_value(axis, beyond);
+        check.status = CheckStatus::warning;
+        check.detail = "axis " + axis.name + " overshoots its travel by " + format_double(check.value) + " " +
+                       user_unit(axis) + " at t = " + rounded(t_s[static_cast<std::size_t>(k)], 4) +
+                       " s (the set points are within it: the drive overshoots)";
+      }
+    }
+  }
+  return check;
+}
+
+ValidityCheck check_reference_against_commanded(double worst_m, const Eigen::Vector3d& where_W_m,
+                                                double limit_m) {
+  ValidityCheck check{"reference_vs_commanded",
+                      "reference surface against the surface the commanded tool path cuts", worst_m * 1e6,
+                      limit_m * 1e6, "um", CheckStatus::passed, ""};
+  check.detail = "largest at (" + rounded(where_W_m.x() * 1e3, 3) + ", " + rounded(where_W_m.y() * 1e3, 3) + ", " +
+                 rounded(where_W_m.z() * 1e3, 3) + ") mm";
+  if (!(worst_m <= limit_m)) check.status = CheckStatus::failed;
+  return check;
+}
+
+const char* status_name(CheckStatus status) {
+  switch (status) {
+    case CheckStatus::passed: return "ok";
+    case CheckStatus::warning: return "WARNING";
+    case CheckStatus::failed: return "FAILED";
+    case CheckStatus::not_done: return "not done";
+  }
+  return "?";
+}
+
+std::string check_line(const ValidityCheck& check) {
+  std::string line = "check " + std::string(status_name(check.status)) + ": " + check.title;
+  // Checks whose limit is zero (nothing beyond the travel) show a figure only when they fail.
+  const bool has_figure = check.status != CheckStatus::not_done && (check.limit != 0.0 || check.value != 0.0);
+  if (has_figure) {
+    line += ": " + rounded(check.value, 3) + " " + check.unit + " (limit " + rounded(check.limit, 3) + ")";
+  }
+  if (!check.detail.empty()) line += "; " + check.detail;
+  return line;
+}
+
+nlohmann::json check_json(const ValidityCheck& check) {
+  nlohmann::json entry{{"id", check.id}, {"check", check.title}, {"status", status_name(check.status)},
+                       {"detail", check.detail}};
+  if (check.status != CheckStatus::not_done) {
+    entry["value"] = std::isfinite(check.value) ? nlohmann::json(check.value) : nlohmann::json("inf");
+    entry["limit"] = check.limit;
+    entry["unit"] = check.unit;
+  }
+  return entry;
+}
+
+}  // namespace vmsim::app

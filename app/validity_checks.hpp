@@ -1,0 +1,71 @@
+#pragma once
+// The checks that say whether a simulate-part result can be trusted, each with its figure.
+//
+// They are independent of the code they check: the set points are compared with the programmed
+// path through the direct kinematics (not through the planner's spline), the axis positions with
+// the machine file's travel, and the reference surface with the surface the commanded tool path
+// itself cuts. A failed check that makes the result wrong is an error (the caller throws); one
+// that only qualifies it is a warning in the terminal and at the top of the report.
+#include <nlohmann/json.hpp>
+
+#include <Eigen/Core>
+#include <string>
+#include <vector>
+
+#include "vmsim/kinematics/machine_model.hpp"
+#include "vmsim/kinematics/path_kinematics.hpp"
+#include "vmsim/planner/feedrate.hpp"
+
+namespace vmsim::app {
+
+enum class CheckStatus { passed, warning, failed, not_done };
+
+struct ValidityCheck {
+  std::string id;        ///< e.g. "setpoints_on_path.production"
+  std::string title;     ///< what was checked, in words
+  double value = 0.0;    ///< the figure found, in `unit`
+  double limit = 0.0;    ///< the figure it must not exceed, in `unit`
+  std::string unit;      ///< "um", "mm", ...
+  CheckStatus status = CheckStatus::not_done;
+  std::string detail;    ///< where the figure was found (block, axis, s) or why not done
+};
+
+/// Largest distance from the tool tip of any set point (direct kinematics of q) to the
+/// programmed polyline through the path points, measured to the segment that holds the set
+/// point's s and to its two neighbours. Fails above `tolerance_m`.
+ValidityCheck check_setpoints_on_path(const kinematics::MachineModel& machine,
+                                      const std::vector<kinematics::PathPose>& path,
+                                      const std::vector<double>& path_s_m, double tool_length_m,
+                                      const planner::SetPoints& setpoints,
+                                      const std::vector<std::string>& block_names,
+                                      const std::string& run_name, double tolerance_m);
+
+/// Every set point of every axis with end stops against the axis's travel. The figure is the
+/// smallest margin left (negative: how far beyond); fails when any set point is outside.
+ValidityCheck check_setpoints_within_travel(const kinematics::MachineModel& machine,
+                                            const std::vector<kinematics::PathPose>& path,
+                                            const std::vector<double>& path_s_m,
+                                            const planner::SetPoints& setpoints,
+                                            const std::vector<std::string>& block_names,
+                                            const std::string& run_name);
+
+/// The simulated (actual) axis positions against the travel: a warning when a drive overshoots
+/// an end stop (the set points are within it).
+ValidityCheck check_actual_within_travel(const kinematics::MachineModel& machine,
+                                         const std::vector<double>& t_s, const Eigen::MatrixXd& q_actual,
+                                         const std::string& run_name);
+
+/// The reference surface against the surface the commanded tool path cuts: the reference must
+/// not differ from it by more than `limit_m` (the mark threshold), or marks could hide in it.
+ValidityCheck check_reference_against_commanded(double worst_m, const Eigen::Vector3d& where_W_m,
+                                                double limit_m);
+
+/// One line for the terminal: "check ok|WARNING|FAILED|not done: <title>: <value> <unit> (limit ...); <where>".
+std::string check_line(const ValidityCheck& check);
+nlohmann::json check_json(const ValidityCheck& check);
+const char* status_name(CheckStatus status);
+
+/// Index of the path point whose segment holds s (the segment [s_i, s_i+1]).
+std::size_t path_segment_at(const std::vector<double>& path_s_m, double s_m);
+
+}  // namespace vmsim::app

@@ -1,0 +1,110 @@
+// The validity checks of simulate-part (app/validity_checks.hpp) against set points made by hand:
+// on the path, a known distance off it, beyond the travel.
+#include <gtest/gtest.h>
+
+#include "validity_checks.hpp"
+#include "vmsim/kinematics/kinematics.hpp"
+#include "vmsim/kinematics/sample_models.hpp"
+
+namespace vmsim {
+namespace {
+
+constexpr double kToolLength = 0.05;
+
+struct StraightMove {
+  kinematics::MachineModel machine = kinematics::make_table_table_sample();
+  std::vector<kinematics::PathPose> path;
+  std::vector<double> path_s_m;
+  planner::SetPoints setpoints;
+  std::vector<std::string> block_names{"part.nc:10 N10", "part.nc:11 N20"};
+
+  // X from -10 to +10 mm at Y = 1 mm, Z = -100 mm, A = C = 0: 101 set points on the line.
+  StraightMove() {
+    Eigen::VectorXd q_start = Eigen::VectorXd::Zero(5), q_end = Eigen::VectorXd::Zero(5);
+    q_start << -0.01, 0.001, -0.1, 0.0, 0.0;
+    q_end << 0.01, 0.001, -0.1, 0.0, 0.0;
+    const auto start = kinematics::forward_kinematics(machine, q_start, kToolLength);
+    const auto end = kinematics::forward_kinematics(machine, q_end, kToolLength);
+    path = {{start, 0}, {end, 1}};
+    const double length = (end.tip_W_m - start.tip_W_m).norm();
+    path_s_m = {0.0, length};
+    setpoints.q.resize(5, 101);
+    for (int k = 0; k <= 100; ++k) {
+      const double f = k / 100.0;
+      setpoints.t_s.push_back(0.01 * k);
+      setpoints.s_m.push_back(f * length);
+      setpoints.q.col(k) = (1 - f) * q_start + f * q_end;
+    }
+  }
+};
+
+TEST(ValidityChecks, SetPointsOnTheLinePass) {
+  const StraightMove move;
+  const app::ValidityCheck check = app::check_setpoints_on_path(
+      move.machine, move.path, move.path_s_m, kToolLength, move.setpoints, move.block_names, "production", 1e-6);
+  EXPECT_EQ(check.status, app::CheckStatus::passed) << app::check_line(check);
+  EXPECT_LT(check.value, 1e-6);  // um: rounding only
+}
+
+TEST(ValidityChecks, ASetPointOffThePathFailsWithItsDistanceAndBlock) {
+  StraightMove move;
+  move.setpoints.q(1, 60) += 5e-6;  // Y 5 um off the line: the tip moves 5 um across it
+  const app::ValidityCheck check = app::check_setpoints_on_path(
+      move.machine, move.path, move.path_s_m, kToolLength, move.setpoints, move.block_names, "production", 1e-6);
+  EXPECT_EQ(check.status, app::CheckStatus::failed);
+  EXPECT_NEAR(check.value, 5.0, 1e-6);
+  EXPECT_NE(check.detail.find("part.nc:11 N20"), std::string::npos) << check.detail;
+  EXPECT_NE(app::check_line(check).find("FAILED"), std::string::npos);
+}
+
+TEST(ValidityChecks, ANaNSetPointFails) {
+  StraightMove move;
+  move.setpoints.q(0, 3) = std::nan("");
+  EXPECT_EQ(app::check_setpoints_on_path(move.machine, move.path, move.path_s_m, kToolLength, move.setpoints,
+                                         move.block_names, "production", 1e-6)
+                .status,
+            app::CheckStatus::failed);
+  EXPECT_EQ(app::check_setpoints_within_travel(move.machine, move.path, move.path_s_m, move.setpoints,
+                                               move.block_names, "production")
+                .status,
+            app::CheckStatus::failed);
+}
+
+TEST(ValidityChecks, TravelMarginAndExcessNameTheAxis) {
+  StraightMove move;
+  app::ValidityCheck check = app::check_setpoints_within_travel(move.machine, move.path, move.path_s_m,
+                                                                move.setpoints, move.block_names, "production");
+  EXPECT_EQ(check.status, app::CheckStatus::passed);
+  EXPECT_NE(check.detail.find("smallest margin"), std::string::npos) << check.detail;
+  move.setpoints.q(0, 80) = 0.36;  // X travel is [-355, 355] mm: 5 mm beyond
+  check = app::check_setpoints_within_travel(move.machine, move.path, move.path_s_m, move.setpoints,
+                                             move.block_names, "production");
+  EXPECT_EQ(check.status, app::CheckStatus::failed);
+  EXPECT_NEAR(check.value, 5.0, 1e-9);
+  EXPECT_NE(check.detail.find("axis X at 360 mm"), std::string::npos) << check.detail;
+  EXPECT_NE(check.detail.find("part.nc:11 N20"), std::string::npos) << check.detail;
+}
+
+TEST(ValidityChecks, AnOvershootingDriveIsAWarning) {
+  const StraightMove move;
+  Eigen::MatrixXd actual = move.setpoints.q;
+  actual(2, 10) = 0.0002;  // Z travel ends at 0: 0.2 mm beyond
+  const app::ValidityCheck check =
+      app::check_actual_within_travel(move.machine, move.setpoints.t_s, actual, "production");
+  EXPECT_EQ(check.status, app::CheckStatus::warning);
+  EXPECT_NEAR(check.value, 0.2, 1e-9);
+  EXPECT_NE(check.detail.find("axis Z"), std::string::npos);
+}
+
+TEST(ValidityChecks, AReferenceFarFromTheCommandedSurfaceFails) {
+  EXPECT_EQ(app::check_reference_against_commanded(0.5e-6, Eigen::Vector3d::Zero(), 2e-6).status,
+            app::CheckStatus::passed);
+  const app::ValidityCheck check =
+      app::check_reference_against_commanded(3.649e-3, Eigen::Vector3d(0.01, 0.02, -0.005), 2e-6);
+  EXPECT_EQ(check.status, app::CheckStatus::failed);
+  EXPECT_NEAR(check.value, 3649.0, 1e-9);
+  EXPECT_NE(check.detail.find("(10.000, 20.000, -5.000) mm"), std::string::npos) << check.detail;
+}
+
+}  // namespace
+}  // namespace vmsim
