@@ -227,14 +227,18 @@ Run simulate_run(const Context& context, const std::string& name, double feed_m_
   // the programmed path (through the direct kinematics, independently of the planner's spline).
   run.checks.push_back(check_setpoints_within_travel(machine, context.inputs.path, context.path.s_m,
                                                      run.plan.setpoints, context.inputs.block_names, name));
-  run.checks.push_back(check_setpoints_on_path(machine, context.inputs.path, context.path.s_m,
+  std::vector<bool> rapid_end(context.inputs.path.size());
+  for (std::size_t i = 0; i < rapid_end.size(); ++i) {
+    rapid_end[i] = context.inputs.toolpath.points[context.inputs.toolpath_point[i]].kind == planner::MotionKind::rapid;
+  }
+  run.checks.push_back(check_setpoints_on_path(machine, context.inputs.path, rapid_end, context.path.s_m,
                                                context.inputs.tool_length_m, run.plan.setpoints,
                                                context.inputs.block_names, name,
                                                context.options.setpoint_path_tolerance_m));
   for (const ValidityCheck& check : run.checks) {
     context.progress(check_line(check));
     if (check.status == CheckStatus::failed) {
-      throw InfeasibleError(check.title + ": " + check_line(check) +
+      throw InfeasibleError(check_line(check) +
                             " -- the simulation would run on set points the program does not ask for");
     }
   }

@@ -32,9 +32,12 @@ struct ValidityCheck {
 
 /// Largest distance from the tool tip of any set point (direct kinematics of q) to the
 /// programmed polyline through the path points, measured to the segment that holds the set
-/// point's s and to its two neighbours. Fails above `tolerance_m`.
+/// point's s and to its two neighbours. Fails above `tolerance_m`. Set points on a rapid move
+/// (`rapid_end[i]`: the segment ending at path point i is a rapid) are not checked: there the NC
+/// moves each axis on its own, and the tip does not follow a line.
 ValidityCheck check_setpoints_on_path(const kinematics::MachineModel& machine,
                                       const std::vector<kinematics::PathPose>& path,
+                                      const std::vector<bool>& rapid_end,
                                       const std::vector<double>& path_s_m, double tool_length_m,
                                       const planner::SetPoints& setpoints,
                                       const std::vector<std::string>& block_names,

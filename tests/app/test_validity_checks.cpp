@@ -17,6 +17,7 @@ struct StraightMove {
   std::vector<double> path_s_m;
   planner::SetPoints setpoints;
   std::vector<std::string> block_names{"part.nc:10 N10", "part.nc:11 N20"};
+  std::vector<bool> rapid_end{false, false};
 
   // X from -10 to +10 mm at Y = 1 mm, Z = -100 mm, A = C = 0: 101 set points on the line.
   StraightMove() {
@@ -41,7 +42,7 @@ struct StraightMove {
 TEST(ValidityChecks, SetPointsOnTheLinePass) {
   const StraightMove move;
   const app::ValidityCheck check = app::check_setpoints_on_path(
-      move.machine, move.path, move.path_s_m, kToolLength, move.setpoints, move.block_names, "production", 1e-6);
+      move.machine, move.path, move.rapid_end, move.path_s_m, kToolLength, move.setpoints, move.block_names, "production", 1e-6);
   EXPECT_EQ(check.status, app::CheckStatus::passed) << app::check_line(check);
   EXPECT_LT(check.value, 1e-6);  // um: rounding only
 }
@@ -50,17 +51,23 @@ TEST(ValidityChecks, ASetPointOffThePathFailsWithItsDistanceAndBlock) {
   StraightMove move;
   move.setpoints.q(1, 60) += 5e-6;  // Y 5 um off the line: the tip moves 5 um across it
   const app::ValidityCheck check = app::check_setpoints_on_path(
-      move.machine, move.path, move.path_s_m, kToolLength, move.setpoints, move.block_names, "production", 1e-6);
+      move.machine, move.path, move.rapid_end, move.path_s_m, kToolLength, move.setpoints, move.block_names, "production", 1e-6);
   EXPECT_EQ(check.status, app::CheckStatus::failed);
   EXPECT_NEAR(check.value, 5.0, 1e-6);
   EXPECT_NE(check.detail.find("part.nc:11 N20"), std::string::npos) << check.detail;
   EXPECT_NE(app::check_line(check).find("FAILED"), std::string::npos);
+  // On a rapid the NC moves the axes on their own: not checked.
+  move.rapid_end[1] = true;
+  EXPECT_EQ(app::check_setpoints_on_path(move.machine, move.path, move.rapid_end, move.path_s_m, kToolLength,
+                                         move.setpoints, move.block_names, "production", 1e-6)
+                .status,
+            app::CheckStatus::passed);
 }
 
 TEST(ValidityChecks, ANaNSetPointFails) {
   StraightMove move;
   move.setpoints.q(0, 3) = std::nan("");
-  EXPECT_EQ(app::check_setpoints_on_path(move.machine, move.path, move.path_s_m, kToolLength, move.setpoints,
+  EXPECT_EQ(app::check_setpoints_on_path(move.machine, move.path, move.rapid_end, move.path_s_m, kToolLength, move.setpoints,
                                          move.block_names, "production", 1e-6)
                 .status,
             app::CheckStatus::failed);
