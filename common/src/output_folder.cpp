@@ -42,7 +42,7 @@ struct LinuxDirent64 {
   off64_t d_off;
   unsigned short d_reclen;
   unsigned char d_type;
-  char d_name[];
+  char d_name[256];  // the kernel writes the name here (at most 255 bytes and the NUL)
 };
 
 // Removes `name` under `parent_fd`: a file, or a folder with everything in it (async-signal-safe).
@@ -359,7 +359,7 @@ void check_output_file(const std::string& path, const std::vector<std::string>& 
   }
   if (error || !fs::is_directory(folder_status)) {
     throw InputError(path + ": cannot write in " + folder.string() + ": " +
-                     (error ? error.message() : std::string("not a folder")));
+                     (error ? error.message() : reason(ENOTDIR)));
   }
   // Writable? Try it: permissions alone do not tell (root, read-only mounts, ACLs).
   const fs::path probe = folder / ("." + target.filename().string() + ".vmsim-probe-" + pid_text());
