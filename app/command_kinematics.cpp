@@ -9,6 +9,7 @@
 #include "chain_inputs.hpp"
 #include "commands.hpp"
 #include "input_files.hpp"
+#include "json_text.hpp"
 #include "vmsim/common/files.hpp"
 #include "vmsim/common/output_folder.hpp"
 #include "vmsim/common/trace.hpp"
@@ -111,9 +112,7 @@ int run_kinematics(const KinematicsOptions& options, const CommandContext& conte
 
   outputs.write(options.out_path, format_trace(trace));
   if (!options.summary_path.empty()) {
-    // Names read from the user's files may not be UTF-8: replaced, not an error after the work.
-    outputs.write(options.summary_path,
-                  summary.dump(2, ' ', false, nlohmann::json::error_handler_t::replace) + "\n");
+    outputs.write(options.summary_path, json_file_text(summary));
   }
   outputs.commit();
   context.say("wrote " + options.out_path + ": " + std::to_string(result.s_m.size()) +

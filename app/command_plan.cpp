@@ -16,6 +16,7 @@
 #include "commands.hpp"
 #include "effects_option.hpp"
 #include "input_files.hpp"
+#include "json_text.hpp"
 #include "vmsim/common/errors.hpp"
 #include "vmsim/common/files.hpp"
 #include "vmsim/common/output_folder.hpp"
@@ -256,7 +257,7 @@ int run_plan(const PlanOptions& options, const CommandContext& context) {
   }
   write_file_atomically(output.path_of("limits.csv"), limits_csv.str());
   write_file_atomically(output.path_of("setpoints.csv"), format_trace(trace));
-  write_file_atomically(output.path_of("summary.json"), summary.dump(2) + "\n");
+  write_file_atomically(output.path_of("summary.json"), json_file_text(summary));
   output.commit();
 
   std::ostringstream line;

@@ -16,6 +16,7 @@
 #include <sstream>
 
 #include "commands.hpp"
+#include "json_text.hpp"
 #include "part_file.hpp"
 #include "vmsim/common/errors.hpp"
 #include "vmsim/common/files.hpp"
@@ -189,7 +190,7 @@ int run_level_set(const RemoveOptions& o, const CommandContext& context, const r
       {"surface_triangles", surface.triangles.size()},
       {"seconds", seconds},
       {"orientation_tolerance_um", tolerance_um}};
-  write_file_atomically(output.path_of("summary.json"), summary.dump(2) + "\n");
+  write_file_atomically(output.path_of("summary.json"), json_file_text(summary));
   output.commit();
   std::ostringstream line;
   line << "cut " << poses.size() << " samples in " << seconds << " s; wrote " << o.out_dir
@@ -309,7 +310,7 @@ int run_remove(const RemoveOptions& o, const CommandContext& context) {
       {"seconds", seconds},
       {"stl_stride", stride},
       {"orientation_tolerance_um", tolerance_um}};
-  write_file_atomically(output.path_of("summary.json"), summary.dump(2) + "\n");
+  write_file_atomically(output.path_of("summary.json"), json_file_text(summary));
   output.commit();
   std::ostringstream line;
   line << "cut " << poses.size() << " samples in " << seconds << " s; wrote " << o.out_dir

@@ -12,6 +12,7 @@
 #include <sstream>
 
 #include "chain_inputs.hpp"
+#include "json_text.hpp"
 #include "part_file.hpp"
 #include "surface_views.hpp"
 #include "vmsim/common/errors.hpp"
@@ -605,7 +606,7 @@ std::string html_report(const Json& report, const std::vector<std::string>& imag
   for (const std::string& image : images) {
     html << "<h3>" << html_escape(image) << "</h3><img src=\"" << html_escape(image) << "\">\n";
   }
-  html << "<h2>Stage times [s]</h2><pre>" << html_escape(report["stage_seconds"].dump(2))
+  html << "<h2>Stage times [s]</h2><pre>" << html_escape(json_file_text(report["stage_seconds"]))
        << "</pre>\n</body></html>\n";
   return html.str();
 }
@@ -1029,7 +1030,7 @@ Json simulate_part(const SimulatePartOptions& options, const ProgressSink& progr
   stage_seconds["reference"] = stage_times(reference);
   stage_seconds["total"] = seconds_since(start);
   report["stage_seconds"] = stage_seconds;
-  write_file_atomically((staging / "report.json").string(), report.dump(2) + "\n");
+  write_file_atomically((staging / "report.json").string(), json_file_text(report));
   write_file_atomically((staging / "report.html").string(), html_report(report, images));
   output.commit();
   return report;

@@ -234,5 +234,23 @@ TEST(CliOutput, KinematicsWritesItsTwoFilesTogetherAndNeverOverAnInput) {
   EXPECT_EQ(names, (std::set<std::string>{"inputs", "k.csv", "s.json"}));  // no temporary file left
 }
 
+// A tool path whose file name is not UTF-8 (Latin-1 "pé.apt"): the summaries name its blocks.
+// kinematics --summary used to fail after writing the trace (exit 1, the trace left alone).
+TEST(CliOutput, NamesThatAreNotUtf8DoNotFailTheSummariesAfterTheWork) {
+  const fs::path folder = test::fresh_folder("output_latin1");
+  const fs::path path_file = folder / "p\xe9.apt";
+  write(path_file, kPath);
+  const std::string k = (folder / "k.csv").string(), s = (folder / "s.json").string();
+  const test::RunResult kinematics =
+      test::run_vmsim("-q kinematics --machine " + kMikron + " --toolpath " + path_file.string() +
+                      " --tool-length-mm 100 --out " + k + " --summary " + s);
+  EXPECT_EQ(kinematics.exit_code, 0) << kinematics.output;
+  EXPECT_TRUE(fs::exists(k));
+  EXPECT_TRUE(fs::exists(s));
+  const test::RunResult plan = test::run_vmsim(plan_arguments(path_file, (folder / "plan").string()));
+  EXPECT_EQ(plan.exit_code, 0) << plan.output;
+  EXPECT_TRUE(fs::exists(folder / "plan" / "summary.json"));
+}
+
 }  // namespace
 }  // namespace vmsim
