@@ -7,6 +7,7 @@
 #include "commands.hpp"
 #include "vmsim/common/errors.hpp"
 #include "vmsim/common/files.hpp"
+#include "vmsim/common/output_folder.hpp"
 #include "vmsim/common/trace.hpp"
 #include "vmsim/identify/diagnose.hpp"
 #include "vmsim/kinematics/machine_loader.hpp"
@@ -24,6 +25,8 @@ struct DiagnoseCommandOptions {
 };
 
 int run_diagnose(const DiagnoseCommandOptions& options, const CommandContext& context) {
+  OutputFolder output(options.out_dir, {options.machine_path, options.trace_path, options.validate_path},
+                      {"diagnose", VMSIM_VERSION});
   const kinematics::MachineModel machine = kinematics::load_machine(options.machine_path);
   TraceReadOptions read_options;
   read_options.known_axes.emplace();
@@ -49,15 +52,12 @@ int run_diagnose(const DiagnoseCommandOptions& options, const CommandContext& co
   const std::string json = identify::diagnosis_json(diagnosis, machine, options.trace_path);
   const std::string report = identify::diagnosis_report(diagnosis, machine, options.trace_path);
   const std::string residuals = identify::residuals_csv(diagnosis, machine);
-  // Everything computed: now the outputs.
-  std::error_code error;
-  std::filesystem::create_directories(options.out_dir, error);
-  if (error) throw InputError(options.out_dir + ": cannot create the folder: " + error.message());
-  const std::filesystem::path dir(options.out_dir);
-  write_file_atomically((dir / "diagnosis.json").string(), json);
-  write_file_atomically((dir / "machine_extended.yaml").string(), yaml);
-  write_file_atomically((dir / "residuals.csv").string(), residuals);
-  write_file_atomically((dir / "report.md").string(), report);
+  // Everything computed: into the staging folder, then the set swapped in.
+  write_file_atomically(output.path_of("diagnosis.json"), json);
+  write_file_atomically(output.path_of("machine_extended.yaml"), yaml);
+  write_file_atomically(output.path_of("residuals.csv"), residuals);
+  write_file_atomically(output.path_of("report.md"), report);
+  output.commit();
   context.say("wrote " + options.out_dir + "/{diagnosis.json, machine_extended.yaml, "
               "residuals.csv, report.md}");
   for (const auto& axis : diagnosis.axes) {
@@ -95,8 +95,8 @@ void add_diagnose_command(CLI::App& app, CommandContext& context) {
                       "a second measured run to judge on (default: held-out blocks of --trace)")
       ->check(CLI::ExistingFile);
   command->add_option("--out", options->out_dir,
-                      "output folder: diagnosis.json, machine_extended.yaml, residuals.csv, "
-                      "report.md")
+                      "output folder (new, empty or a previous vmsim result: replaced as a whole): "
+                      "diagnosis.json, machine_extended.yaml, residuals.csv, report.md")
       ->required();
   command->add_option("--exclude", options->exclude,
                       "effects to leave out of the catalogue (e.g. current_saturation)");

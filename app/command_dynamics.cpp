@@ -7,7 +7,9 @@
 #include "chain_inputs.hpp"
 #include "commands.hpp"
 #include "effects_option.hpp"
+#include "input_files.hpp"
 #include "vmsim/common/files.hpp"
+#include "vmsim/common/output_folder.hpp"
 #include "vmsim/common/trace.hpp"
 #include "vmsim/kinematics/dynamics.hpp"
 #include "vmsim/kinematics/path_kinematics.hpp"
@@ -29,6 +31,7 @@ int run_dynamics(const DynamicsOptions& options, const CommandContext& context) 
   const kinematics::EffectSet effects = parse_effects(options.effects);
   const ChainInputs inputs = load_chain_inputs(options.inputs);
   for (const std::string& warning : inputs.warnings) context.warn(warning);
+  check_output_file(options.out_path, chain_input_files(options.inputs, inputs));  // before the work
   const kinematics::PathKinematics path = kinematics::solve_path_kinematics(
       inputs.machine, inputs.path, inputs.machine.home_positions(), inputs.tool_length_m,
       inputs.block_names);

@@ -7,6 +7,7 @@
 
 #include "commands.hpp"
 #include "vmsim/common/files.hpp"
+#include "vmsim/common/output_folder.hpp"
 #include "vmsim/common/trace.hpp"
 #include "vmsim/identify/identify.hpp"
 #include "vmsim/kinematics/machine_loader.hpp"
@@ -34,6 +35,9 @@ std::string directory_of(const std::string& path) {
 }
 
 int run_identify(const IdentifyCommandOptions& options, const CommandContext& context) {
+  std::vector<std::string> input_files = options.trace_paths;
+  input_files.push_back(options.machine_path);
+  check_output_file(options.out_path, input_files);  // before the work: never an input
   kinematics::MachineModel machine = kinematics::load_machine(options.machine_path);
   TraceReadOptions read_options;
   read_options.known_axes.emplace();

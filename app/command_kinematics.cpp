@@ -8,7 +8,10 @@
 
 #include "chain_inputs.hpp"
 #include "commands.hpp"
+#include "input_files.hpp"
+#include "json_text.hpp"
 #include "vmsim/common/files.hpp"
+#include "vmsim/common/output_folder.hpp"
 #include "vmsim/common/trace.hpp"
 #include "vmsim/kinematics/path_kinematics.hpp"
 
@@ -48,6 +51,11 @@ std::vector<double> nominal_time(const ChainInputs& inputs, const kinematics::Pa
 int run_kinematics(const KinematicsOptions& options, const CommandContext& context) {
   const ChainInputs inputs = load_chain_inputs(options.inputs);
   for (const std::string& warning : inputs.warnings) context.warn(warning);
+  // The outputs are checked before the computation; with --summary both files are replaced
+  // together or not at all.
+  std::vector<std::string> out_paths = {options.out_path};
+  if (!options.summary_path.empty()) out_paths.push_back(options.summary_path);
+  OutputFileSet outputs(out_paths, chain_input_files(options.inputs, inputs));
 
   kinematics::PathKinematicsOptions path_options;
   path_options.corner_angle_rad = options.corner_angle_deg * M_PI / 180.0;
@@ -102,10 +110,11 @@ int run_kinematics(const KinematicsOptions& options, const CommandContext& conte
   }
   summary["warnings"] = inputs.warnings;
 
-  write_trace(options.out_path, trace);
+  outputs.write(options.out_path, format_trace(trace));
   if (!options.summary_path.empty()) {
-    write_file_atomically(options.summary_path, summary.dump(2) + "\n");
+    outputs.write(options.summary_path, json_file_text(summary));
   }
+  outputs.commit();
   context.say("wrote " + options.out_path + ": " + std::to_string(result.s_m.size()) +
               " points, path length " + format_double(std::round(result.s_m.back() * 1e6) / 1e3) +
               " mm");

@@ -15,8 +15,11 @@
 #include "chain_inputs.hpp"
 #include "commands.hpp"
 #include "effects_option.hpp"
+#include "input_files.hpp"
+#include "json_text.hpp"
 #include "vmsim/common/errors.hpp"
 #include "vmsim/common/files.hpp"
+#include "vmsim/common/output_folder.hpp"
 #include "vmsim/common/trace.hpp"
 #include "vmsim/planner/feedrate.hpp"
 #include "vmsim/viz/display.hpp"
@@ -106,6 +109,7 @@ int run_plan(const PlanOptions& options, const CommandContext& context) {
   }
 
   const ChainInputs inputs = load_chain_inputs(input_options);
+  OutputFolder output(options.out_dir, chain_input_files(input_options, inputs), {"plan", VMSIM_VERSION});
   for (const std::string& warning : inputs.warnings) context.warn(warning);
   const kinematics::PathKinematics path = kinematics::solve_path_kinematics(
       inputs.machine, inputs.path, inputs.machine.home_positions(), inputs.tool_length_m,
@@ -245,17 +249,16 @@ int run_plan(const PlanOptions& options, const CommandContext& context) {
                          : options.no_plot ? std::string("skipped: --no-plot")
                                            : "skipped: " + no_display;
 
-  // Everything computed: write (the plot first: a failed render leaves no numerical file).
-  std::filesystem::create_directories(options.out_dir);
-  const std::filesystem::path dir(options.out_dir);
+  // Everything computed: write into the staging folder, then swap the set in.
   if (plot) {
-    viz::write_line_plot_png((dir / "plan.png").string(),
+    viz::write_line_plot_png(output.path_of("plan.png"),
                              feedrate_plot(prof, "Feedrate along the path: sd_lim and executed (" +
                                                      options.method + ")"));
   }
-  write_file_atomically((dir / "limits.csv").string(), limits_csv.str());
-  write_file_atomically((dir / "setpoints.csv").string(), format_trace(trace));
-  write_file_atomically((dir / "summary.json").string(), summary.dump(2) + "\n");
+  write_file_atomically(output.path_of("limits.csv"), limits_csv.str());
+  write_file_atomically(output.path_of("setpoints.csv"), format_trace(trace));
+  write_file_atomically(output.path_of("summary.json"), json_file_text(summary));
+  output.commit();
 
   std::ostringstream line;
   line << std::setprecision(5) << "T = " << plan.duration_s << " s, T_lb = " << plan.lower_bound_s
@@ -321,7 +324,8 @@ void add_plan_command(CLI::App& app, CommandContext& context) {
                     "leave out the jerk / torque-rate limits");
   command->add_flag("--no-plot", options->no_plot, "write no plan.png");
   command->add_option("--out", options->out_dir,
-                      "output folder: limits.csv, setpoints.csv, summary.json and plan.png (sd_lim "
+                      "output folder (new, empty or a previous vmsim result: replaced as a whole): "
+                      "limits.csv, setpoints.csv, summary.json and plan.png (sd_lim "
                       "per constraint and the executed feedrate along s; needs an X display: run "
                       "under xvfb-run -a on a headless machine, else skipped with a warning)")
       ->required();

@@ -7,6 +7,7 @@
 #include "commands.hpp"
 #include "vmsim/common/errors.hpp"
 #include "vmsim/common/files.hpp"
+#include "vmsim/common/output_folder.hpp"
 #include "vmsim/viz/plot.hpp"
 
 namespace vmsim::app {
@@ -106,6 +107,7 @@ const std::vector<double>& column(const Table& table, const std::string& name,
 }
 
 int run_plot(const PlotOptions& options, const CommandContext& context) {
+  check_output_file(options.out_path, {options.csv_path});  // before the work: never the input
   const Table table = read_csv(options.csv_path);
   viz::LinePlot plot;
   plot.title = options.title;

@@ -16,9 +16,11 @@
 #include <sstream>
 
 #include "commands.hpp"
+#include "json_text.hpp"
 #include "part_file.hpp"
 #include "vmsim/common/errors.hpp"
 #include "vmsim/common/files.hpp"
+#include "vmsim/common/output_folder.hpp"
 #include "vmsim/common/trace.hpp"
 #include "vmsim/kinematics/kinematics.hpp"
 #include "vmsim/kinematics/machine_loader.hpp"
@@ -135,7 +137,7 @@ std::function<bool(double)> progress_printer(const CommandContext& context) {
 // writes stock.vdb, surface.stl, surface.vtp (point data z_mm) and summary.json.
 int run_level_set(const RemoveOptions& o, const CommandContext& context, const removal::Tool& tool,
                   const removal::Box& stock, const std::optional<removal::TriangleMesh>& stock_mesh,
-                  const std::vector<removal::Pose>& poses, const std::string& source) {
+                  const std::vector<removal::Pose>& poses, const std::string& source, OutputFolder& output) {
   removal::LevelSetOptions options;
   options.voxel_m = o.voxel_mm * 1e-3;
   for (std::size_t i = 0; i < o.regions_mm.size(); i += 6) {
@@ -161,11 +163,9 @@ int run_level_set(const RemoveOptions& o, const CommandContext& context, const r
   z_mm.reserve(surface.vertices_m.size());
   for (const auto& v : surface.vertices_m) z_mm.push_back(v.z() * 1e3);
 
-  std::filesystem::create_directories(o.out_dir);
-  const std::filesystem::path dir(o.out_dir);
-  write_file_atomically((dir / "stock.vdb").string(), grids.vdb_bytes());
-  write_file_atomically((dir / "surface.stl").string(), removal::mesh_stl(surface));
-  write_file_atomically((dir / "surface.vtp").string(), removal::mesh_vtp(surface, &z_mm, "z_mm"));
+  write_file_atomically(output.path_of("stock.vdb"), grids.vdb_bytes());
+  write_file_atomically(output.path_of("surface.stl"), removal::mesh_stl(surface));
+  write_file_atomically(output.path_of("surface.vtp"), removal::mesh_vtp(surface, &z_mm, "z_mm"));
   nlohmann::json regions = nlohmann::json::array();
   for (const auto& r : options.regions) {
     regions.push_back({{"min_mm", {r.box_W_m.min_W_m.x() * 1e3, r.box_W_m.min_W_m.y() * 1e3, r.box_W_m.min_W_m.z() * 1e3}},
@@ -190,7 +190,8 @@ int run_level_set(const RemoveOptions& o, const CommandContext& context, const r
       {"surface_triangles", surface.triangles.size()},
       {"seconds", seconds},
       {"orientation_tolerance_um", tolerance_um}};
-  write_file_atomically((dir / "summary.json").string(), summary.dump(2) + "\n");
+  write_file_atomically(output.path_of("summary.json"), json_file_text(summary));
+  output.commit();
   std::ostringstream line;
   line << "cut " << poses.size() << " samples in " << seconds << " s; wrote " << o.out_dir
        << "/{stock.vdb,surface.stl,surface.vtp,summary.json}";
@@ -253,6 +254,9 @@ int run_remove(const RemoveOptions& o, const CommandContext& context) {
     throw InputError("--regions-mm needs --model level-set");
   }
   tool.validate();
+  // The output folder is checked (and its staging folder made) before the trajectory is read.
+  OutputFolder output(o.out_dir, {o.part_path, toolpath_path, machine_path, o.trace_path, o.stock_stl},
+                      {"remove", VMSIM_VERSION});
 
   std::vector<removal::Pose> poses;
   std::string source;
@@ -270,7 +274,7 @@ int run_remove(const RemoveOptions& o, const CommandContext& context) {
   }
   if (poses.empty()) throw InputError(source + ": no trajectory samples");
 
-  if (o.model == "level-set") return run_level_set(o, context, tool, stock, stock_mesh, poses, source);
+  if (o.model == "level-set") return run_level_set(o, context, tool, stock, stock_mesh, poses, source, output);
   const double tolerance_um = o.orientation_tolerance_um > 0.0 ? o.orientation_tolerance_um : 0.05;
   removal::NBuffer buffer = stock_mesh ? removal::NBuffer::zmap(*stock_mesh, o.grid_mm * 1e-3)
                                       : removal::NBuffer::zmap(stock, o.grid_mm * 1e-3);
@@ -285,12 +289,10 @@ int run_remove(const RemoveOptions& o, const CommandContext& context) {
   const removal::CutStatistics stats = buffer.cut(tool, poses, cut);
   const double seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
 
-  std::filesystem::create_directories(o.out_dir);
-  const std::filesystem::path dir(o.out_dir);
   const int stride = removal::stl_stride_for(buffer, o.stl_max_triangles);
-  write_file_atomically((dir / "heights.bin").string(), removal::heights_binary(buffer));
-  if (o.csv) write_file_atomically((dir / "heights.csv").string(), removal::heights_csv(buffer));
-  write_file_atomically((dir / "surface.stl").string(), removal::surface_stl(buffer, stride));
+  write_file_atomically(output.path_of("heights.bin"), removal::heights_binary(buffer));
+  if (o.csv) write_file_atomically(output.path_of("heights.csv"), removal::heights_csv(buffer));
+  write_file_atomically(output.path_of("surface.stl"), removal::surface_stl(buffer, stride));
   double lowest = 1e300;
   for (double h : buffer.lengths()) lowest = std::min(lowest, h);
   nlohmann::json summary = {
@@ -308,7 +310,8 @@ int run_remove(const RemoveOptions& o, const CommandContext& context) {
       {"seconds", seconds},
       {"stl_stride", stride},
       {"orientation_tolerance_um", tolerance_um}};
-  write_file_atomically((dir / "summary.json").string(), summary.dump(2) + "\n");
+  write_file_atomically(output.path_of("summary.json"), json_file_text(summary));
+  output.commit();
   std::ostringstream line;
   line << "cut " << poses.size() << " samples in " << seconds << " s; wrote " << o.out_dir
        << "/{heights.bin" << (o.csv ? ",heights.csv" : "") << ",surface.stl,summary.json}";
@@ -345,7 +348,7 @@ void add_remove_command(CLI::App& app, CommandContext& context) {
   c->add_option("--voxel-mm", o->voxel_mm, "level-set voxel over the whole stock [mm]")->capture_default_str();
   c->add_option("--regions-mm", o->regions_mm, "level-set fine boxes x0,y0,z0,x1,y1,z1[,...] [mm]")->delimiter(',');
   c->add_option("--region-voxel-mm", o->region_voxel_mm, "level-set voxel in the fine boxes [mm]")->capture_default_str();
-  c->add_option("--out", o->out_dir, "output folder")->required();
+  c->add_option("--out", o->out_dir, "output folder (new, empty or a previous vmsim result: replaced as a whole)")->required();
   c->callback([o, &context] { context.result = run_remove(*o, context); });
 }
 

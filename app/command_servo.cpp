@@ -7,6 +7,7 @@
 #include "commands.hpp"
 #include "vmsim/common/errors.hpp"
 #include "vmsim/common/files.hpp"
+#include "vmsim/common/output_folder.hpp"
 #include "vmsim/common/trace.hpp"
 #include "vmsim/kinematics/machine_loader.hpp"
 #include "vmsim/servo/servo.hpp"
@@ -43,6 +44,7 @@ std::vector<int> data_row_lines(const std::string& text) {
 }
 
 int run_servo(const ServoOptions& options, const CommandContext& context) {
+  check_output_file(options.out_path, {options.machine_path, options.setpoints_path});  // before the work
   const kinematics::MachineModel machine = kinematics::load_machine(options.machine_path);
   TraceReadOptions read_options;
   read_options.known_axes.emplace();

@@ -131,7 +131,7 @@ void add_simulate_part_command(CLI::App& app, CommandContext& context) {
       "the whole chain for one part at production and reference feed: marks found and related "
       "to the tool path, report and images (no arguments: the built-in sample, part 1)");
   command->add_option("--part", options->part_path, "part file (part.yaml)")->check(CLI::ExistingFile);
-  command->add_option("--out", options->out_dir, "output folder (replaced)")->capture_default_str();
+  command->add_option("--out", options->out_dir, "output folder: new, empty or a previous vmsim result (replaced as a whole)")->capture_default_str();
   command->add_option("--method", options->method, "feedrate planning: kinematic or dynamic")
       ->capture_default_str();
   command->add_option("--limits", options->limits,

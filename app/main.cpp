@@ -2,6 +2,7 @@
 // the libraries, prints, and turns errors into exit codes (exit_codes.hpp).
 #include <CLI/CLI.hpp>
 #include <exception>
+#include <filesystem>
 #include <iostream>
 
 #include "commands.hpp"
@@ -50,6 +51,10 @@ int main(int argc, char** argv) {
   } catch (const vmsim::viz::NoDisplayError& error) {
     std::cerr << "error: " << error.what() << '\n';
     return kNoDisplay;
+  } catch (const std::filesystem::filesystem_error& error) {
+    // The system refused a file operation (no space, read-only, permission): the user's to fix.
+    std::cerr << "error: " << error.what() << '\n';
+    return kInputError;
   } catch (const std::exception& error) {
     std::cerr << "internal error: " << error.what()
               << "\n(this is a bug in vmsim: please report it with the command line)\n";

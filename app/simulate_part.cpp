@@ -12,11 +12,13 @@
 #include <sstream>
 
 #include "chain_inputs.hpp"
+#include "json_text.hpp"
 #include "part_file.hpp"
 #include "surface_views.hpp"
 #include "validity_checks.hpp"
 #include "vmsim/common/errors.hpp"
 #include "vmsim/common/files.hpp"
+#include "vmsim/common/output_folder.hpp"
 #include "vmsim/common/trace.hpp"
 #include "vmsim/kinematics/kinematics.hpp"
 #include "vmsim/kinematics/path_kinematics.hpp"
@@ -651,7 +653,7 @@ std::string html_report(const Json& report, const std::vector<std::string>& imag
   for (const std::string& image : images) {
     html << "<h3>" << html_escape(image) << "</h3><img src=\"" << html_escape(image) << "\">\n";
   }
-  html << "<h2>Stage times [s]</h2><pre>" << html_escape(report["stage_seconds"].dump(2))
+  html << "<h2>Stage times [s]</h2><pre>" << html_escape(json_file_text(report["stage_seconds"]))
        << "</pre>\n</body></html>\n";
   return html.str();
 }
@@ -876,6 +878,12 @@ Json simulate_part(const SimulatePartOptions& options, const ProgressSink& progr
   chain_options.part_path = options.part_path;
   chain_options.corner_tolerance_m = options.corner_tolerance_m;
   Context context{options, progress, load_part(options.part_path), load_chain_inputs(chain_options), {}, {}, {}, {}, {}};
+  // The output folder is checked (and its staging folder made) before any computation: a bad
+  // --out fails at once, and nothing the user owns is ever replaced.
+  OutputFolder output(options.out_dir,
+                      {options.part_path, context.part.machine_path, context.part.toolpath_path,
+                       context.part.stock_stl_path, context.inputs.machine.source_file},
+                      {"simulate-part", VMSIM_VERSION});
   if (context.part.stock_mesh) {
     context.stock = {context.part.stock_mesh->bounds(), &*context.part.stock_mesh};
   } else if (context.part.stock) {
@@ -1069,48 +1077,39 @@ Json simulate_part(const SimulatePartOptions& options, const ProgressSink& progr
   report["singular_zones"] = context.path.singular_zones.size();
   report["renders"] = Json::object();
 
-  // Assemble the output folder under a temporary name; rename it into place at the end.
-  const std::filesystem::path out(options.out_dir);
-  const std::filesystem::path staging = out.string() + ".tmp-" + std::to_string(::getpid());
-  std::filesystem::remove_all(staging);
-  std::filesystem::create_directories(staging);
-  try {
-    stage_clock = Clock::now();
-    progress("writing surfaces ...");
-    for (std::size_t v = 0; v < context.views.size(); ++v) {
-      const SurfaceView& view = context.views[v];
-      const std::string suffix = view_file_suffix(view);
-      write_file_atomically((staging / ("production_heights" + suffix + ".bin")).string(),
-                            removal::heights_binary(production.buffers[v]));
-      write_file_atomically((staging / ("reference_heights" + suffix + ".bin")).string(),
-                            removal::heights_binary(reference.buffers[v]));
-      // .vtp at most about 1 M points (the exact lengths are in the .bin files).
-      const int stride = std::max(1, static_cast<int>(std::ceil(std::sqrt(
-                                         static_cast<double>(production.buffers[v].line_count()) / 1.0e6))));
-      viz::write_surface_vtp((staging / ("production" + suffix + ".vtp")).string(),
-                             view_height_field(view, production.buffers[v], &comparisons[v].deviation_m, stride));
-      viz::write_surface_vtp((staging / ("reference" + suffix + ".vtp")).string(),
-                             view_height_field(view, reference.buffers[v], nullptr, stride));
-      surface["views"][v]["vtp_stride"] = stride;
-    }
-    surface["vtp_stride"] = surface["views"][0]["vtp_stride"];
-    report["surface"] = surface;
-    std::vector<std::string> images;
-    write_renders(context, production, reference, comparisons, staging, report, images);
-    stage_seconds["outputs"] = seconds_since(stage_clock);
-    stage_seconds["production"] = stage_times(production);
-    stage_seconds["reference"] = stage_times(reference);
-    stage_seconds["total"] = seconds_since(start);
-    report["stage_seconds"] = stage_seconds;
-    write_file_atomically((staging / "report.json").string(), report.dump(2) + "\n");
-    write_file_atomically((staging / "report.html").string(), html_report(report, images));
-    std::filesystem::remove_all(out);
-    if (!out.parent_path().empty()) std::filesystem::create_directories(out.parent_path());
-    std::filesystem::rename(staging, out);
-  } catch (...) {
-    std::filesystem::remove_all(staging);
-    throw;
+  // Everything goes into the staging folder, swapped in whole at the end (a failure before
+  // that leaves the previous results as they were).
+  const std::filesystem::path& staging = output.staging();
+  stage_clock = Clock::now();
+  progress("writing surfaces ...");
+  for (std::size_t v = 0; v < context.views.size(); ++v) {
+    const SurfaceView& view = context.views[v];
+    const std::string suffix = view_file_suffix(view);
+    write_file_atomically((staging / ("production_heights" + suffix + ".bin")).string(),
+                          removal::heights_binary(production.buffers[v]));
+    write_file_atomically((staging / ("reference_heights" + suffix + ".bin")).string(),
+                          removal::heights_binary(reference.buffers[v]));
+    // .vtp at most about 1 M points (the exact lengths are in the .bin files).
+    const int stride = std::max(1, static_cast<int>(std::ceil(std::sqrt(
+                                       static_cast<double>(production.buffers[v].line_count()) / 1.0e6))));
+    viz::write_surface_vtp((staging / ("production" + suffix + ".vtp")).string(),
+                           view_height_field(view, production.buffers[v], &comparisons[v].deviation_m, stride));
+    viz::write_surface_vtp((staging / ("reference" + suffix + ".vtp")).string(),
+                           view_height_field(view, reference.buffers[v], nullptr, stride));
+    surface["views"][v]["vtp_stride"] = stride;
   }
+  surface["vtp_stride"] = surface["views"][0]["vtp_stride"];
+  report["surface"] = surface;
+  std::vector<std::string> images;
+  write_renders(context, production, reference, comparisons, staging, report, images);
+  stage_seconds["outputs"] = seconds_since(stage_clock);
+  stage_seconds["production"] = stage_times(production);
+  stage_seconds["reference"] = stage_times(reference);
+  stage_seconds["total"] = seconds_since(start);
+  report["stage_seconds"] = stage_seconds;
+  write_file_atomically((staging / "report.json").string(), json_file_text(report));
+  write_file_atomically((staging / "report.html").string(), html_report(report, images));
+  output.commit();
   return report;
 }
 

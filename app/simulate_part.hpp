@@ -65,7 +65,9 @@ struct SimulatePartOptions {
 using ProgressSink = std::function<void(const std::string& line)>;
 
 /// Runs the chain and writes everything into options.out_dir (complete or not at all: the
-/// folder is assembled under a temporary name and renamed). Returns the report (also written
+/// folder is assembled in a staging folder beside it and swapped in whole; an existing folder
+/// is replaced only when empty or a previous vmsim result, see vmsim/common/output_folder.hpp,
+/// which is checked once the inputs are read, before any computation). Returns the report (also written
 /// as report.json). Renders are skipped, with the reason in the report, when no display is
 /// there; every numerical result is written all the same.
 nlohmann::json simulate_part(const SimulatePartOptions& options, const ProgressSink& progress);
