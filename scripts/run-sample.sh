@@ -20,6 +20,13 @@ run_with_display() {
   fi
 }
 
+# A result of a vmsim from before result folders carried their marker (.vmsim-result) is refused
+# as a folder vmsim did not write: this script's own output folder is cleared of such a result.
+if [[ -d "$out" && ! -e "$out/.vmsim-result" && -e "$out/report.json" ]]; then
+  echo "== removing $out: a result of an earlier vmsim (no .vmsim-result marker)"
+  rm -rf "$out"
+fi
+
 echo "== simulate-part: sample part 1 (second paper), Mikron UCP710, 10 m/min vs 0.1 m/min"
 run_with_display "$vmsim" simulate-part --out "$out"
 
