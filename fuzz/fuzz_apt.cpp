@@ -1,0 +1,12 @@
+// Fuzz target: the APT/CL (planner/src/apt_reader.cpp) through planner::read_toolpath, with the
+// options app/chain_inputs.cpp gives it (the Mikron sample's direct kinematics for axis words).
+#include "fuzz_support.hpp"
+
+extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size) {
+  static const vmsim::fuzz::SampleMachineReaderOptions reader;
+  const std::filesystem::path path = vmsim::fuzz::work_folder("apt") / "toolpath.apt";
+  vmsim::fuzz::write_bytes(path, data, size);
+  vmsim::fuzz::expect_only_typed_errors(
+      [&] { vmsim::planner::read_toolpath(path.string(), reader.options()); });
+  return 0;
+}

@@ -1,0 +1,122 @@
+#pragma once
+// What every fuzz target shares (README, "Hostile testing"): a private folder for the files the
+// readers open, the rule of what counts as an expected outcome, and the sample machine's direct
+// kinematics for the tool path readers' callbacks.
+//
+// A target writes the fuzzer's bytes to a file with the extension the app uses and calls the
+// library reader the app calls. vmsim's typed errors (InputError, InfeasibleError) are the
+// expected outcome of bad input; any other exception escapes (libFuzzer reports it as a crash),
+// and so do crashes, hangs (-timeout) and sanitizer reports.
+#include <unistd.h>
+
+#include <cstdint>
+#include <cstdio>
+#include <cstdlib>
+#include <filesystem>
+#include <fstream>
+#include <numbers>
+#include <stdexcept>
+#include <string>
+#include <utility>
+#include <vector>
+
+#include "vmsim/common/errors.hpp"
+#include "vmsim/kinematics/kinematics.hpp"
+#include "vmsim/kinematics/machine_loader.hpp"
+#include "vmsim/kinematics/machine_model.hpp"
+#include "vmsim/planner/toolpath.hpp"
+
+namespace vmsim::fuzz {
+
+/// The repository root (samples/), compiled in.
+inline std::string source_dir() { return VMSIM_SOURCE_DIR; }
+
+/// A folder of this process, removed at exit: `vmsim_fuzz_<target>_<pid>` under TMPDIR.
+inline const std::filesystem::path& work_folder(const char* target) {
+  // Never destroyed: the exit handler below still needs it after static destructors ran.
+  static const std::filesystem::path* folder = [target] {
+    auto* path = new std::filesystem::path(std::filesystem::temp_directory_path() /
+                                           (std::string("vmsim_fuzz_") + target + "_" +
+                                            std::to_string(::getpid())));
+    std::filesystem::remove_all(*path);
+    std::filesystem::create_directories(*path);
+    std::atexit([] {
+      std::error_code ignored;
+      std::filesystem::remove_all(*folder, ignored);
+    });
+    return path;
+  }();
+  return *folder;
+}
+
+/// Writes bytes to a file (created or truncated); aborts when it cannot (not a finding).
+inline void write_bytes(const std::filesystem::path& path, const void* data, std::size_t size) {
+  std::ofstream out(path, std::ios::binary | std::ios::trunc);
+  out.write(static_cast<const char*>(data), static_cast<std::streamsize>(size));
+  out.close();
+  if (!out) {
+    std::fprintf(stderr, "fuzz: cannot write %s\n", path.c_str());
+    std::abort();
+  }
+}
+
+inline std::string read_bytes(const std::filesystem::path& path) {
+  std::ifstream in(path, std::ios::binary);
+  if (!in) {
+    std::fprintf(stderr, "fuzz: cannot read %s\n", path.c_str());
+    std::abort();
+  }
+  return {std::istreambuf_iterator<char>(in), std::istreambuf_iterator<char>()};
+}
+
+/// Runs `read`; vmsim's typed errors are an expected outcome, anything else escapes.
+template <typename Read>
+void expect_only_typed_errors(Read&& read) {
+  try {
+    read();
+  } catch (const InputError&) {
+  } catch (const InfeasibleError&) {
+  }
+}
+
+/// Options for the tool path readers as app/chain_inputs.cpp builds them: the axis words go
+/// through the direct kinematics of the Mikron UCP710 sample (X Y Z A C) with a 100 mm tool.
+class SampleMachineReaderOptions {
+ public:
+  SampleMachineReaderOptions()
+      : machine_(kinematics::load_machine(source_dir() + "/samples/machines/mikron_ucp710.yaml")) {
+    options_.rotary_words_to_tool_axis = [this](const auto& words) {
+      return kinematics::forward_kinematics(machine_, axes_from_words(words), kToolLength_m).axis_W;
+    };
+    options_.axis_words_to_pose = [this](const auto& words) {
+      const kinematics::ToolPose pose =
+          kinematics::forward_kinematics(machine_, axes_from_words(words), kToolLength_m);
+      return planner::AxisWordPose{pose.tip_W_m, pose.axis_W};
+    };
+  }
+  SampleMachineReaderOptions(const SampleMachineReaderOptions&) = delete;
+  SampleMachineReaderOptions& operator=(const SampleMachineReaderOptions&) = delete;
+
+  const planner::ReaderOptions& options() const { return options_; }
+
+ private:
+  static constexpr double kToolLength_m = 0.1;
+
+  // As app/chain_inputs.cpp (axes_from_words): letters must name axes of the machine.
+  Eigen::VectorXd axes_from_words(const std::vector<std::pair<char, double>>& words) const {
+    Eigen::VectorXd q = machine_.home_positions();
+    for (const auto& [letter, value] : words) {
+      const int index = machine_.axis_index(std::string(1, letter));
+      if (index < 0) throw InputError(std::string("axis word ") + letter + " names no axis");
+      const auto& axis = machine_.axes[static_cast<std::size_t>(index)];
+      q[index] = axis.type == kinematics::AxisType::linear ? value * 1e-3
+                                                           : value * std::numbers::pi / 180.0;
+    }
+    return q;
+  }
+
+  kinematics::MachineModel machine_;
+  planner::ReaderOptions options_;
+};
+
+}  // namespace vmsim::fuzz
