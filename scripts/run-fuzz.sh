@@ -3,7 +3,8 @@
 # (it installs clang): builds fuzz/ with clang and ASan + UBSan (+ libFuzzer coverage) in
 # build-fuzz/, runs the readers' and loaders' unit tests under the sanitizers, replays the saved
 # reproducers (fuzz/regressions/<target>/), then fuzzes each reader for a bounded time from a
-# seed corpus (fuzz/seeds/<target>/ and the samples, copied at run time).
+# seed corpus (fuzz/seeds/<target>/ and the samples, copied at run time) with the reader's
+# dictionary (fuzz/dicts/<target>.dict).
 #
 # Prints per target the executions and coverage; exits non-zero on any failing sanitizer test,
 # crash, uncaught exception, leak, timeout, out-of-memory or sanitizer report. The input that
@@ -107,9 +108,11 @@ fuzz_target() {
       status="regression"
     fi
   fi
+  local dict=()
+  if [[ -f "fuzz/dicts/$target.dict" ]]; then dict=(-dict="fuzz/dicts/$target.dict"); fi
   "$program" -max_total_time="$seconds" -timeout="$timeout" -rss_limit_mb=2048 \
-    -max_len="$max_len" -print_final_stats=1 -artifact_prefix="$crashes/" "${extra_args[@]}" \
-    "$corpus" "$seeds" "fuzz/seeds/$target" > "$log" 2>&1 || status="finding"
+    -max_len="$max_len" -print_final_stats=1 -artifact_prefix="$crashes/" "${dict[@]}" \
+    "${extra_args[@]}" "$corpus" "$seeds" "fuzz/seeds/$target" > "$log" 2>&1 || status="finding"
   if [[ $status == ok && -n "$(find "$crashes" -type f -newer "$seeds" | head -n 1)" ]]; then
     status="finding"  # -fork with -ignore_crashes keeps going but saves what it found
   fi
