@@ -1,7 +1,10 @@
 // Fuzz target: the part file reader (app/part_file.cpp), app::load_part. Beside the part file:
 // a small closed STL as stock.stl (the name part 3's seed gives `stock: {stl: ...}`), so that the
 // stock mesh branch is reached without reading the sample's 1.6 MB mesh on every run. The
-// machine and tool path named in the file are only resolved by load_part, not read.
+// machine and tool path named in the file are only resolved by load_part, not read. A part it
+// returns must have finite tool and stock numbers (check_part).
+#include <cmath>
+
 #include "fuzz_support.hpp"
 #include "part_file.hpp"
 
@@ -20,6 +23,25 @@ constexpr char kStockStl[] =
     " endloop\nendfacet\n"
     "endsolid tetra\n";
 
+void check_part(const vmsim::app::PartDescription& part) {
+  using vmsim::fuzz::require;
+  const vmsim::app::ToolDescription& tool = part.tool;
+  require(std::isfinite(tool.diameter_m) && tool.diameter_m > 0.0, "tool diameter finite, > 0");
+  require(std::isfinite(tool.length_m) && tool.length_m > 0.0, "tool length finite, > 0");
+  require(std::isfinite(tool.corner_radius_m) && tool.corner_radius_m >= 0.0 &&
+              tool.corner_radius_m <= tool.diameter_m / 2.0,
+          "tool corner radius finite, 0 <= r <= D/2");
+  require(std::isfinite(tool.cutting_length_m) && tool.cutting_length_m >= 0.0,
+          "tool cutting length finite, >= 0");
+  if (part.stock) {
+    require(part.stock->min_W_m.allFinite() && part.stock->max_W_m.allFinite(), "stock box finite");
+  }
+  require(std::isfinite(part.production_feed_m_per_s) && part.production_feed_m_per_s > 0.0,
+          "production feed finite, > 0");
+  require(std::isfinite(part.reference_feed_m_per_s) && part.reference_feed_m_per_s > 0.0,
+          "reference feed finite, > 0");
+}
+
 }  // namespace
 
 extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size) {
@@ -30,6 +52,6 @@ extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size
   }();
   const std::filesystem::path path = folder / "part.yaml";
   vmsim::fuzz::write_bytes(path, data, size);
-  vmsim::fuzz::expect_only_typed_errors([&] { vmsim::app::load_part(path.string()); });
+  vmsim::fuzz::expect_only_typed_errors([&] { check_part(vmsim::app::load_part(path.string())); });
   return 0;
 }

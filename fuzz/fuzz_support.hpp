@@ -9,6 +9,7 @@
 // and so do crashes, hangs (-timeout) and sanitizer reports.
 #include <unistd.h>
 
+#include <cmath>
 #include <cstdint>
 #include <cstdio>
 #include <cstdlib>
@@ -69,6 +70,15 @@ inline std::string read_bytes(const std::filesystem::path& path) {
   return {std::istreambuf_iterator<char>(in), std::istreambuf_iterator<char>()};
 }
 
+/// A law of the reader's output (what its header promises): when broken, says which and aborts,
+/// a finding like a crash.
+inline void require(bool holds, const char* law) {
+  if (!holds) {
+    std::fprintf(stderr, "fuzz: the reader's output breaks a law: %s\n", law);
+    std::abort();
+  }
+}
+
 /// Runs `read`; vmsim's typed errors are an expected outcome, anything else escapes.
 template <typename Read>
 void expect_only_typed_errors(Read&& read) {
@@ -76,6 +86,28 @@ void expect_only_typed_errors(Read&& read) {
     read();
   } catch (const InputError&) {
   } catch (const InfeasibleError&) {
+  }
+}
+
+/// What every tool path a reader returns must satisfy (planner/toolpath.hpp): motion, finite
+/// tips, unit axes, feeds finite and not negative, each point naming one of the blocks.
+inline void check_toolpath(const planner::Toolpath& path) {
+  require(!path.points.empty(), "a tool path has at least one point (else 'no motion')");
+  for (const planner::PathPoint& point : path.points) {
+    require(point.tip_W_m.allFinite(), "tool tip finite");
+    require(point.axis_W.allFinite() && std::abs(point.axis_W.norm() - 1.0) < 1e-9,
+            "tool axis unit");
+    require(std::isfinite(point.feed_m_per_s) && point.feed_m_per_s >= 0.0, "feed finite, >= 0");
+    require(std::isfinite(point.inverse_time_feed_per_s) && point.inverse_time_feed_per_s >= 0.0,
+            "inverse-time feed finite, >= 0");
+    require(point.block >= 0 && static_cast<std::size_t>(point.block) < path.blocks.size(),
+            "point.block indexes Toolpath::blocks");
+  }
+  if (path.cutter_diameter_m) {
+    require(std::isfinite(*path.cutter_diameter_m), "cutter diameter finite");
+  }
+  if (path.cutter_corner_radius_m) {
+    require(std::isfinite(*path.cutter_corner_radius_m), "cutter corner radius finite");
   }
 }
 
