@@ -28,9 +28,8 @@ void check_part(const vmsim::app::PartDescription& part) {
   const vmsim::app::ToolDescription& tool = part.tool;
   require(std::isfinite(tool.diameter_m) && tool.diameter_m > 0.0, "tool diameter finite, > 0");
   require(std::isfinite(tool.length_m) && tool.length_m > 0.0, "tool length finite, > 0");
-  require(std::isfinite(tool.corner_radius_m) && tool.corner_radius_m >= 0.0 &&
-              tool.corner_radius_m <= tool.diameter_m / 2.0,
-          "tool corner radius finite, 0 <= r <= D/2");
+  // Its range is checked where the tool is built (removal::Tool), not here.
+  require(std::isfinite(tool.corner_radius_m), "tool corner radius finite");
   require(std::isfinite(tool.cutting_length_m) && tool.cutting_length_m >= 0.0,
           "tool cutting length finite, >= 0");
   if (part.stock) {
