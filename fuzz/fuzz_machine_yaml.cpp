@@ -14,6 +14,8 @@ extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size
   }();
   const std::filesystem::path path = folder / "machine.yaml";
   vmsim::fuzz::write_bytes(path, data, size);
-  vmsim::fuzz::expect_only_typed_errors([&] { vmsim::kinematics::load_machine(path.string()); });
+  vmsim::fuzz::expect_only_typed_errors([&] {
+    vmsim::fuzz::check_machine(vmsim::kinematics::load_machine(path.string()));
+  });
   return 0;
 }

@@ -111,6 +111,28 @@ inline void check_toolpath(const planner::Toolpath& path) {
   }
 }
 
+/// What every machine the loader returns must satisfy (kinematics/machine_model.hpp): finite
+/// home positions, gravity and a positive period, chains of finite poses, unit joint directions
+/// and finite bodies (travel may be unbounded on a continuous axis).
+inline void check_machine(const kinematics::MachineModel& machine) {
+  require(!machine.axes.empty(), "a machine has axes");
+  require(machine.home_positions().allFinite(), "home positions finite");
+  require(machine.gravity_B_m_per_s2.allFinite(), "gravity finite");
+  require(std::isfinite(machine.interpolation_period_s) && machine.interpolation_period_s > 0.0,
+          "interpolation period finite, > 0");
+  for (const kinematics::Chain* chain : {&machine.workpiece_chain, &machine.tool_chain}) {
+    for (const kinematics::Joint& joint : *chain) {
+      require(joint.origin.matrix().allFinite(), "joint origin finite");
+      require(joint.direction.allFinite() && std::abs(joint.direction.norm() - 1.0) < 1e-9,
+              "joint direction unit");
+      require(std::isfinite(joint.body.mass_kg) && joint.body.mass_kg >= 0.0,
+              "body mass finite, >= 0");
+      require(joint.body.com_m.allFinite() && joint.body.inertia_kg_m2.allFinite(),
+              "body centre of mass and inertia finite");
+    }
+  }
+}
+
 /// Options for the tool path readers as app/chain_inputs.cpp builds them: the axis words go
 /// through the direct kinematics of the Mikron UCP710 sample (X Y Z A C) with a 100 mm tool.
 class SampleMachineReaderOptions {

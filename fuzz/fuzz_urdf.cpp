@@ -1,6 +1,7 @@
 // Fuzz target: the URDF import (kinematics/src/machine_urdf.cpp, urdfdom underneath). The bytes
 // are the URDF file kr180_class.urdf; beside it, the robot sample's machine file that loads it
-// (samples/machines/kr180_class_urdf.yaml), read through kinematics::load_machine.
+// (samples/machines/kr180_class_urdf.yaml), read through kinematics::load_machine; a machine it
+// returns must keep check_machine's laws.
 #include "fuzz_support.hpp"
 
 extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size) {
@@ -12,6 +13,8 @@ extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size
     return work / "kr180_class_urdf.yaml";
   }();
   vmsim::fuzz::write_bytes(machine.parent_path() / "kr180_class.urdf", data, size);
-  vmsim::fuzz::expect_only_typed_errors([&] { vmsim::kinematics::load_machine(machine.string()); });
+  vmsim::fuzz::expect_only_typed_errors([&] {
+    vmsim::fuzz::check_machine(vmsim::kinematics::load_machine(machine.string()));
+  });
   return 0;
 }
