@@ -1,7 +1,8 @@
 // Fuzz target: the machine description loader (kinematics/src/machine_loader*.cpp),
 // kinematics::load_machine as app/chain_inputs.cpp calls it. The robot sample's URDF is written
 // beside the file as kr180_class.urdf, so that `structure: {urdf: kr180_class.urdf}` (the seed
-// kr180_class_urdf.yaml) reaches the URDF import too.
+// kr180_class_urdf.yaml) reaches the URDF import too. A machine it returns must keep the laws
+// of check_machine.
 #include "fuzz_support.hpp"
 
 extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size) {
