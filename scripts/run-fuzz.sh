@@ -89,7 +89,7 @@ seed_samples() {
 
 # 3. Replay the reproducers, then fuzz; one result line per target in $logs/<target>.result.
 fuzz_target() {
-  local target=$1 program=$build_dir/fuzz_$1 log=$logs/fuzz_$1.log status=ok
+  local target=$1 program=$build_dir/fuzz_$1 log=$logs/fuzz_$1.log status=ok finding=0
   local seeds=$build_dir/seeds/$target corpus=$build_dir/corpus/$target
   local crashes=$build_dir/crashes/$target
   rm -rf "$seeds"
@@ -102,19 +102,27 @@ fuzz_target() {
   while IFS= read -r file; do
     [[ -n "$file" ]] && replay+=("$file")
   done < <(find "fuzz/regressions/$target" -type f ! -name README 2>/dev/null | sort)
-  if ((${#replay[@]} > 0)); then
-    if ! "$program" -timeout="$timeout" -rss_limit_mb=2048 "${replay[@]}" \
-        > "$logs/replay_$target.log" 2>&1; then
+  # One process per reproducer, so that each is reported; libFuzzer does not time a replayed
+  # file, hence `timeout`.
+  : > "$logs/replay_$target.log"
+  : > "$logs/replay_$target.failed"
+  for file in "${replay[@]}"; do
+    if ! timeout "$timeout" "$program" -rss_limit_mb=2048 "$file" \
+        >> "$logs/replay_$target.log" 2>&1; then
       status="regression"
+      echo "$file" >> "$logs/replay_$target.failed"
     fi
-  fi
+  done
   local dict=()
   if [[ -f "fuzz/dicts/$target.dict" ]]; then dict=(-dict="fuzz/dicts/$target.dict"); fi
   "$program" -max_total_time="$seconds" -timeout="$timeout" -rss_limit_mb=2048 \
     -max_len="$max_len" -print_final_stats=1 -artifact_prefix="$crashes/" "${dict[@]}" \
-    "${extra_args[@]}" "$corpus" "$seeds" "fuzz/seeds/$target" > "$log" 2>&1 || status="finding"
-  if [[ $status == ok && -n "$(find "$crashes" -type f -newer "$seeds" | head -n 1)" ]]; then
-    status="finding"  # -fork with -ignore_crashes keeps going but saves what it found
+    "${extra_args[@]}" "$corpus" "$seeds" "fuzz/seeds/$target" > "$log" 2>&1 || finding=1
+  if [[ -n "$(find "$crashes" -type f -newer "$seeds" | head -n 1)" ]]; then
+    finding=1  # -fork with -ignore_crashes keeps going but saves what it found
+  fi
+  if ((finding)); then
+    if [[ $status == ok ]]; then status="finding"; else status="$status+finding"; fi
   fi
   local final execs
   final=$(grep -E '^#[0-9]+.* cov: ' "$log" | tail -n 1 || true)
@@ -142,12 +150,16 @@ for target in "${targets[@]}"; do
   printf '%-13s %-10s %12s  %s\n' "$name" "$status" "$execs" "$final"
   if [[ $status != ok ]]; then
     failures+=("fuzz_$name ($status)")
-    if [[ $status == regression ]]; then
-      grep -E 'ERROR|SUMMARY|Running:|runtime error|terminate|what\(\)' "$logs/replay_$name.log" | head -n 20 >&2 || true
-      echo "  replay log: $logs/replay_$name.log" >&2
+    if [[ $status == regression* ]]; then
+      while IFS= read -r file; do
+        echo "  reproducer fails: $file" >&2
+      done < "$logs/replay_$name.failed"
+      grep -E 'ERROR: |SUMMARY: |runtime error|terminate called|what\(\)|breaks a law' \
+        "$logs/replay_$name.log" | head -n 20 >&2 || true
+      echo "  replay log: $logs/replay_$name.log (a reproducer without a report: over ${timeout} s)" >&2
     fi
-    if grep -qE 'ERROR: |runtime error|SUMMARY: |terminate called' "$logs/fuzz_$name.log"; then
-      grep -E 'ERROR: |runtime error|SUMMARY: |terminate called|what\(\)|Test unit written' \
+    if grep -qE 'ERROR: |runtime error|SUMMARY: |terminate called|breaks a law' "$logs/fuzz_$name.log"; then
+      grep -E 'ERROR: |runtime error|SUMMARY: |terminate called|what\(\)|breaks a law|Test unit written' \
         "$logs/fuzz_$name.log" | head -n 20 >&2 || true
       echo "  log: $logs/fuzz_$name.log; inputs: $build_dir/crashes/$name/" >&2
     fi
