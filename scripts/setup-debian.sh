@@ -2,6 +2,7 @@
 # Installs the Debian 12 packages the vmsim build and tests need (run as root).
 # Idempotent: when every package is present it only checks and returns in about a second.
 # Keep this list in step with the find_package() calls in CMakeLists.txt (DEBIAN-NOTES trap 5).
+# Extra arguments are further packages to install the same way (scripts/run-fuzz.sh: clang).
 set -euo pipefail
 
 packages=(
@@ -18,6 +19,7 @@ packages=(
   libopenvdb-dev libboost-iostreams-dev  # level-set material removal (OpenVDB's CMake needs boost_iostreams)
   libvtk9-dev xvfb xauth libgl1-mesa-dri   # off-screen rendering (viz)
   fonts-dejavu-core      # viz text: VTK 9.1's embedded Arial draws [ ] as ( )
+  "$@"
 )
 
 missing=()
