@@ -414,6 +414,8 @@ Fit fit_cogging(const Context& ctx, const DriveModel& base, const Evaluation& ev
   const PeriodicRegression best_fit = regress_periodic(
       ctx, ev, periods, [&](const Dataset& d, std::size_t i) { return sign_band(d.vc[i], band); },
       false);  // the sign column keeps a friction error from leaking in
+  // No period explained anything (an axis that hardly moves gives NaN sums): nothing to fit.
+  if (best_fit.c.size() < 2 || !best_fit.c.allFinite()) return Fit{};
   const int best_n = static_cast<int>(std::lround(kTwoPi * r / best_fit.period));
   const Eigen::VectorXd& best_c = best_fit.c;
   auto apply = [&](const std::vector<double>& th) {
@@ -466,6 +468,7 @@ Fit fit_pitch(const Context& ctx, const DriveModel& base, const Evaluation& ev) 
   for (double ratio : {0.25, 1.0 / 3.0, 0.5, 1.0, 2.0, 3.0, 4.0}) periods.push_back(ratio * lead);
   const PeriodicRegression best_fit =
       regress_periodic(ctx, ev, periods, [](const Dataset&, std::size_t) { return 1.0; }, true);
+  if (best_fit.c.size() < 2 || !best_fit.c.allFinite()) return Fit{};
   const double best_period = best_fit.period;
   const Eigen::VectorXd& best_c = best_fit.c;
   auto apply = [&](const std::vector<double>& th) {

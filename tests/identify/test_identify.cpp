@@ -140,5 +140,23 @@ TEST(Diagnose, RejectsATraceWithoutEffort) {
   EXPECT_THROW(extract_measurements(machine, log, "x.csv"), InputError);
 }
 
+// An axis that stands still the whole trace (the A and C axes of a 3-axis part program) gave the
+// periodic fits (cogging, pitch error) no period at all, and diagnose crashed on it.
+TEST(Diagnose, AnAxisAtStandstillFindsNothingAndDoesNotCrash) {
+  const kinematics::MachineModel machine = kinematics::load_machine(kBench);
+  Trace log;
+  log.columns = {"t", "X.cmd", "X.pos", "X.cur"};
+  const std::size_t n = 2000;
+  log.values.assign(4, std::vector<double>(n, 0.0));
+  for (std::size_t i = 0; i < n; ++i) {
+    log.values[0][i] = 1e-3 * static_cast<double>(i);
+    log.values[1][i] = log.values[2][i] = 5.0;
+  }
+  const auto data = extract_measurements(machine, log, "standstill.csv");
+  const Diagnosis d = diagnose(machine, data, {});
+  ASSERT_EQ(d.axes.size(), 1u);
+  EXPECT_TRUE(d.axes[0].found.empty());
+}
+
 }  // namespace
 }  // namespace vmsim::identify::test
