@@ -25,6 +25,7 @@ struct DiagnoseCommandOptions {
 
 int run_diagnose(const DiagnoseCommandOptions& options, const CommandContext& context) {
   const kinematics::MachineModel machine = kinematics::load_machine(options.machine_path);
+  for (const std::string& warning : machine.warnings) context.warn(warning);
   TraceReadOptions read_options;
   read_options.known_axes.emplace();
   for (const auto& axis : machine.axes) read_options.known_axes->insert(axis.name);

@@ -35,6 +35,7 @@ std::string directory_of(const std::string& path) {
 
 int run_identify(const IdentifyCommandOptions& options, const CommandContext& context) {
   kinematics::MachineModel machine = kinematics::load_machine(options.machine_path);
+  for (const std::string& warning : machine.warnings) context.warn(warning);
   TraceReadOptions read_options;
   read_options.known_axes.emplace();
   for (const auto& axis : machine.axes) read_options.known_axes->insert(axis.name);

@@ -59,7 +59,8 @@ class PartReader {
     if (!node.IsScalar()) fail(node, field + ": expected a number, got " + what(node));
     const kinematics::NumberText number = kinematics::parse_number_text(node.Scalar());
     if (!number.ok) fail(node, field + ": '" + node.Scalar() + "' " + number.problem);
-    if (field.ends_with("_mm") && std::abs(number.value) > kCoordinateLimit_mm) {
+    if (field.ends_with("_mm") && !field.ends_with("_per_mm") &&
+        std::abs(number.value) > kCoordinateLimit_mm) {
       fail(node, field + ": " + node.Scalar() + " mm is not a plausible length (more than 1 km)");
     }
     return number.value;
@@ -80,7 +81,10 @@ class PartReader {
 
   std::vector<double> numbers(const YAML::Node& node, const std::string& field, std::size_t count) const {
     if (!node.IsSequence() || node.size() != count) {
-      fail(node, field + ": expected a list of " + std::to_string(count) + " numbers, got " + what(node));
+      const std::string expected = count == 3 ? "[x, y, z]" : "a list of " + std::to_string(count) + " numbers";
+      const std::string got =
+          node.IsSequence() ? "a list of " + std::to_string(node.size()) : what(node);
+      fail(node, field + ": expected " + expected + ", got " + got);
     }
     std::vector<double> values;
     for (std::size_t i = 0; i < count; ++i) values.push_back(number(node[i], field));
