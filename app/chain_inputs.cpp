@@ -55,6 +55,7 @@ ChainInputs load_chain_inputs(const ChainInputOptions& options) {
   double tool_length_m = options.tool_length_mm >= 0.0 ? options.tool_length_mm * 1e-3 : -1.0;
   if (!options.part_path.empty()) {
     const PartDescription part = load_part(options.part_path);
+    inputs.warnings.insert(inputs.warnings.end(), part.warnings.begin(), part.warnings.end());
     if (machine_path.empty()) machine_path = part.machine_path;
     if (toolpath_path.empty()) toolpath_path = part.toolpath_path;
     if (tool_length_m < 0.0) tool_length_m = part.tool.length_m;
@@ -64,6 +65,8 @@ ChainInputs load_chain_inputs(const ChainInputOptions& options) {
   if (tool_length_m < 0.0) throw InputError("no tool length: give --tool-length-mm or --part");
   inputs.tool_length_m = tool_length_m;
   inputs.machine = kinematics::load_machine(machine_path);
+  inputs.warnings.insert(inputs.warnings.end(), inputs.machine.warnings.begin(),
+                         inputs.machine.warnings.end());
 
   planner::ReaderOptions reader;
   const kinematics::MachineModel& machine = inputs.machine;

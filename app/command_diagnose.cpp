@@ -28,6 +28,7 @@ int run_diagnose(const DiagnoseCommandOptions& options, const CommandContext& co
   OutputFolder output(options.out_dir, {options.machine_path, options.trace_path, options.validate_path},
                       {"diagnose", VMSIM_VERSION});
   const kinematics::MachineModel machine = kinematics::load_machine(options.machine_path);
+  for (const std::string& warning : machine.warnings) context.warn(warning);
   TraceReadOptions read_options;
   read_options.known_axes.emplace();
   for (const auto& axis : machine.axes) read_options.known_axes->insert(axis.name);

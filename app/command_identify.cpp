@@ -39,6 +39,7 @@ int run_identify(const IdentifyCommandOptions& options, const CommandContext& co
   input_files.push_back(options.machine_path);
   check_output_file(options.out_path, input_files);  // before the work: never an input
   kinematics::MachineModel machine = kinematics::load_machine(options.machine_path);
+  for (const std::string& warning : machine.warnings) context.warn(warning);
   TraceReadOptions read_options;
   read_options.known_axes.emplace();
   for (const auto& axis : machine.axes) read_options.known_axes->insert(axis.name);

@@ -24,6 +24,7 @@
 #include "vmsim/common/trace.hpp"
 #include "vmsim/kinematics/kinematics.hpp"
 #include "vmsim/kinematics/machine_loader.hpp"
+#include "vmsim/kinematics/yaml_input.hpp"
 #include "vmsim/planner/toolpath.hpp"
 #include "vmsim/removal/level_set.hpp"
 #include "vmsim/removal/nbuffer.hpp"
@@ -53,12 +54,7 @@ Eigen::Vector3d vector_mm(const std::vector<double>& v) { return Eigen::Vector3d
 
 // The stock box of a part file: stock: {box: {min_mm: [..], max_mm: [..]}}.
 removal::Box stock_from_part(const std::string& path) {
-  YAML::Node root;
-  try {
-    root = YAML::LoadFile(path);
-  } catch (const YAML::Exception& error) {
-    throw InputError(located_message(path, error.mark.line + 1, error.mark.column + 1, "YAML: " + error.msg));
-  }
+  const YAML::Node root = kinematics::load_yaml_input(path);
   const YAML::Node box = root["stock"] ? root["stock"]["box"] : YAML::Node();
   if (!box || !box["min_mm"] || !box["max_mm"]) throw InputError(path + ": missing field 'stock.box.min_mm/max_mm'");
   auto read = [&](const char* key) {
@@ -206,6 +202,7 @@ int run_remove(const RemoveOptions& o, const CommandContext& context) {
   std::string toolpath_path = o.toolpath_path, machine_path = o.machine_path;
   if (!o.part_path.empty()) {
     const PartDescription part = load_part(o.part_path);
+    for (const std::string& warning : part.warnings) context.warn(warning);
     tool.type = part.tool.type == ToolType::ball ? removal::ToolType::ball
                 : part.tool.type == ToolType::flat ? removal::ToolType::flat
                                                    : removal::ToolType::bull;

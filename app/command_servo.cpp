@@ -46,6 +46,7 @@ std::vector<int> data_row_lines(const std::string& text) {
 int run_servo(const ServoOptions& options, const CommandContext& context) {
   check_output_file(options.out_path, {options.machine_path, options.setpoints_path});  // before the work
   const kinematics::MachineModel machine = kinematics::load_machine(options.machine_path);
+  for (const std::string& warning : machine.warnings) context.warn(warning);
   TraceReadOptions read_options;
   read_options.known_axes.emplace();
   for (const auto& axis : machine.axes) read_options.known_axes->insert(axis.name);

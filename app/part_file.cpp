@@ -2,219 +2,347 @@
 
 #include <yaml-cpp/yaml.h>
 
+#include <algorithm>
 #include <cmath>
 #include <filesystem>
+#include <map>
 
 #include "vmsim/common/errors.hpp"
 #include "vmsim/common/files.hpp"
+#include "vmsim/kinematics/yaml_input.hpp"
 
 namespace vmsim::app {
 namespace {
 
-[[noreturn]] void fail(const std::string& file, const YAML::Node& node, const std::string& message) {
-  const YAML::Mark mark = node.Mark();
-  throw InputError(located_message(file, mark.is_null() ? 0 : mark.line + 1,
-                                   mark.is_null() ? 0 : mark.column + 1, message));
-}
+using Keys = std::vector<std::string>;
 
-YAML::Node required(const std::string& file, const YAML::Node& map, const std::string& key,
-                    const std::string& path) {
-  if (!map.IsMap() || !map[key]) fail(file, map, "missing field '" + path + key + "'");
-  return map[key];
-}
+// Plausibility bounds [mm] and [mm/min]: beyond an error bound a value is a slip of unit or a
+// typo, not a part; beyond a warning bound it is unusual enough to say so.
+constexpr double kCoordinateLimit_mm = 1e6;  // 1 km
+constexpr double kToolSizeLimit_mm = 10e3;   // 10 m
+constexpr double kToolSizeWarning_mm = 1e3;  // 1 m
+constexpr double kFeedLimit_mm_per_min = 1e7;
+constexpr double kFeedWarningAbove_mm_per_min = 200e3;  // 200 m/min
+constexpr double kFeedWarningBelow_mm_per_min = 1.0;
 
-double positive_number(const std::string& file, const YAML::Node& map, const std::string& key,
-                       const std::string& path) {
-  const YAML::Node node = required(file, map, key, path);
-  double value = 0.0;
-  try {
-    value = node.as<double>();
-  } catch (const YAML::Exception&) {
-    fail(file, node, path + key + ": expected a number, got '" + node.Scalar() + "'");
+// Reads one part file: every error names the file, line, column, field path and value.
+class PartReader {
+ public:
+  explicit PartReader(std::string file) : file_(std::move(file)) {}
+
+  [[noreturn]] void fail(const YAML::Node& at, const std::string& message) const {
+    throw InputError(kinematics::located_at(file_, at, message));
   }
-  if (!std::isfinite(value) || value <= 0.0) {
-    fail(file, node, path + key + ": must be > 0, got '" + node.Scalar() + "'");
+
+  void warn(const YAML::Node& at, const std::string& message) {
+    warnings.push_back(kinematics::located_at(file_, at, message));
   }
-  return value;
-}
 
-std::string text(const std::string& file, const YAML::Node& map, const std::string& key) {
-  const YAML::Node node = required(file, map, key, "");
-  if (!node.IsScalar()) fail(file, node, key + ": expected a text value");
-  return node.Scalar();
-}
-
-Eigen::Vector3d vector3(const std::string& file, const YAML::Node& map, const std::string& key,
-                        const std::string& path, double scale) {
-  const YAML::Node node = required(file, map, key, path);
-  if (!node.IsSequence() || node.size() != 3) fail(file, node, path + key + ": expected [x, y, z]");
-  Eigen::Vector3d value;
-  for (std::size_t i = 0; i < 3; ++i) {
-    try {
-      value[static_cast<Eigen::Index>(i)] = node[i].as<double>() * scale;
-    } catch (const YAML::Exception&) {
-      fail(file, node[i], path + key + ": '" + node[i].Scalar() + "' is not a number");
+  /// `node` must be a map with only `known` keys (a misspelt key is never silently ignored).
+  void require_map(const YAML::Node& node, const std::string& path, const Keys& known) const {
+    if (!node.IsMap()) fail(node, path + ": expected a map, got " + what(node));
+    for (const auto& entry : node) {
+      const std::string key = entry.first.Scalar();
+      if (std::find(known.begin(), known.end(), key) == known.end()) {
+        fail(entry.first, "unknown field '" + join(path, key) + "'" +
+                              kinematics::nearest_key_hint(key, known));
+      }
     }
   }
-  return value;
-}
+
+  YAML::Node required(const YAML::Node& map, const std::string& key, const std::string& path) const {
+    if (!map[key] || map[key].IsNull()) fail(map, "missing field '" + join(path, key) + "'");
+    return map[key];
+  }
+
+  double number(const YAML::Node& node, const std::string& field) const {
+    if (!node.IsScalar()) fail(node, field + ": expected a number, got " + what(node));
+    const kinematics::NumberText number = kinematics::parse_number_text(node.Scalar());
+    if (!number.ok) fail(node, field + ": '" + node.Scalar() + "' " + number.problem);
+    if (field.ends_with("_mm") && !field.ends_with("_per_mm") &&
+        std::abs(number.value) > kCoordinateLimit_mm) {
+      fail(node, field + ": " + node.Scalar() + " mm is not a plausible length (more than 1 km)");
+    }
+    return number.value;
+  }
+
+  double positive_number(const YAML::Node& map, const std::string& key, const std::string& path) const {
+    const YAML::Node node = required(map, key, path);
+    const double value = number(node, join(path, key));
+    if (!(value > 0.0)) fail(node, join(path, key) + ": must be > 0, got '" + node.Scalar() + "'");
+    return value;
+  }
+
+  std::string text(const YAML::Node& map, const std::string& key, const std::string& path) const {
+    const YAML::Node node = required(map, key, path);
+    if (!node.IsScalar()) fail(node, join(path, key) + ": expected a text value, got " + what(node));
+    return node.Scalar();
+  }
+
+  std::vector<double> numbers(const YAML::Node& node, const std::string& field, std::size_t count) const {
+    if (!node.IsSequence() || node.size() != count) {
+      const std::string expected = count == 3 ? "[x, y, z]" : "a list of " + std::to_string(count) + " numbers";
+      const std::string got =
+          node.IsSequence() ? "a list of " + std::to_string(node.size()) : what(node);
+      fail(node, field + ": expected " + expected + ", got " + got);
+    }
+    std::vector<double> values;
+    for (std::size_t i = 0; i < count; ++i) values.push_back(number(node[i], field));
+    return values;
+  }
+
+  Eigen::Vector3d vector3(const YAML::Node& map, const std::string& key, const std::string& path,
+                          double scale) const {
+    const std::vector<double> v = numbers(required(map, key, path), join(path, key), 3);
+    return Eigen::Vector3d(v[0], v[1], v[2]) * scale;
+  }
+
+  static std::string join(const std::string& path, const std::string& key) {
+    return path.empty() ? key : path + "." + key;
+  }
+
+  static std::string what(const YAML::Node& node) {
+    if (node.IsScalar()) return "'" + node.Scalar() + "'";
+    if (node.IsSequence()) return "a list";
+    if (node.IsMap()) return "a map";
+    return "nothing";
+  }
+
+  const std::string& file() const { return file_; }
+  std::vector<std::string> warnings;
+
+ private:
+  std::string file_;
+};
 
 // x_range_mm, y_range_mm, z_range_mm of a patch, where given, into [min_W_m, max_W_m].
-void patch_ranges(const std::string& file, const YAML::Node& patch, const std::string& path,
+void patch_ranges(const PartReader& reader, const YAML::Node& patch, const std::string& path,
                   Eigen::Vector3d& min_W_m, Eigen::Vector3d& max_W_m) {
   const char* range_keys[3] = {"x_range_mm", "y_range_mm", "z_range_mm"};
   for (int axis = 0; axis < 3; ++axis) {
     const YAML::Node range = patch[range_keys[axis]];
     if (!range) continue;
-    if (!range.IsSequence() || range.size() != 2) {
-      fail(file, range, path + range_keys[axis] + ": expected [low, high] in mm");
-    }
-    try {
-      min_W_m[axis] = range[0].as<double>() * 1e-3;
-      max_W_m[axis] = range[1].as<double>() * 1e-3;
-    } catch (const YAML::Exception&) {
-      fail(file, range, path + range_keys[axis] + ": expected two numbers");
-    }
+    const std::string field = PartReader::join(path, range_keys[axis]);
+    if (!range.IsSequence() || range.size() != 2) reader.fail(range, field + ": expected [low, high] in mm");
+    min_W_m[axis] = reader.number(range[0], field) * 1e-3;
+    max_W_m[axis] = reader.number(range[1], field) * 1e-3;
     if (!(min_W_m[axis] < max_W_m[axis])) {
-      fail(file, range, path + range_keys[axis] + ": low must be below high, got [" + range[0].Scalar() + ", " +
-                            range[1].Scalar() + "]");
+      reader.fail(range, field + ": low must be below high, got [" + range[0].Scalar() + ", " +
+                             range[1].Scalar() + "]");
     }
   }
 }
 
 // A unit direction from a non-zero [x, y, z].
-Eigen::Vector3d direction(const std::string& file, const YAML::Node& patch, const std::string& key,
+Eigen::Vector3d direction(const PartReader& reader, const YAML::Node& patch, const std::string& key,
                           const std::string& path) {
-  const Eigen::Vector3d value = vector3(file, patch, key, path, 1.0);
+  const Eigen::Vector3d value = reader.vector3(patch, key, path, 1.0);
   if (!(value.norm() > 1e-9)) {
-    fail(file, patch[key], path + key + ": must not be zero, got [" + format_double(value.x()) + ", " +
-                               format_double(value.y()) + ", " + format_double(value.z()) + "]");
+    reader.fail(patch[key], PartReader::join(path, key) + ": must not be zero, got [" +
+                                format_double(value.x()) + ", " + format_double(value.y()) + ", " +
+                                format_double(value.z()) + "]");
   }
   return value.normalized();
 }
 
 // `material: inside | outside` of a sphere or cylinder: true for inside.
-bool material_inside(const std::string& file, const YAML::Node& patch, const std::string& path) {
-  const std::string material = text(file, patch, "material");
+bool material_inside(const PartReader& reader, const YAML::Node& patch, const std::string& path) {
+  const std::string material = reader.text(patch, "material", path);
   if (material != "inside" && material != "outside") {
-    fail(file, patch["material"], path + "material: '" + material + "' is not one of inside, outside");
+    reader.fail(patch["material"], PartReader::join(path, "material") + ": '" + material +
+                                       "' is not one of inside, outside");
   }
   return material == "inside";
 }
 
-// The plane, sphere and cylinder patches of `design.surfaces` (other types are skipped).
-void read_design(const std::string& file, const YAML::Node& design, PartDescription& part) {
+// The keys of each patch type (samples/parts/README.md, "design").
+const std::map<std::string, Keys>& patch_keys() {
+  static const std::map<std::string, Keys> keys = {
+      {"plane", {"point_mm", "normal", "role"}},
+      {"sphere", {"center_mm", "radius_mm", "material"}},
+      {"cylinder", {"axis_point_mm", "axis_direction", "radius_mm", "material"}},
+      {"sine_height_y", {"z0_mm", "amplitude_mm", "wavelength_mm", "y_phase_mm"}},
+      {"quadratic_height", {"z0_mm", "hxx_per_mm", "hxy_per_mm", "hyy_per_mm"}},
+  };
+  return keys;
+}
+
+// The plane, sphere and cylinder patches of `design.surfaces`; the height-function patches are
+// checked (keys, numbers) but read by the sample tests only.
+void read_design(const PartReader& reader, const YAML::Node& design, PartDescription& part) {
   if (!design) return;
-  const YAML::Node surfaces = required(file, design, "surfaces", "design.");
-  if (!surfaces.IsSequence()) fail(file, surfaces, "design.surfaces: expected a list of patches");
+  reader.require_map(design, "design", {"surfaces", "corner_mm"});
+  if (design["corner_mm"]) reader.vector3(design, "corner_mm", "design", 1e-3);
+  const YAML::Node surfaces = reader.required(design, "surfaces", "design");
+  if (!surfaces.IsSequence()) reader.fail(surfaces, "design.surfaces: expected a list of patches");
   for (std::size_t k = 0; k < surfaces.size(); ++k) {
     const YAML::Node patch = surfaces[k];
-    const std::string path = "design.surfaces[" + std::to_string(k) + "].";
-    if (!patch.IsMap()) fail(file, patch, path + ": expected a map");
-    const std::string type = text(file, patch, "type");
+    const std::string path = "design.surfaces[" + std::to_string(k) + "]";
+    if (!patch.IsMap()) reader.fail(patch, path + ": expected a map, got " + PartReader::what(patch));
+    const std::string type = reader.text(patch, "type", path);
+    const auto known = patch_keys().find(type);
+    if (known == patch_keys().end()) {
+      Keys types;
+      for (const auto& [name, keys] : patch_keys()) types.push_back(name);
+      reader.fail(patch["type"], path + ".type: '" + type + "' is not a known patch type" +
+                                     kinematics::nearest_key_hint(type, types));
+    }
+    Keys keys = known->second;
+    keys.insert(keys.end(), {"type", "x_range_mm", "y_range_mm", "z_range_mm"});
+    reader.require_map(patch, path, keys);
     if (type == "plane") {
       DesignPlane plane;
-      plane.point_W_m = vector3(file, patch, "point_mm", path, 1e-3);
-      plane.normal_W = direction(file, patch, "normal", path);
-      patch_ranges(file, patch, path, plane.min_W_m, plane.max_W_m);
+      plane.point_W_m = reader.vector3(patch, "point_mm", path, 1e-3);
+      plane.normal_W = direction(reader, patch, "normal", path);
+      if (patch["role"]) reader.text(patch, "role", path);
+      patch_ranges(reader, patch, path, plane.min_W_m, plane.max_W_m);
       part.design_planes.push_back(plane);
     } else if (type == "sphere") {
       DesignSphere sphere;
-      sphere.centre_W_m = vector3(file, patch, "center_mm", path, 1e-3);
-      sphere.radius_m = positive_number(file, patch, "radius_mm", path) * 1e-3;
-      sphere.material_inside = material_inside(file, patch, path);
+      sphere.centre_W_m = reader.vector3(patch, "center_mm", path, 1e-3);
+      sphere.radius_m = reader.positive_number(patch, "radius_mm", path) * 1e-3;
+      sphere.material_inside = material_inside(reader, patch, path);
       part.design_spheres.push_back(sphere);
     } else if (type == "cylinder") {
       DesignCylinder cylinder;
-      cylinder.axis_point_W_m = vector3(file, patch, "axis_point_mm", path, 1e-3);
-      cylinder.axis_W = direction(file, patch, "axis_direction", path);
-      cylinder.radius_m = positive_number(file, patch, "radius_mm", path) * 1e-3;
-      cylinder.material_inside = material_inside(file, patch, path);
-      patch_ranges(file, patch, path, cylinder.min_W_m, cylinder.max_W_m);
+      cylinder.axis_point_W_m = reader.vector3(patch, "axis_point_mm", path, 1e-3);
+      cylinder.axis_W = direction(reader, patch, "axis_direction", path);
+      cylinder.radius_m = reader.positive_number(patch, "radius_mm", path) * 1e-3;
+      cylinder.material_inside = material_inside(reader, patch, path);
+      patch_ranges(reader, patch, path, cylinder.min_W_m, cylinder.max_W_m);
       part.design_cylinders.push_back(cylinder);
+    } else {
+      for (const std::string& key : known->second) {
+        reader.number(reader.required(patch, key, path), PartReader::join(path, key));
+      }
+      Eigen::Vector3d unused_min, unused_max;
+      patch_ranges(reader, patch, path, unused_min, unused_max);
     }
   }
+}
+
+void read_tool(PartReader& reader, const YAML::Node& tool, ToolDescription& result) {
+  reader.require_map(tool, "tool", {"type", "diameter_mm", "corner_radius_mm", "length_mm",
+                                    "cutting_length_mm"});
+  const std::string type = reader.text(tool, "type", "tool");
+  if (type == "ball") {
+    result.type = ToolType::ball;
+  } else if (type == "flat") {
+    result.type = ToolType::flat;
+  } else if (type == "bull") {
+    result.type = ToolType::bull;
+  } else {
+    reader.fail(tool["type"], "tool.type: '" + type + "' is not one of ball, flat, bull");
+  }
+  for (const char* key : {"diameter_mm", "length_mm"}) {
+    const double value_mm = reader.positive_number(tool, key, "tool");
+    if (value_mm > kToolSizeLimit_mm) {
+      reader.fail(tool[key], std::string("tool.") + key + ": " + tool[key].Scalar() +
+                                 " mm is not a plausible tool (more than 10 m; m or µm written?)");
+    }
+    if (value_mm > kToolSizeWarning_mm) {
+      reader.warn(tool[key], std::string("tool.") + key + ": " + tool[key].Scalar() +
+                                 " mm is unusually large (more than 1 m): check the unit");
+    }
+  }
+  result.diameter_m = reader.number(tool["diameter_mm"], "tool.diameter_mm") * 1e-3;
+  result.length_m = reader.number(tool["length_mm"], "tool.length_mm") * 1e-3;
+  if (tool["corner_radius_mm"]) {
+    const double radius_mm = reader.number(tool["corner_radius_mm"], "tool.corner_radius_mm");
+    if (radius_mm < 0.0 || radius_mm * 1e-3 > result.diameter_m / 2.0 + 1e-12) {
+      reader.fail(tool["corner_radius_mm"], "tool.corner_radius_mm: must be between 0 and "
+                                            "diameter_mm / 2, got '" +
+                                                tool["corner_radius_mm"].Scalar() + "'");
+    }
+    result.corner_radius_m = radius_mm * 1e-3;
+  } else if (result.type == ToolType::ball) {
+    result.corner_radius_m = result.diameter_m / 2.0;
+  }
+  if (tool["cutting_length_mm"]) {
+    result.cutting_length_m = reader.positive_number(tool, "cutting_length_mm", "tool") * 1e-3;
+    if (result.cutting_length_m < result.diameter_m - 1e-12 ||
+        result.cutting_length_m > result.length_m + 1e-12) {
+      reader.fail(tool["cutting_length_mm"],
+                  "tool.cutting_length_mm: must be between diameter_mm and length_mm, got '" +
+                      tool["cutting_length_mm"].Scalar() + "'");
+    }
+  }
+}
+
+void read_stock(const PartReader& reader, const YAML::Node& stock_node,
+                const std::filesystem::path& folder, PartDescription& part) {
+  reader.require_map(stock_node, "stock", {"box", "stl", "allowance_mm"});
+  if (stock_node["allowance_mm"]) reader.number(stock_node["allowance_mm"], "stock.allowance_mm");
+  if (stock_node["stl"]) {
+    if (stock_node["box"]) reader.fail(stock_node, "stock: give either box or stl, not both");
+    if (!stock_node["stl"].IsScalar()) reader.fail(stock_node["stl"], "stock.stl: expected a file name");
+    part.stock_stl_path = (folder / stock_node["stl"].Scalar()).lexically_normal().string();
+    if (!std::filesystem::is_regular_file(part.stock_stl_path)) {
+      reader.fail(stock_node["stl"], "stock.stl: no file '" + part.stock_stl_path + "'");
+    }
+    try {
+      part.stock_mesh = removal::read_stl(part.stock_stl_path);
+    } catch (const InputError& error) {
+      reader.fail(stock_node["stl"], std::string("stock.stl: ") + error.what());
+    }
+    return;
+  }
+  if (!stock_node["box"]) {
+    reader.fail(stock_node,
+                "stock: expected {box: {min_mm: [x, y, z], max_mm: [x, y, z]}} or {stl: <file>}");
+  }
+  const YAML::Node box = stock_node["box"];
+  reader.require_map(box, "stock.box", {"min_mm", "max_mm"});
+  StockBox stock{reader.vector3(box, "min_mm", "stock.box", 1e-3),
+                 reader.vector3(box, "max_mm", "stock.box", 1e-3)};
+  if (!(stock.min_W_m.array() < stock.max_W_m.array()).all()) {
+    reader.fail(box, "stock.box: min_mm must be below max_mm in x, y and z");
+  }
+  part.stock = stock;
+}
+
+double read_feed_m_per_s(PartReader& reader, const YAML::Node& feeds, const std::string& key) {
+  const double feed_mm_per_min = reader.positive_number(feeds, key, "feeds");
+  if (feed_mm_per_min > kFeedLimit_mm_per_min) {
+    reader.fail(feeds[key], "feeds." + key + ": " + feeds[key].Scalar() +
+                                " mm/min is not a plausible feed (more than 10 km/min)");
+  }
+  if (feed_mm_per_min > kFeedWarningAbove_mm_per_min ||
+      feed_mm_per_min < kFeedWarningBelow_mm_per_min) {
+    reader.warn(feeds[key], "feeds." + key + ": " + feeds[key].Scalar() +
+                                " mm/min is unusual (feeds run at 1 mm/min to 200 m/min): check "
+                                "the unit");
+  }
+  return feed_mm_per_min * 1e-3 / 60.0;
 }
 
 }  // namespace
 
 PartDescription load_part(const std::string& path) {
-  const std::string content = read_file(path);
-  YAML::Node root;
-  try {
-    root = YAML::Load(content);
-  } catch (const YAML::Exception& error) {
-    throw InputError(located_message(path, error.mark.line + 1, error.mark.column + 1,
-                                     "YAML syntax: " + error.msg));
-  }
-  if (!root.IsMap()) throw InputError(path + ": a part file is a YAML map");
+  const YAML::Node root = kinematics::load_yaml_input(path);
+  PartReader reader(path);
+  if (!root.IsMap()) throw InputError(located_message(path, 0, 0, "a part file is a YAML map"));
+  reader.require_map(root, "", {"name", "description", "machine", "toolpath", "tool", "stock",
+                                "design", "strategy", "feeds"});
   const std::filesystem::path folder = std::filesystem::path(path).parent_path();
   PartDescription part;
   part.file = path;
-  part.name = text(path, root, "name");
-  part.description = root["description"] ? root["description"].as<std::string>() : "";
-  part.machine_path = (folder / text(path, root, "machine")).lexically_normal().string();
-  part.toolpath_path = (folder / text(path, root, "toolpath")).lexically_normal().string();
-
-  const YAML::Node tool = required(path, root, "tool", "");
-  const std::string type = text(path, tool, "type");
-  if (type == "ball") {
-    part.tool.type = ToolType::ball;
-  } else if (type == "flat") {
-    part.tool.type = ToolType::flat;
-  } else if (type == "bull") {
-    part.tool.type = ToolType::bull;
-  } else {
-    fail(path, tool["type"], "tool.type: '" + type + "' is not one of ball, flat, bull");
+  part.name = reader.text(root, "name", "");
+  part.description = root["description"] ? reader.text(root, "description", "") : "";
+  part.machine_path = (folder / reader.text(root, "machine", "")).lexically_normal().string();
+  part.toolpath_path = (folder / reader.text(root, "toolpath", "")).lexically_normal().string();
+  read_tool(reader, reader.required(root, "tool", ""), part.tool);
+  if (root["stock"]) read_stock(reader, root["stock"], folder, part);
+  read_design(reader, root["design"], part);
+  // How the path was made: informative (samples/parts/README.md), only its shape is checked.
+  if (root["strategy"] && !root["strategy"].IsMap()) {
+    reader.fail(root["strategy"], "strategy: expected a map, got " + PartReader::what(root["strategy"]));
   }
-  part.tool.diameter_m = positive_number(path, tool, "diameter_mm", "tool.") * 1e-3;
-  part.tool.length_m = positive_number(path, tool, "length_mm", "tool.") * 1e-3;
-  if (tool["corner_radius_mm"]) {
-    part.tool.corner_radius_m = tool["corner_radius_mm"].as<double>() * 1e-3;
-  } else if (part.tool.type == ToolType::ball) {
-    part.tool.corner_radius_m = part.tool.diameter_m / 2.0;
-  }
-  if (tool["cutting_length_mm"]) {
-    part.tool.cutting_length_m = positive_number(path, tool, "cutting_length_mm", "tool.") * 1e-3;
-    if (part.tool.cutting_length_m < part.tool.diameter_m - 1e-12 ||
-        part.tool.cutting_length_m > part.tool.length_m + 1e-12) {
-      fail(path, tool["cutting_length_mm"], "tool.cutting_length_mm: must be between diameter_mm and length_mm, got '" +
-                                                tool["cutting_length_mm"].Scalar() + "'");
-    }
-  }
-  if (root["stock"]) {
-    const YAML::Node stock_node = root["stock"];
-    if (stock_node.IsMap() && stock_node["stl"]) {
-      if (stock_node["box"]) fail(path, stock_node, "stock: give either box or stl, not both");
-      if (!stock_node["stl"].IsScalar()) fail(path, stock_node["stl"], "stock.stl: expected a file name");
-      part.stock_stl_path = (folder / stock_node["stl"].Scalar()).lexically_normal().string();
-      if (!std::filesystem::is_regular_file(part.stock_stl_path)) {
-        fail(path, stock_node["stl"], "stock.stl: no file '" + part.stock_stl_path + "'");
-      }
-      try {
-        part.stock_mesh = removal::read_stl(part.stock_stl_path);
-      } catch (const InputError& error) {
-        fail(path, stock_node["stl"], std::string("stock.stl: ") + error.what());
-      }
-    } else {
-      if (!stock_node.IsMap() || !stock_node["box"]) {
-        fail(path, stock_node, "stock: expected {box: {min_mm: [x, y, z], max_mm: [x, y, z]}} or {stl: <file>}");
-      }
-      const YAML::Node box = stock_node["box"];
-      StockBox stock{vector3(path, box, "min_mm", "stock.box.", 1e-3),
-                     vector3(path, box, "max_mm", "stock.box.", 1e-3)};
-      if (!(stock.min_W_m.array() < stock.max_W_m.array()).all()) {
-        fail(path, box, "stock.box: min_mm must be below max_mm in x, y and z");
-      }
-      part.stock = stock;
-    }
-  }
-  read_design(path, root["design"], part);
-  const YAML::Node feeds = required(path, root, "feeds", "");
-  part.production_feed_m_per_s =
-      positive_number(path, feeds, "production_mm_per_min", "feeds.") * 1e-3 / 60.0;
-  part.reference_feed_m_per_s =
-      positive_number(path, feeds, "reference_mm_per_min", "feeds.") * 1e-3 / 60.0;
+  const YAML::Node feeds = reader.required(root, "feeds", "");
+  reader.require_map(feeds, "feeds", {"production_mm_per_min", "reference_mm_per_min"});
+  part.production_feed_m_per_s = read_feed_m_per_s(reader, feeds, "production_mm_per_min");
+  part.reference_feed_m_per_s = read_feed_m_per_s(reader, feeds, "reference_mm_per_min");
+  part.warnings = std::move(reader.warnings);
   return part;
 }
 

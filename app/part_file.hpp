@@ -80,9 +80,15 @@ struct PartDescription {
   std::vector<DesignCylinder> design_cylinders;  ///< the cylinder patches of `design.surfaces`
   double production_feed_m_per_s = 0.0;
   double reference_feed_m_per_s = 0.0;
+  /// Values plausible but unusual (a feed of 500 m/min, a tool 2 m long), each naming the file,
+  /// line and field; the program prints them as warnings.
+  std::vector<std::string> warnings;
 };
 
-/// Reads a part file; throws vmsim::InputError naming the file, line and field.
+/// Reads a part file; throws vmsim::InputError naming the file, line, column, field and value:
+/// for bad YAML, a key given twice, a second document, an unknown key (with the nearest known
+/// one), a value of the wrong type, a number that is not finite and normal (or zero), and a
+/// value no part has (a tool 10 m long, a feed of 10 km/min).
 PartDescription load_part(const std::string& path);
 
 }  // namespace vmsim::app

@@ -76,7 +76,8 @@ Trace parse_trace(const std::string& text, const std::string& file, const TraceR
   bool have_header = false;
   std::size_t t_column = 0;
   int line_number = 0;
-  std::size_t position = 0;
+  // A byte-order mark at the very start is skipped (the spec: spreadsheets write one).
+  std::size_t position = text.size() - strip_utf8_bom(text).size();
   while (position <= text.size()) {
     std::size_t end = text.find('\n', position);
     if (end == std::string::npos) end = text.size();

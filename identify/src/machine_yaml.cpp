@@ -6,6 +6,7 @@
 #include "vmsim/common/files.hpp"
 #include "vmsim/identify/identify.hpp"
 #include "vmsim/kinematics/machine_loader.hpp"
+#include "vmsim/kinematics/yaml_input.hpp"
 
 namespace vmsim::identify {
 namespace {
@@ -102,12 +103,7 @@ std::string updated_machine_yaml(const std::string& original_yaml,
                                  const std::vector<AxisNote>& notes,
                                  const std::string& file_name_for_messages,
                                  const std::string& base_directory) {
-  YAML::Node root;
-  try {
-    root = YAML::Load(original_yaml);
-  } catch (const YAML::Exception& error) {
-    throw InputError(file_name_for_messages + ": not YAML: " + error.what());
-  }
+  YAML::Node root = kinematics::parse_yaml_input(original_yaml, file_name_for_messages);
   if (!root.IsMap() || !root["axes"] || !root["axes"].IsSequence()) {
     throw InputError(file_name_for_messages + ": no 'axes' list");
   }

@@ -75,20 +75,16 @@ Eigen::Matrix3d rotation(const Eigen::Vector3d& w, double angle) {
 /// The multiple of 2 pi added to `angle` that brings it nearest to `previous`; for a limited
 /// axis, nearest among the values within its travel (if any).
 double unwrap(double angle, double previous, const Axis& axis) {
-  const double nearest = angle + kTwoPi * std::round((previous - angle) / kTwoPi);
+  const double k_nearest = std::round((previous - angle) / kTwoPi);
+  const double nearest = angle + kTwoPi * k_nearest;
   if (axis.continuous) return nearest;
   const double k_min = std::ceil((axis.travel_min - 1e-12 - angle) / kTwoPi);
   const double k_max = std::floor((axis.travel_max + 1e-12 - angle) / kTwoPi);
-  double best = nearest;
-  double best_distance = std::numeric_limits<double>::infinity();
-  for (double k = k_min; k <= k_max; k += 1.0) {
-    const double candidate = angle + kTwoPi * k;
-    if (std::abs(candidate - previous) < best_distance) {
-      best_distance = std::abs(candidate - previous);
-      best = candidate;
-    }
-  }
-  return best;
+  if (!(k_min <= k_max)) return nearest;  // no turn of the angle lies within the travel
+  // The distance to `previous` is convex in k: the nearest turn within [k_min, k_max] is the
+  // unconstrained nearest one clamped. Closed form: a loop over the turns would never end for
+  // a travel of 1e300 deg.
+  return angle + kTwoPi * std::clamp(k_nearest, k_min, k_max);
 }
 
 /// The orientation structure of a 3P + 2R model, in the product order of

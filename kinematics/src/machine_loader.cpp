@@ -6,7 +6,6 @@
 #include <algorithm>
 #include <cmath>
 #include <filesystem>
-#include <fstream>
 #include <limits>
 #include <map>
 #include <numbers>
@@ -15,6 +14,8 @@
 
 #include "machine_loader_internal.hpp"
 #include "vmsim/common/errors.hpp"
+#include "vmsim/common/files.hpp"
+#include "vmsim/kinematics/yaml_input.hpp"
 
 namespace vmsim::kinematics {
 namespace {
@@ -73,24 +74,6 @@ bool FieldReader::has(const std::string& key) const {
   return node_.IsMap() && node_[key].IsDefined() && !node_[key].IsNull();
 }
 
-namespace {
-
-std::size_t edit_distance(const std::string& a, const std::string& b) {
-  std::vector<std::size_t> row(b.size() + 1);
-  for (std::size_t j = 0; j <= b.size(); ++j) row[j] = j;
-  for (std::size_t i = 1; i <= a.size(); ++i) {
-    std::size_t diagonal = row[0];
-    row[0] = i;
-    for (std::size_t j = 1; j <= b.size(); ++j) {
-      const std::size_t substitution = diagonal + (a[i - 1] == b[j - 1] ? 0 : 1);
-      diagonal = row[j];
-      row[j] = std::min({row[j] + 1, row[j - 1] + 1, substitution});
-    }
-  }
-  return row[b.size()];
-}
-
-}  // namespace
 
 std::string FieldReader::misspelling_hint(const std::string& wanted, bool prefix) const {
   if (!node_.IsMap()) return "";
@@ -143,16 +126,9 @@ std::string scalar_text(const YAML::Node& node) {
 double FieldReader::as_number() const {
   if (!node_.IsScalar()) fail("expected a number, got " + scalar_text(node_));
   const std::string& text = node_.Scalar();
-  std::size_t consumed = 0;
-  double value = 0.0;
-  try {
-    value = std::stod(text, &consumed);
-  } catch (const std::exception&) {
-    fail("expected a number, got '" + text + "'");
-  }
-  if (consumed != text.size()) fail("expected a number, got '" + text + "'");
-  if (!std::isfinite(value)) fail("expected a finite number, got '" + text + "'");
-  return value;
+  const NumberText number = parse_number_text(text);
+  if (!number.ok) fail("expected a finite number, got '" + text + "', which " + number.problem);
+  return number.value;
 }
 
 std::string FieldReader::as_string() const {
@@ -255,7 +231,10 @@ void FieldReader::reject_unknown_fields() const {
   for (const auto& entry : node_) {
     const std::string key = entry.first.as<std::string>();
     if (used_->count(key) == 0) {
-      fail_at(entry.first, "unknown field '" + key + "'");
+      // The keys asked for are the ones this map may have: the nearest is the likely intent.
+      fail_at(entry.first, "unknown field '" + key + "'" +
+                               nearest_key_hint(key, std::vector<std::string>(used_->begin(),
+                                                                              used_->end())));
     }
   }
 }
@@ -472,7 +451,54 @@ Controller read_controller(const FieldReader& controller, const Axis& axis) {
   return result;
 }
 
-Axis read_axis(const FieldReader& reader) {
+// Plausibility bounds: beyond them a value is a slip of unit or a typo, not a machine. A rotary
+// axis with a stop may turn a few turns (cables); 1000 turns each way is far beyond any.
+constexpr double kLinearPositionLimit_m = 1000.0;
+constexpr double kLinearTravelWarning_m = 50.0;
+constexpr double kRotaryPositionLimit_rad = 1000.0 * 2.0 * kPi;
+constexpr double kRotaryTravelWarning_rad = 100.0 * 2.0 * kPi;
+constexpr double kPeriodLimit_s = 10.0;
+constexpr double kPeriodWarningAbove_s = 0.1;
+constexpr double kPeriodWarningBelow_s = 1e-5;
+
+std::string position_in_file_unit(const Axis& axis, double value_si) {
+  return is_linear(axis) ? format_number(value_si * 1e3) + " mm"
+                         : format_number(value_si * 180.0 / kPi) + " deg";
+}
+
+// The reader of the field <name>_<unit> that is given (the axis reader itself when none is).
+FieldReader field_with_unit(const FieldReader& reader, const std::string& name,
+                            const UnitTable& units) {
+  for (const auto& [suffix, factor] : units) {
+    (void)factor;
+    if (reader.has(name + "_" + suffix)) return reader.child(name + "_" + suffix);
+  }
+  return reader;
+}
+
+void check_travel_plausible(const FieldReader& at, const Axis& axis, const std::string& source,
+                            std::vector<std::string>& warnings) {
+  if (axis.continuous) return;
+  const double limit = is_linear(axis) ? kLinearPositionLimit_m : kRotaryPositionLimit_rad;
+  if (!(std::abs(axis.travel_min) <= limit && std::abs(axis.travel_max) <= limit)) {
+    at.fail(source + " [" + position_in_file_unit(axis, axis.travel_min) + ", " +
+            position_in_file_unit(axis, axis.travel_max) + "] is not plausible: " +
+            (is_linear(axis)
+                 ? "a linear axis travels at most 1 km each way (was m written for mm?)"
+                 : "a rotary axis with stops turns at most 1000 turns (360000 deg) each way; "
+                   "an endless axis is written continuous: true"));
+  }
+  const double warning = is_linear(axis) ? kLinearTravelWarning_m : kRotaryTravelWarning_rad;
+  if (axis.travel_max - axis.travel_min > warning) {
+    warnings.push_back(at.where(at.node()) + ": " + source + " [" +
+                       position_in_file_unit(axis, axis.travel_min) + ", " +
+                       position_in_file_unit(axis, axis.travel_max) + "] is unusually long (" +
+                       (is_linear(axis) ? "more than 50 m" : "more than 100 turns") +
+                       "): check the unit");
+  }
+}
+
+Axis read_axis(const FieldReader& reader, std::vector<std::string>& warnings) {
   Axis axis;
   axis.name = reader.string("name");
   if (axis.name.empty()) reader.fail("axis name is empty");
@@ -488,12 +514,18 @@ Axis read_axis(const FieldReader& reader) {
   if (travel) {
     axis.travel_min = travel->first;
     axis.travel_max = travel->second;
+    check_travel_plausible(field_with_unit(named, "travel", position_units), axis,
+                           "travel", warnings);
   } else if (!axis.continuous) {
     // Filled from the URDF joint limits where the structure is a URDF; checked after it.
     axis.travel_min = std::numeric_limits<double>::quiet_NaN();
     axis.travel_max = std::numeric_limits<double>::quiet_NaN();
   }
   axis.home = named.quantity_or("home", position_units, 0.0);
+  if (std::abs(axis.home) > (is_linear(axis) ? kLinearPositionLimit_m : kRotaryPositionLimit_rad)) {
+    field_with_unit(named, "home", position_units)
+        .fail("home " + position_in_file_unit(axis, axis.home) + " is not plausible (unit?)");
+  }
   if (travel && !axis.continuous && (axis.home < axis.travel_min || axis.home > axis.travel_max)) {
     named.fail("home position lies outside the travel");
   }
@@ -599,13 +631,7 @@ void read_structure(const FieldReader& structure, MachineModel& model,
 
 MachineModel parse_machine(const std::string& yaml_text, const std::string& file_name_for_messages,
                            const std::string& base_directory) {
-  YAML::Node root;
-  try {
-    root = YAML::Load(yaml_text);
-  } catch (const YAML::Exception& error) {
-    throw InputError(located_message(file_name_for_messages, error.mark.line + 1,
-                                     error.mark.column + 1, "YAML syntax: " + error.msg));
-  }
+  const YAML::Node root = parse_yaml_input(yaml_text, file_name_for_messages);
   if (!root.IsMap()) throw InputError(located_message(file_name_for_messages, 0, 0,
                                                       "a machine file is a YAML map"));
   const FieldReader top(root, file_name_for_messages, "", "");
@@ -618,15 +644,32 @@ MachineModel parse_machine(const std::string& yaml_text, const std::string& file
   if (!top.has("kind")) top.fail("missing field 'kind' (machine_tool or robot)");
   model.interpolation_period_s = top.quantity("interpolation_period", kTime);
   top.require_positive("interpolation_period", model.interpolation_period_s);
+  {
+    // NC interpolators run at 0.1 to 20 ms: seconds are a slip of unit.
+    const FieldReader period = field_with_unit(top, "interpolation_period", kTime);
+    const std::string period_text = format_number(model.interpolation_period_s) + " s";
+    if (model.interpolation_period_s > kPeriodLimit_s) {
+      period.fail("an interpolation period of " + period_text +
+                  " is not plausible (NC interpolators run at 0.1 to 20 ms; ms meant?)");
+    }
+    if (model.interpolation_period_s > kPeriodWarningAbove_s ||
+        model.interpolation_period_s < kPeriodWarningBelow_s) {
+      model.warnings.push_back(period.where(period.node()) + ": an interpolation period of " +
+                               period_text +
+                               " is unusual (NC interpolators run at 0.1 to 20 ms): check the unit");
+    }
+  }
   if (top.has("gravity_m_per_s2")) model.gravity_B_m_per_s2 = top.child("gravity_m_per_s2").as_vector3();
 
   const FieldReader axes = top.child("axes");
   const std::size_t axis_count = axes.sequence_size();
   if (axis_count == 0) axes.fail("a machine needs at least one axis");
   std::set<std::string> names;
+  std::vector<bool> travel_in_machine_file(axis_count, false);
   for (std::size_t i = 0; i < axis_count; ++i) {
     const FieldReader axis_reader = axes.element(i);
-    Axis axis = read_axis(axis_reader);
+    Axis axis = read_axis(axis_reader, model.warnings);
+    travel_in_machine_file[i] = axis.continuous || !std::isnan(axis.travel_min);
     if (!names.insert(axis.name).second) axis_reader.fail("duplicate axis name '" + axis.name + "'");
     model.axes.push_back(std::move(axis));
   }
@@ -638,6 +681,10 @@ MachineModel parse_machine(const std::string& yaml_text, const std::string& file
           "missing field 'travel_<unit>' (travel_mm, travel_deg, ...), or continuous: true for an "
           "endless rotary axis");
     }
+    if (!travel_in_machine_file[i]) {
+      check_travel_plausible(axes.element(i).for_axis(axis.name), axis,
+                             "the travel taken from the URDF joint limits", model.warnings);
+    }
     if (!axis.continuous && (axis.home < axis.travel_min || axis.home > axis.travel_max)) {
       axes.element(i).for_axis(axis.name).fail("home position lies outside the travel");
     }
@@ -648,41 +695,48 @@ MachineModel parse_machine(const std::string& yaml_text, const std::string& file
 }
 
 MachineModel load_machine(const std::string& path) {
-  std::ifstream in(path);
-  if (!in) throw InputError(located_message(path, 0, 0, "cannot open the machine file"));
-  std::stringstream text;
-  text << in.rdbuf();
+  const std::string text = read_file(path);
   const std::string directory = std::filesystem::path(path).parent_path().string();
-  return parse_machine(text.str(), path, directory.empty() ? "." : directory);
+  return parse_machine(text, path, directory.empty() ? "." : directory);
 }
 
 // ---------------------------------------------------------------------------------------------
 // Invariants.
+
+std::string inertia_tensor_problem(const Eigen::Matrix3d& inertia) {
+  if (!inertia.allFinite()) return "the inertia tensor has a value that is not finite";
+  if ((inertia - inertia.transpose()).norm() > 1e-12 * (1.0 + inertia.norm())) {
+    return "the inertia tensor is not symmetric";
+  }
+  Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d> solver(inertia);
+  const Eigen::Vector3d principal = solver.eigenvalues();
+  const double scale = 1e-9 * (1.0 + principal.cwiseAbs().maxCoeff());
+  if (principal.minCoeff() < -scale) {
+    return "the inertia tensor has a negative principal moment (" +
+           format_number(principal.minCoeff()) + " kg m^2)";
+  }
+  // Triangle inequality of principal moments: no real body violates it.
+  for (int i = 0; i < 3; ++i) {
+    const double others = principal.sum() - principal[i];
+    if (principal[i] > others + scale) {
+      return "principal moments " + format_number(principal[0]) + ", " +
+             format_number(principal[1]) + ", " + format_number(principal[2]) +
+             " kg m^2 violate the triangle inequality (no physical body has them)";
+    }
+  }
+  return "";
+}
 
 namespace {
 
 void check_body(const MachineModel& model, const Joint& joint, const std::string& chain_name) {
   const std::string where = model.source_file + ": " + chain_name + " element '" + joint.name + "'";
   const Eigen::Matrix3d& inertia = joint.body.inertia_kg_m2;
-  if ((inertia - inertia.transpose()).norm() > 1e-12 * (1.0 + inertia.norm())) {
-    throw InputError(where + ": the inertia tensor is not symmetric");
-  }
-  Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d> solver(inertia);
-  const Eigen::Vector3d principal = solver.eigenvalues();
+  const std::string problem = inertia_tensor_problem(inertia);
+  if (!problem.empty()) throw InputError(where + ": " + problem);
+  const Eigen::Vector3d principal =
+      Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d>(inertia).eigenvalues();
   const double scale = 1e-9 * (1.0 + principal.cwiseAbs().maxCoeff());
-  if (principal.minCoeff() < -scale) {
-    throw InputError(where + ": the inertia tensor has a negative principal moment (" +
-                     format_number(principal.minCoeff()) + " kg m^2)");
-  }
-  // Triangle inequality of principal moments: no real body violates it.
-  for (int i = 0; i < 3; ++i) {
-    const double others = principal.sum() - principal[i];
-    if (principal[i] > others + scale) {
-      throw InputError(where + ": principal moments " + format_number(principal[0]) + ", " +
-                       format_number(principal[1]) + ", " + format_number(principal[2]) +
-                       " kg m^2 violate the triangle inequality (no physical body has them)");
-    }
-  }
   if (joint.body.mass_kg == 0.0 && principal.maxCoeff() > scale) {
     throw InputError(where + ": a body without mass cannot have inertia");
   }

@@ -8,6 +8,7 @@
 #include <optional>
 #include <set>
 #include <string>
+#include <string_view>
 #include <utility>
 #include <vector>
 
@@ -16,6 +17,9 @@
 namespace vmsim::kinematics {
 
 std::string format_number(double value);
+
+/// Levenshtein distance between two keys (yaml_input.cpp): how misspelt one is as the other.
+std::size_t edit_distance(const std::string& a, const std::string& b);
 
 /// Reads fields of one YAML map and remembers which were read, so that the rest can be
 /// reported as unknown. Quantities are written <name>_<unit> and converted to SI.
@@ -76,6 +80,25 @@ class FieldReader {
   /// Keys read so far; shared by the readers of the same node (see for_axis).
   std::shared_ptr<std::set<std::string>> used_ = std::make_shared<std::set<std::string>>();
 };
+
+/// Why an inertia tensor about the centre of mass [kg m^2] is no physical body's ("" when it is
+/// one): not symmetric, a negative principal moment, or principal moments that violate the
+/// triangle inequality.
+std::string inertia_tensor_problem(const Eigen::Matrix3d& inertia_kg_m2);
+
+/// The deepest XML nesting a URDF may have; real ones have 4 or 5 levels.
+inline constexpr int kUrdfNestingLimit = 100;
+
+/// Refuses XML whose elements nest deeper than `max_depth`, by one pass over the text without
+/// recursion (XML parsers recurse per level). Throws vmsim::InputError naming the line.
+void check_xml_nesting(std::string_view text, const std::string& file, int max_depth);
+
+/// Checks a URDF's text (urdf_checks.cpp) before urdfdom reads it: the nesting, well-formed XML
+/// under <robot>, every number of <origin>, <mass>, <inertia>, <axis>, <limit> and <dynamics>
+/// (finite, plausible; mass > 0; inertia physical), and a joint graph that is a tree (no link
+/// with two parents, no cycle). Throws vmsim::InputError naming the file, line, element and
+/// value; returns warnings (each located) for values plausible but unusual.
+std::vector<std::string> check_urdf_text(std::string_view text, const std::string& file);
 
 /// Reads `axes[i].effects` (machine_loader_effects.cpp); rejects unknown fields.
 DriveEffects read_drive_effects(const FieldReader& effects, const Axis& axis);

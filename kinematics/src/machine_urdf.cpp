@@ -8,6 +8,7 @@
 
 #include "machine_loader_internal.hpp"
 #include "vmsim/common/errors.hpp"
+#include "vmsim/common/files.hpp"
 
 namespace vmsim::kinematics {
 namespace {
@@ -44,7 +45,13 @@ void append_urdf_chain(const UrdfChainRequest& request, MachineModel& model,
   if (!std::filesystem::exists(request.path)) {
     throw InputError(context + ": URDF file '" + request.path + "' does not exist");
   }
-  const urdf::ModelInterfaceSharedPtr urdf_model = urdf::parseURDFFile(request.path);
+  // Read through read_file (regular files only, size cap) and checked by vmsim itself before
+  // urdfdom sees it: urdfdom drops what it cannot read and would loop on a cycle.
+  const std::string file_content = read_file(request.path);
+  const std::string_view urdf_text = strip_utf8_bom(file_content);
+  std::vector<std::string> warnings = check_urdf_text(urdf_text, request.path);
+  model.warnings.insert(model.warnings.end(), warnings.begin(), warnings.end());
+  const urdf::ModelInterfaceSharedPtr urdf_model = urdf::parseURDF(std::string(urdf_text));
   if (!urdf_model) {
     throw InputError(located_message(request.path, 0, 0, "not a valid URDF (urdfdom could not parse it)"));
   }

@@ -26,12 +26,17 @@ std::string where(const std::string& name, std::size_t triangle, int line) {
   return located_message(name, line, 0, "triangle " + std::to_string(triangle + 1));
 }
 
-bool looks_binary(const std::string& bytes) {
-  if (bytes.size() < 84) return bytes.rfind("solid", 0) != 0;
+// The size a binary STL with the triangle count of its header has (bytes.size() >= 84).
+bool binary_size_matches(const std::string& bytes) {
   std::uint32_t n = 0;
   std::memcpy(&n, bytes.data() + 80, 4);
+  return 84 + 50ull * n == bytes.size();
+}
+
+bool looks_binary(const std::string& bytes) {
+  if (bytes.size() < 84) return bytes.rfind("solid", 0) != 0;
   // Many binary files also start with "solid": the size decides.
-  if (84 + 50ull * n == bytes.size()) return true;
+  if (binary_size_matches(bytes)) return true;
   return bytes.rfind("solid", 0) != 0;
 }
 
@@ -160,8 +165,15 @@ double TriangleMesh::volume_m3() const {
 }
 
 TriangleMesh parse_stl(const std::string& bytes, const std::string& name, double unit_m) {
-  const bool binary = looks_binary(bytes);
-  const std::vector<RawTriangle> raw = binary ? parse_binary(bytes, name) : parse_ascii(bytes, name);
+  // A UTF-8 byte-order mark can only start an ASCII STL (as in every text reader, it is
+  // skipped); a binary STL's 80-byte header may start with anything and is left alone.
+  const std::string_view unmarked = strip_utf8_bom(bytes);
+  const bool ascii_after_mark = unmarked.size() != bytes.size() && unmarked.substr(0, 5) == "solid" &&
+                                !(bytes.size() >= 84 && binary_size_matches(bytes));
+  const bool binary = !ascii_after_mark && looks_binary(bytes);
+  const std::vector<RawTriangle> raw =
+      binary ? parse_binary(bytes, name)
+             : parse_ascii(ascii_after_mark ? std::string(unmarked) : bytes, name);
   if (raw.empty()) throw InputError(name + ": the STL holds no triangle");
   TriangleMesh mesh;
   std::unordered_map<VertexKey, int, VertexHash> ids;

@@ -161,6 +161,9 @@ struct MachineModel {
   Eigen::Vector3d gravity_B_m_per_s2{0.0, 0.0, -9.81};
   /// Interpolation period of the NC: the period of the position set points [s].
   double interpolation_period_s = 0.002;
+  /// What the loader found plausible but unusual (a period of seconds, a travel of kilometres),
+  /// each naming the file, line and field; the program prints them as warnings.
+  std::vector<std::string> warnings;
 
   /// Index of the axis with this name, or -1.
   int axis_index(const std::string& axis_name) const;
