@@ -76,6 +76,9 @@
 //    (G73 G74 G76 G81-G89), any other G-code, and words outside this list (U V W Q L E, P
 //    elsewhere, Siemens keywords other than TRAORI/TRAFOOF).
 #include <Eigen/Core>
+#include <array>
+#include <cstddef>
+#include <limits>
 #include <functional>
 #include <optional>
 #include <string>
@@ -109,6 +112,12 @@ struct PathPoint {
   /// G93 inverse-time feed [1/s] for this motion, where programmed (feed_m_per_s is then 0).
   double inverse_time_feed_per_s = 0.0;
   int block = -1;  ///< index into Toolpath::blocks of the block that programmed this motion
+  /// The rotary axis words A B C [deg] in force here where the program gives machine axes
+  /// (G-code axis words through ReaderOptions::axis_words_to_pose, or G43.4 / TRAORI rotary
+  /// words); NaN where not programmed. Two points with the same pose but different words are
+  /// different machine positions (a 360 deg turn of C), never merged.
+  static constexpr double kNotProgrammed = std::numeric_limits<double>::quiet_NaN();
+  std::array<double, 3> rotary_words_deg = {kNotProgrammed, kNotProgrammed, kNotProgrammed};
 };
 
 /// A warning that names where it comes from (an unknown APT record, an ignored G-code word).
@@ -149,6 +158,13 @@ struct ReaderOptions {
   AxisWordsToPose axis_words_to_pose;
   /// Needed only for G43.4 / TRAORI blocks that give A B C rather than a tool vector.
   RotaryWordsToToolAxis rotary_words_to_tool_axis;
+  /// Expansion limits, checked before the points are made: the points one block may expand to
+  /// (an arc's tessellation, a long rotary turn's steps), and the points of the whole path. A
+  /// path point costs about 100 bytes in the reader and about 1 kB further down the chain (axis
+  /// positions and their derivatives, the planner's grid, set points): 2 million points is about
+  /// 2 GB, as much as a simulation on an ordinary workstation should take.
+  std::size_t max_points_per_block = 1'000'000;
+  std::size_t max_path_points = 2'000'000;
 };
 
 /// Reads an APT/CL file (subset above). Throws vmsim::InputError naming the file, line, column
