@@ -100,6 +100,11 @@ class AptReader {
         record.text.push_back(' ');
         record.position.push_back(record.position.back());
       }
+      if (record.text.size() + content_end > detail::kMaxRecordBytes) {
+        fail(Position{line_number, 0},
+             "the record is longer than " + std::to_string(detail::kMaxRecordBytes) +
+                 " bytes (continuations joined), the limit");
+      }
       for (std::size_t i = 0; i < content_end; ++i) {
         record.text.push_back(line[i]);
         record.position.push_back(Position{line_number, static_cast<int>(i) + 1});

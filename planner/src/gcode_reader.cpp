@@ -164,6 +164,10 @@ class GcodeReader {
       if (!std::isalpha(static_cast<unsigned char>(c))) {
         fail(column, "unexpected character '" + std::string(1, c) + "'");
       }
+      if (words.size() == detail::kMaxWordsPerBlock) {
+        fail(column, "more than " + std::to_string(detail::kMaxWordsPerBlock) +
+                         " words in one block");
+      }
       const std::size_t start = i;
       Word word;
       word.column = column;

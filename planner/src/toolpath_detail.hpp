@@ -36,7 +36,16 @@ inline constexpr double kMaxToleranceMm = 1e3;
 /// Integer-like words that are ignored (N O T H D, M codes) and G-code numbers.
 inline constexpr double kMaxIgnoredWordValue = 1e9;
 
-/// The whole file as text; throws InputError naming the file when it cannot be read.
+/// Largest tool path file [bytes] (1 GiB): a path of ReaderOptions::max_path_points takes
+/// about 150 MB of text.
+inline constexpr std::size_t kMaxFileBytes = std::size_t{1} << 30;
+/// Largest G-code block [words]: each address may appear once, so a real block has a few dozen.
+inline constexpr std::size_t kMaxWordsPerBlock = 64;
+/// Largest APT record, continuations joined [bytes]: its values cost about 25 times their text.
+inline constexpr std::size_t kMaxRecordBytes = std::size_t{4} << 20;
+
+/// The whole file as text; throws InputError naming the file when it cannot be read or is larger
+/// than kMaxFileBytes.
 std::string read_text_file(const std::string& path);
 
 /// `text` without a leading UTF-8 byte-order mark (EF BB BF), which editors on Windows write and

@@ -243,5 +243,28 @@ TEST(ReaderDefects, AnArcOfTooManyPointsIsRefusedBeforeItIsMade) {
   EXPECT_CONTAINS(message, "points per block");
 }
 
+// --- 6. Found by mutating the samples ---------------------------------------------------------
+
+TEST(ReaderDefects, GcodeLineOfMillionsOfWordsIsRefusedBeforeTheyAreKept) {
+  // 10 MB of "X1": the words of the line were all kept (about 100 bytes each) before the
+  // repeated address was found; a 2.6 GB line took all the memory.
+  std::string program = "G1 X0 F100\nG1";
+  for (int i = 0; i < 3'400'000; ++i) program += " X1";
+  const std::string message = gcode_error(program + "\n");
+  EXPECT_CONTAINS(message, "part.nc:2:");
+  EXPECT_CONTAINS(message, "more than 64 words in one block");
+}
+
+TEST(ReaderDefects, AptRecordOfTenMegabytesIsRefusedAndALongCommentIsNot) {
+  std::string record = "GOTO/0,0,0";
+  while (record.size() < 10'000'000) record += ",1,2,3";
+  const std::string message = apt_error("MULTAX/OFF\nFEDRAT/1\n" + record + "\n");
+  EXPECT_CONTAINS(message, "part.apt:3:");
+  EXPECT_CONTAINS(message, "longer than 4194304 bytes");
+  const std::string comment = "PPRINT " + std::string(10'000'000, 'x') + "\n";
+  EXPECT_EQ(apt(comment + "FEDRAT/1\nGOTO/0,0,0\n").points.size(), 1u);
+  EXPECT_EQ(gcode("(" + std::string(10'000'000, 'x') + ")\nG1 X0 F1\n").points.size(), 1u);
+}
+
 }  // namespace
 }  // namespace vmsim::planner
