@@ -5,6 +5,7 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <numbers>
 #include <string>
 
 #include "reader_test_support.hpp"
@@ -88,6 +89,31 @@ TEST(ReaderLimits, PointsCarryTheirRotaryWords) {
   for (const PathPoint& point : plain.points) {
     for (double word : point.rotary_words_deg) EXPECT_TRUE(std::isnan(word));
   }
+}
+
+TEST(ReaderLimits, AFullTurnUnderG43_4IsSplitIntoToolAxesAlongTheCone) {
+  ReaderOptions options;
+  // Tool axis of a table-table machine: +z tilted by A about x, then turned by C about z (in W
+  // the table's turn is the other way: -C).
+  options.rotary_words_to_tool_axis = [](const std::vector<std::pair<char, double>>& words) {
+    double a = 0.0, c = 0.0;
+    for (const auto& [letter, value] : words) {
+      if (letter == 'A') a = value * std::numbers::pi / 180.0;
+      if (letter == 'C') c = -value * std::numbers::pi / 180.0;
+    }
+    return Eigen::Vector3d(std::sin(a) * std::sin(c), -std::sin(a) * std::cos(c),
+                           std::cos(a));
+  };
+  const Toolpath path =
+      parse_gcode("G43.4\nG1 X0 Y0 Z0 A-30 C0 F100\nG1 C360\n", "tcp.nc", options);
+  ASSERT_EQ(path.points.size(), 5u);
+  for (std::size_t k = 0; k < 5; ++k) {
+    EXPECT_EQ(path.points[k].rotary_words_deg[2], 90.0 * static_cast<double>(k));
+    EXPECT_NEAR(path.points[k].axis_W.z(), std::cos(30.0 * std::numbers::pi / 180.0), 1e-15);
+  }
+  // Half way round, the tool leans the other way.
+  EXPECT_NEAR(path.points[2].axis_W.y(), -path.points[0].axis_W.y(), 1e-15);
+  EXPECT_NEAR(path.points[4].axis_W.y(), path.points[0].axis_W.y(), 1e-15);
 }
 
 }  // namespace
