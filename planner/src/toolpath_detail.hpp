@@ -14,7 +14,7 @@ inline constexpr double kMetresPerMillimetre = 1e-3;
 inline constexpr double kMillimetresPerInch = 25.4;
 inline constexpr double kSecondsPerMinute = 60.0;
 
-// What the readers accept (documented in toolpath.hpp, "Limits"). Bounds far beyond any machine,
+// What the readers accept (toolpath.hpp, common rules "Numbers" and "Size"). Far beyond any machine,
 // chosen so that sums, squares and tessellations of accepted numbers stay finite and small.
 /// Largest coordinate, arc centre offset or radius [mm] (1 km).
 inline constexpr double kMaxCoordinateMm = 1e6;
