@@ -5,6 +5,7 @@
 
 #include "part_file.hpp"
 #include "vmsim/common/errors.hpp"
+#include "vmsim/common/files.hpp"
 #include "vmsim/kinematics/kinematics.hpp"
 #include "vmsim/kinematics/machine_loader.hpp"
 
@@ -29,7 +30,10 @@ double to_trace_unit(const kinematics::Axis& axis, double joint_value_si) {
 
 namespace {
 
-// Machine axis values from G-code words: letters must be axis names of the machine.
+// Machine axis values from G-code words: letters must be axis names of the machine, and each
+// word must lie within its axis's travel: a word beyond it (A720 on A [-120, 30] deg) would give
+// a pose that the direct kinematics folds back into the travel (A720 is the pose of A0), and the
+// motion would silently vanish. The reader places the error at the block.
 Eigen::VectorXd axes_from_words(const kinematics::MachineModel& machine,
                                 const std::vector<std::pair<char, double>>& words) {
   Eigen::VectorXd q = machine.home_positions();
@@ -42,8 +46,32 @@ Eigen::VectorXd axes_from_words(const kinematics::MachineModel& machine,
     const auto& axis = machine.axes[static_cast<std::size_t>(index)];
     q[index] = axis.type == kinematics::AxisType::linear ? value * 1e-3
                                                          : value * std::numbers::pi / 180.0;
+    const bool limited = !(axis.type == kinematics::AxisType::rotary && axis.continuous);
+    constexpr double kTravelSlack = 1e-12;  // joint unit, as kinematics::within_travel
+    if (limited && !(q[index] >= axis.travel_min - kTravelSlack &&
+                     q[index] <= axis.travel_max + kTravelSlack)) {
+      const char* unit = axis.type == kinematics::AxisType::linear ? " mm" : " deg";
+      // The travel as the machine file gives it (mm or deg, not the rounding of m or rad).
+      const auto as_written = [&](double joint_value) {
+        return format_double(std::round(to_trace_unit(axis, joint_value) * 1e9) / 1e9);
+      };
+      throw InfeasibleError("axis word " + std::string(1, letter) + format_double(value) +
+                            " is outside the travel of axis " + axis.name + " [" +
+                            as_written(axis.travel_min) + ", " + as_written(axis.travel_max) +
+                            "]" + unit);
+    }
   }
   return q;
+}
+
+// True when both points carry the same rotary words (NaN: not programmed, equal to NaN).
+bool same_rotary_words(const planner::PathPoint& a, const planner::PathPoint& b) {
+  for (std::size_t k = 0; k < a.rotary_words_deg.size(); ++k) {
+    const double x = a.rotary_words_deg[k];
+    const double y = b.rotary_words_deg[k];
+    if (std::isnan(x) != std::isnan(y) || (!std::isnan(x) && x != y)) return false;
+  }
+  return true;
 }
 
 }  // namespace
@@ -104,13 +132,16 @@ ChainInputs load_chain_inputs(const ChainInputOptions& options) {
     if (block.block_number >= 0) name += " N" + std::to_string(block.block_number);
     inputs.block_names.push_back(name);
   }
-  // Consecutive identical poses carry no motion: merge them, and say so.
+  // Consecutive identical poses carry no motion: merge them, and say so. Not when their
+  // programmed rotary words differ: the same pose at C0 and C360 is a real turn of C.
   for (std::size_t i = 0; i < inputs.toolpath.points.size(); ++i) {
     const planner::PathPoint& point = inputs.toolpath.points[i];
     if (!inputs.path.empty()) {
       const kinematics::ToolPose& last = inputs.path.back().pose;
+      const planner::PathPoint& last_point = inputs.toolpath.points[inputs.toolpath_point.back()];
       if ((last.tip_W_m - point.tip_W_m).norm() < 1e-12 &&
-          (last.axis_W - point.axis_W).norm() < 1e-12) {
+          (last.axis_W - point.axis_W).norm() < 1e-12 &&
+          same_rotary_words(last_point, point)) {
         const auto& block = inputs.toolpath.blocks[static_cast<std::size_t>(point.block)];
         inputs.warnings.push_back(located_message(block.file, block.line, 0,
                                                   "repeats the previous pose; merged with it"));

@@ -1,6 +1,9 @@
 // APT/CL reader: the subset documented in vmsim/planner/toolpath.hpp ("APT/CL subset").
 #include <array>
+#include <cctype>
 #include <cmath>
+#include <exception>
+#include <new>
 #include <optional>
 #include <set>
 #include <string>
@@ -57,10 +60,16 @@ const std::set<std::string, std::less<>> kHarmlessRecords = {
 
 class AptReader {
  public:
-  explicit AptReader(const std::string& file) : file_(file) {}
+  AptReader(const std::string& file, const ReaderOptions& options)
+      : file_(file), options_(options) {}
+
+  /// The physical line being read (for errors that are not the reader's own).
+  int current_line() const { return current_line_; }
 
   Toolpath read(std::string_view text) {
-    int line_number = 0;
+    text = detail::without_byte_order_mark(text);
+    detail::require_utf8_text(text, file_);
+    int& line_number = current_line_;
     std::size_t begin = 0;
     bool continuing = false;
     Record record;
@@ -90,6 +99,11 @@ class AptReader {
         // A blank between the joined lines, so that "1.0$" + "2.0" cannot become "1.02.0".
         record.text.push_back(' ');
         record.position.push_back(record.position.back());
+      }
+      if (record.text.size() + content_end > detail::kMaxRecordBytes) {
+        fail(Position{line_number, 0},
+             "the record is longer than " + std::to_string(detail::kMaxRecordBytes) +
+                 " bytes (continuations joined), the limit");
       }
       for (std::size_t i = 0; i < content_end; ++i) {
         record.text.push_back(line[i]);
@@ -167,18 +181,70 @@ class AptReader {
   }
 
   void warn(const Record& record, const std::string& message) {
-    path_.warnings.push_back(ReaderWarning{file_, record.name_at.line, message});
+    // A file of millions of unknown records would otherwise give millions of warnings.
+    ++warning_count_;
+    if (warning_count_ < kMaxWarnings) {
+      path_.warnings.push_back(ReaderWarning{file_, record.name_at.line, message});
+    } else if (warning_count_ == kMaxWarnings) {
+      path_.warnings.push_back(ReaderWarning{
+          file_, record.name_at.line,
+          "more than " + std::to_string(kMaxWarnings) + " warnings: the rest are not listed"});
+    }
   }
 
   double number(const Record& record, const Token& token) const {
     if (token.text.empty()) {
       fail(token.at, "empty value in " + record.name + ": a number is needed");
     }
-    const std::optional<double> value = detail::parse_decimal(token.text);
+    std::string problem;
+    const std::optional<double> value = detail::parse_decimal(token.text, &problem);
     if (!value) {
-      fail(token.at, "malformed number '" + token.text + "' in " + record.name);
+      fail(token.at, problem + " '" + token.text + "' in " + record.name);
     }
     return *value;
+  }
+
+  /// A number that must lie in [min, max] (in the unit `unit` after multiplying by `scale`).
+  double number_within(const Record& record, const Token& token, double scale, double min,
+                       double max, const std::string& what, const std::string& unit) const {
+    const double value = number(record, token) * scale;
+    if (!(value >= min && value <= max)) {
+      fail(token.at, what + " '" + token.text + "' in " + record.name + " is outside [" +
+                         detail::format_number(min) + ", " + detail::format_number(max) + "] " +
+                         unit);
+    }
+    return value;
+  }
+
+  static bool looks_numeric(const Token& token) {
+    if (token.text.empty()) return false;
+    const char c = token.text[0];
+    return std::isdigit(static_cast<unsigned char>(c)) || c == '+' || c == '-' || c == '.';
+  }
+
+  /// SPINDL and the tolerance records are otherwise ignored, but their numbers are checked:
+  /// a spindle speed of 1e400 or a tolerance of 4.9e-324 is a broken file.
+  void check_ignored_numbers(const Record& record) const {
+    const bool spindle = record.name == "SPINDL";
+    const bool tolerance = record.name == "INTOL" || record.name == "OUTTOL" ||
+                           record.name == "TOLER" || record.name == "LINTOL";
+    if (!spindle && !tolerance) return;
+    for (const Token& token : record.args) {
+      if (!looks_numeric(token)) continue;
+      if (spindle) {
+        number_within(record, token, 1.0, -detail::kMaxSpindleRevPerMin,
+                      detail::kMaxSpindleRevPerMin, "spindle speed", "rev/min");
+      } else {
+        number_within(record, token, mm_per_unit_, -detail::kMaxToleranceMm,
+                      detail::kMaxToleranceMm, "tolerance", "mm");
+      }
+    }
+  }
+
+  /// A coordinate in the UNITS unit, returned in mm.
+  double coordinate_mm(const Record& record, const Token& token) const {
+    return number_within(record, token, mm_per_unit_, -detail::kMaxCoordinateMm,
+                         detail::kMaxCoordinateMm, "coordinate", "mm");
   }
 
   [[noreturn]] void fail_count(const Record& record, const std::string& expected) const {
@@ -261,6 +327,8 @@ class AptReader {
                                "' is not supported: output the arc as GOTO points");
     } else if (kHarmlessRecords.count(name) == 0) {
       warn(record, "unknown APT record '" + detail::trim(record.text) + "' ignored");
+    } else {
+      check_ignored_numbers(record);
     }
   }
 
@@ -269,6 +337,7 @@ class AptReader {
     std::optional<double> value;
     std::optional<double> mm_per_unit;
     Position value_at = record.name_at;
+    std::string value_text;
     if (record.args.empty() || record.args.size() > 2) {
       fail_count(record, "a feed rate f or f,MMPM or f,IPM");
     }
@@ -287,14 +356,22 @@ class AptReader {
       } else {
         value = number(record, token);
         value_at = token.at;
+        value_text = token.text;
       }
     }
     if (!value) fail(record.name_at, "FEDRAT without a feed rate value");
     if (!(*value > 0.0)) {
-      fail(value_at, "feed rate must be positive, got '" + std::to_string(*value) + "'");
+      fail(value_at, "feed rate must be positive, got '" + value_text + "'");
     }
-    feed_m_per_s_ =
-        *value * mm_per_unit.value_or(mm_per_unit_) * kMetresPerMillimetre / kSecondsPerMinute;
+    const double feed_mm_per_min = *value * mm_per_unit.value_or(mm_per_unit_);
+    if (!(feed_mm_per_min >= detail::kMinFeedMmPerMin &&
+          feed_mm_per_min <= detail::kMaxFeedMmPerMin)) {
+      fail(value_at, "feed rate '" + value_text + "' (" +
+                         detail::format_number(feed_mm_per_min) + " mm/min) is outside [" +
+                         detail::format_number(detail::kMinFeedMmPerMin) + ", " +
+                         detail::format_number(detail::kMaxFeedMmPerMin) + "] mm/min");
+    }
+    feed_m_per_s_ = feed_mm_per_min * kMetresPerMillimetre / kSecondsPerMinute;
   }
 
   void cutter(const Record& record) {
@@ -304,14 +381,17 @@ class AptReader {
     }
     std::vector<double> values;
     for (const Token& token : record.args) values.push_back(number(record, token));
-    const double diameter_m = values[0] * mm_per_unit_ * kMetresPerMillimetre;
-    const double radius_m =
-        values.size() > 1 ? values[1] * mm_per_unit_ * kMetresPerMillimetre : 0.0;
-    if (!(diameter_m > 0.0)) {
+    if (!(values[0] > 0.0)) {
       fail(record.args[0].at,
            "cutter diameter must be positive, got '" + record.args[0].text + "'");
     }
-    if (radius_m < 0.0 || radius_m > 0.5 * diameter_m) {
+    const double diameter_m =
+        number_within(record, record.args[0], mm_per_unit_, detail::kMinCutterDiameterMm,
+                      detail::kMaxCutterDiameterMm, "cutter diameter", "mm") *
+        kMetresPerMillimetre;
+    const double radius_m =
+        values.size() > 1 ? values[1] * mm_per_unit_ * kMetresPerMillimetre : 0.0;
+    if (!(radius_m >= 0.0 && radius_m <= 0.5 * diameter_m)) {
       fail(record.args[1].at, "cutter corner radius '" + record.args[1].text +
                                   "' must lie between 0 and half the diameter");
     }
@@ -335,8 +415,14 @@ class AptReader {
       if (n != 3 && n != 6) fail_count(record, "3 numbers x,y,z or 6 numbers x,y,z,i,j,k");
       stride = n;
     }
+    // Coordinates (x,y,z) in mm, tool axis components as written.
     std::vector<double> values;
-    for (const Token& token : record.args) values.push_back(number(record, token));
+    for (std::size_t k = 0; k < n; ++k) {
+      values.push_back(k % stride < 3 ? coordinate_mm(record, record.args[k])
+                                      : number(record, record.args[k]));
+    }
+    detail::require_room_for_points(path_, n / stride, options_, file_, record.name_at.line,
+                                    record.name_at.column, record.name);
 
     const bool rapid = from || rapid_next_;
     rapid_next_ = false;
@@ -355,9 +441,8 @@ class AptReader {
 
     for (std::size_t first = 0; first < n; first += stride) {
       PathPoint point;
-      const double m_per_unit = mm_per_unit_ * kMetresPerMillimetre;
       point.tip_W_m = Eigen::Vector3d(values[first], values[first + 1], values[first + 2]) *
-                      m_per_unit;
+                      kMetresPerMillimetre;
       if (stride == 6) {
         const Eigen::Vector3d v(values[first + 3], values[first + 4], values[first + 5]);
         const Position& at = record.args[first + 3].at;
@@ -370,13 +455,15 @@ class AptReader {
       point.kind = rapid ? MotionKind::rapid : MotionKind::linear;
       point.feed_m_per_s = rapid ? 0.0 : *feed_m_per_s_;
       point.block = block_index;
-      detail::append_point(path_, point);
+      detail::append_point(path_, point, options_, file_, record.name_at.line);
     }
   }
 
   enum class Multax { unset, off, on };
+  static constexpr int kMaxWarnings = 1000;
 
   const std::string& file_;
+  const ReaderOptions& options_;
   Toolpath path_;
   double mm_per_unit_ = 1.0;
   std::optional<double> feed_m_per_s_;
@@ -384,14 +471,27 @@ class AptReader {
   Multax multax_ = Multax::unset;
   bool rapid_next_ = false;
   bool finished_ = false;
+  int current_line_ = 0;
+  int warning_count_ = 0;
 };
 
 }  // namespace
 
 Toolpath parse_apt(const std::string& text, const std::string& file_name_for_messages,
                    const ReaderOptions& options) {
-  (void)options;  // nothing in the APT subset needs a machine
-  return AptReader(file_name_for_messages).read(text);
+  AptReader reader(file_name_for_messages, options);
+  try {
+    return reader.read(text);
+  } catch (const InputError&) {
+    throw;
+  } catch (const std::bad_alloc&) {
+    throw InputError(located_message(file_name_for_messages, reader.current_line(), 0,
+                                     "out of memory reading the tool path"));
+  } catch (const std::exception& error) {
+    // Every failure of a reader is about its input: say where it was.
+    throw InputError(located_message(file_name_for_messages, reader.current_line(), 0,
+                                     std::string("cannot read the tool path: ") + error.what()));
+  }
 }
 
 Toolpath read_apt(const std::string& path, const ReaderOptions& options) {

@@ -2,7 +2,10 @@
 // ("G-code subset").
 #include <array>
 #include <cctype>
+#include <algorithm>
 #include <cmath>
+#include <exception>
+#include <new>
 #include <numbers>
 #include <optional>
 #include <string>
@@ -38,7 +41,12 @@ constexpr double kArcRadiusToleranceMm = 1e-3;
 constexpr double kArcRadiusRelativeTolerance = 1e-6;
 /// End points closer than this [mm] in the arc plane make a full circle (I J K form).
 constexpr double kFullCircleDistanceMm = 1e-9;
-constexpr long kMaxArcSegments = 10'000'000;
+/// A motion that turns a rotary axis word by this much or more [deg] is split into steps of at
+/// most kRotaryStepDeg: the chain follows poses, and from one pose to the next the inverse
+/// kinematics takes the nearest solution, so a turn of 180 deg or more (C0 -> C360) would vanish.
+constexpr double kSplitRotaryTurnDeg = 180.0;
+constexpr double kRotaryStepDeg = 90.0;
+constexpr int kMaxWarnings = 1000;
 
 enum class Plane { xy, zx, yz };
 enum class Tcp { off, g43_4, g43_5, traori };
@@ -76,12 +84,16 @@ class GcodeReader {
   GcodeReader(const std::string& file, const ReaderOptions& options)
       : file_(file), options_(options) {}
 
+  int current_line() const { return line_; }
+
   Toolpath read(std::string_view text) {
-    if (!(options_.arc_chord_tolerance_m > 0.0) ||
+    if (!(options_.arc_chord_tolerance_m >= 1e-12) ||
         !std::isfinite(options_.arc_chord_tolerance_m)) {
-      throw InputError("ReaderOptions::arc_chord_tolerance_m must be positive and finite, got " +
-                       std::to_string(options_.arc_chord_tolerance_m));
+      throw InputError("ReaderOptions::arc_chord_tolerance_m must be at least 1e-12 m and "
+                       "finite, got " + detail::format_number(options_.arc_chord_tolerance_m));
     }
+    text = detail::without_byte_order_mark(text);
+    detail::require_utf8_text(text, file_);
     std::size_t begin = 0;
     while (begin < text.size() && !ended_) {
       std::size_t end = text.find('\n', begin);
@@ -105,7 +117,25 @@ class GcodeReader {
     fail(word.column, "'" + word.text + "': " + message);
   }
   void warn(const std::string& message) {
-    path_.warnings.push_back(ReaderWarning{file_, line_, message});
+    // A file of millions of deleted blocks would otherwise give millions of warnings.
+    ++warning_count_;
+    if (warning_count_ < kMaxWarnings) {
+      path_.warnings.push_back(ReaderWarning{file_, line_, message});
+    } else if (warning_count_ == kMaxWarnings) {
+      path_.warnings.push_back(ReaderWarning{
+          file_, line_,
+          "more than " + std::to_string(kMaxWarnings) + " warnings: the rest are not listed"});
+    }
+  }
+
+  /// Throws unless min <= value <= max; `unit` names the unit of value, min and max.
+  void require_within(const Word& word, double value, double min, double max,
+                      const std::string& what, const std::string& unit) const {
+    if (!(value >= min && value <= max)) {
+      fail(word, what + " " + detail::format_number(value) + " " + unit + " is outside [" +
+                     detail::format_number(min) + ", " + detail::format_number(max) + "] " +
+                     unit);
+    }
   }
 
   // --- Words ----------------------------------------------------------------------------------
@@ -133,6 +163,10 @@ class GcodeReader {
       }
       if (!std::isalpha(static_cast<unsigned char>(c))) {
         fail(column, "unexpected character '" + std::string(1, c) + "'");
+      }
+      if (words.size() == detail::kMaxWordsPerBlock) {
+        fail(column, "more than " + std::to_string(detail::kMaxWordsPerBlock) +
+                         " words in one block");
       }
       const std::size_t start = i;
       Word word;
@@ -177,10 +211,11 @@ class GcodeReader {
         }
       }
       word.text = detail::trim(line.substr(start, i - start));
-      const std::optional<double> value = detail::parse_decimal(number);
+      std::string problem;
+      const std::optional<double> value = detail::parse_decimal(number, &problem);
       if (!value) {
         fail(column, "'" + word.text + "': " +
-                         (number.empty() ? "the address has no value" : "malformed number"));
+                         (number.empty() ? "the address has no value" : problem));
       }
       word.value = *value;
       word.has_value = true;
@@ -231,6 +266,7 @@ class GcodeReader {
       }
       switch (word.letter()) {
         case 'G': {
+          require_within(word, word.value, 0.0, 1000.0, "G-code number", "");
           const double tenths = word.value * 10.0;
           if (std::abs(tenths - std::round(tenths)) > 1e-9) fail(word, "unknown G-code");
           const long code = std::lround(tenths);
@@ -279,13 +315,23 @@ class GcodeReader {
           break;
         }
         case 'M': {
+          require_within(word, word.value, 0.0, detail::kMaxIgnoredWordValue, "M code", "");
           const long code = std::lround(word.value);
           if (code == 98 || code == 99) fail(word, "subprogram calls are not supported");
           if (code == 2 || code == 30) ended_ = true;
           break;
         }
-        case 'N': block_number = std::lround(word.value); break;
-        case 'O': case 'S': case 'T': case 'H': case 'D': break;
+        case 'N':
+          require_within(word, word.value, 0.0, detail::kMaxIgnoredWordValue, "block number", "");
+          block_number = std::lround(word.value);
+          break;
+        case 'S':
+          require_within(word, word.value, 0.0, detail::kMaxSpindleRevPerMin, "spindle speed",
+                         "rev/min");
+          break;
+        case 'O': case 'T': case 'H': case 'D':
+          require_within(word, word.value, 0.0, detail::kMaxIgnoredWordValue, "value", "");
+          break;
         case 'F': set_once(f_word, word); break;
         case 'P': set_once(p_word, word); break;
         case 'R': set_once(r_word, word); break;
@@ -303,14 +349,39 @@ class GcodeReader {
     if (inverse_time) inverse_time_ = *inverse_time;
     if (tcp) tcp_ = *tcp;
     if (p_word && !dwell && !path_mode) fail(*p_word, "P is supported only with G4 or G64");
+    if (p_word) {
+      require_within(*p_word, p_word->value, 0.0, detail::kMaxIgnoredWordValue, "P value", "");
+    }
 
     std::optional<double> block_inverse_time_per_s;
     if (f_word) {
       if (!(f_word->value > 0.0)) fail(*f_word, "the feed rate must be positive");
       if (inverse_time_) {
+        require_within(*f_word, f_word->value, detail::kMinInverseTimePerMin,
+                       detail::kMaxInverseTimePerMin, "inverse-time feed", "1/min");
         block_inverse_time_per_s = f_word->value / kSecondsPerMinute;
       } else {
-        feed_m_per_s_ = f_word->value * mm_per_unit_ * kMetresPerMillimetre / kSecondsPerMinute;
+        const double feed_mm_per_min = f_word->value * mm_per_unit_;
+        require_within(*f_word, feed_mm_per_min, detail::kMinFeedMmPerMin,
+                       detail::kMaxFeedMmPerMin, "feed rate", "mm/min");
+        feed_m_per_s_ = feed_mm_per_min * kMetresPerMillimetre / kSecondsPerMinute;
+      }
+    }
+    // Lengths and angles within the readers' limits, so that sums, squares and tessellations
+    // stay finite (toolpath.hpp, "Limits").
+    for (const Word* word : {xyz[0], xyz[1], xyz[2], ijk[0], ijk[1], ijk[2], r_word}) {
+      if (word && !dwell) {
+        require_within(*word, word->value * mm_per_unit_, -detail::kMaxCoordinateMm,
+                       detail::kMaxCoordinateMm, "length", "mm");
+      }
+    }
+    if (dwell && xyz[0]) {
+      require_within(*xyz[0], xyz[0]->value, 0.0, detail::kMaxIgnoredWordValue, "dwell", "");
+    }
+    for (const Word* word : abc) {
+      if (word) {
+        require_within(*word, word->value, -detail::kMaxRotaryDeg, detail::kMaxRotaryDeg,
+                       "rotary axis word", "deg");
       }
     }
     if (motion) motion_ = motion;
@@ -374,14 +445,19 @@ class GcodeReader {
       const double value = xyz[k]->value * mm_per_unit_;
       target_mm[static_cast<Eigen::Index>(k)] =
           incremental_ ? start_mm[static_cast<Eigen::Index>(k)] + value : value;
+      require_within(*xyz[k], target_mm[static_cast<Eigen::Index>(k)], -detail::kMaxCoordinateMm,
+                     detail::kMaxCoordinateMm, "position", "mm");
     }
     if (!started_ && arc) {
       fail(reported, "an arc as the first motion: its start point is unknown");
     }
+    const std::array<std::optional<double>, 3> start_rotary_deg = rotary_deg_;
     for (std::size_t k = 0; k < 3; ++k) {
       if (!abc[k]) continue;
       const double previous = rotary_deg_[k].value_or(0.0);
       rotary_deg_[k] = incremental_ ? previous + abc[k]->value : abc[k]->value;
+      require_within(*abc[k], *rotary_deg_[k], -detail::kMaxRotaryDeg, detail::kMaxRotaryDeg,
+                     "rotary axis position", "deg");
     }
     started_ = true;
 
@@ -397,9 +473,7 @@ class GcodeReader {
       axis_W_ = detail::unit_tool_axis(v, file_, line_, first_of({ijk[0], ijk[1], ijk[2]})->column,
                                        line_text_);
     } else if (any_abc && (tcp_ == Tcp::g43_4 || tcp_ == Tcp::traori)) {
-      const Eigen::Vector3d v = options_.rotary_words_to_tool_axis(rotary_words());
-      axis_W_ = detail::unit_tool_axis(v, file_, line_, first_of({abc[0], abc[1], abc[2]})->column,
-                                       line_text_ + " (through rotary_words_to_tool_axis)");
+      axis_W_ = tool_axis_of(rotary_words(rotary_deg_), first_of({abc[0], abc[1], abc[2]})->column);
     }
     if (tcp_ == Tcp::off && !options_.axis_words_to_pose && axis_W_ != Eigen::Vector3d::UnitZ()) {
       fail(reported,
@@ -416,9 +490,9 @@ class GcodeReader {
     path_.blocks.push_back(std::move(source));
     point.block = static_cast<int>(path_.blocks.size()) - 1;
 
+    point.rotary_words_deg = rotary_words_deg(rotary_deg_);
     if (!arc) {
-      set_pose(point, target_mm);
-      detail::append_point(path_, point);
+      linear_points(point, start_mm, target_mm, start_rotary_deg, any_abc, reported);
     } else {
       arc_points(point, start_mm, target_mm, ijk, r_word, reported);
     }
@@ -476,21 +550,62 @@ class GcodeReader {
     return p;
   }
 
-  std::vector<std::pair<char, double>> rotary_words() const {
+  using RotaryDeg = std::array<std::optional<double>, 3>;
+
+  static std::vector<std::pair<char, double>> rotary_words(const RotaryDeg& rotary_deg) {
     std::vector<std::pair<char, double>> words;
     for (std::size_t k = 0; k < 3; ++k) {
-      if (rotary_deg_[k]) words.emplace_back("ABC"[k], *rotary_deg_[k]);
+      if (rotary_deg[k]) words.emplace_back("ABC"[k], *rotary_deg[k]);
     }
     return words;
   }
 
+  static std::array<double, 3> rotary_words_deg(const RotaryDeg& rotary_deg) {
+    std::array<double, 3> words;
+    for (std::size_t k = 0; k < 3; ++k) {
+      words[k] = rotary_deg[k].value_or(PathPoint::kNotProgrammed);
+    }
+    return words;
+  }
+
+  /// Calls a caller's word callback; its errors (a word naming no axis: InputError; a word
+  /// outside the axis travel: InfeasibleError) are placed at this block.
+  template <typename Call>
+  auto located_call(const char* callback, Call call) const {
+    const std::string where = "'" + line_text_ + "' (through " + callback + "): ";
+    try {
+      return call();
+    } catch (const InfeasibleError& error) {
+      throw InfeasibleError(located_message(file_, line_, 0, where + error.what()));
+    } catch (const InputError& error) {
+      throw InputError(located_message(file_, line_, 0, where + error.what()));
+    }
+  }
+
+  /// The tool axis of rotary words under G43.4 / TRAORI.
+  Eigen::Vector3d tool_axis_of(const std::vector<std::pair<char, double>>& words,
+                               int column) const {
+    const Eigen::Vector3d v = located_call(
+        "rotary_words_to_tool_axis", [&] { return options_.rotary_words_to_tool_axis(words); });
+    return detail::unit_tool_axis(v, file_, line_, column,
+                                  line_text_ + " (through rotary_words_to_tool_axis)");
+  }
+
   /// The tool pose of program position p_mm under the current mode.
   void set_pose(PathPoint& point, const Eigen::Vector3d& p_mm) const {
+    set_pose(point, p_mm, rotary_deg_);
+  }
+
+  /// The tool pose of program position p_mm and rotary words `rotary_deg` (which give the tool
+  /// axis under G43.4 / TRAORI only when `axis_from_rotary`).
+  void set_pose(PathPoint& point, const Eigen::Vector3d& p_mm, const RotaryDeg& rotary_deg,
+                bool axis_from_rotary = false) const {
     if (tcp_ == Tcp::off && options_.axis_words_to_pose) {
       std::vector<std::pair<char, double>> words = {{'X', p_mm.x()}, {'Y', p_mm.y()},
                                                     {'Z', p_mm.z()}};
-      for (const auto& w : rotary_words()) words.push_back(w);
-      const AxisWordPose pose = options_.axis_words_to_pose(words);
+      for (const auto& w : rotary_words(rotary_deg)) words.push_back(w);
+      const AxisWordPose pose =
+          located_call("axis_words_to_pose", [&] { return options_.axis_words_to_pose(words); });
       if (!pose.tip_W_m.allFinite()) {
         fail(0, "axis_words_to_pose gave a tool tip that is not finite for '" + line_text_ + "'");
       }
@@ -500,7 +615,52 @@ class GcodeReader {
       return;
     }
     point.tip_W_m = p_mm * kMetresPerMillimetre;
-    point.axis_W = axis_W_;
+    point.axis_W = axis_from_rotary ? tool_axis_of(rotary_words(rotary_deg), 0) : axis_W_;
+  }
+
+  /// The points of a G0/G1 motion: its end point, or, when the block turns a rotary axis word
+  /// by kSplitRotaryTurnDeg or more, equal steps of at most kRotaryStepDeg in axis space (as the
+  /// NC interpolates the axes), each carrying its own rotary words.
+  void linear_points(PathPoint point, const Eigen::Vector3d& start_mm,
+                     const Eigen::Vector3d& end_mm, const RotaryDeg& start_rotary_deg,
+                     bool any_abc, const Word& reported) {
+    double largest_turn_deg = 0.0;
+    if (any_abc) {
+      for (std::size_t k = 0; k < 3; ++k) {
+        // A word programmed for the first time has no known start: no turn to split.
+        if (!rotary_deg_[k] || !start_rotary_deg[k]) continue;
+        largest_turn_deg =
+            std::max(largest_turn_deg, std::abs(*rotary_deg_[k] - *start_rotary_deg[k]));
+      }
+    }
+    if (largest_turn_deg < kSplitRotaryTurnDeg) {
+      set_pose(point, end_mm);
+      detail::append_point(path_, point, options_, file_, line_);
+      return;
+    }
+    const auto steps = static_cast<std::size_t>(std::ceil(largest_turn_deg / kRotaryStepDeg));
+    detail::require_room_for_points(
+        path_, steps, options_, file_, line_, reported.column,
+        "the rotary turn of " + detail::format_number(largest_turn_deg) + " deg (steps of " +
+            detail::format_number(kRotaryStepDeg) + " deg)");
+    const bool axis_from_rotary = tcp_ == Tcp::g43_4 || tcp_ == Tcp::traori;
+    // The programmed end first: a caller's check of the words (the axis travel) then names the
+    // words as written; the steps between lie between the start and the end.
+    PathPoint end_point = point;
+    set_pose(end_point, end_mm);
+    for (std::size_t k = 1; k < steps; ++k) {
+      const double t = static_cast<double>(k) / static_cast<double>(steps);
+      const Eigen::Vector3d p_mm = start_mm + t * (end_mm - start_mm);
+      RotaryDeg rotary_deg = rotary_deg_;
+      for (std::size_t j = 0; j < 3; ++j) {
+        if (!rotary_deg_[j] || !start_rotary_deg[j]) continue;
+        rotary_deg[j] = *start_rotary_deg[j] + t * (*rotary_deg_[j] - *start_rotary_deg[j]);
+      }
+      point.rotary_words_deg = rotary_words_deg(rotary_deg);
+      set_pose(point, p_mm, rotary_deg, axis_from_rotary);
+      detail::append_point(path_, point, options_, file_, line_);
+    }
+    detail::append_point(path_, end_point, options_, file_, line_);
   }
 
   void arc_points(PathPoint point, const Eigen::Vector3d& start_mm, const Eigen::Vector3d& end_mm,
@@ -585,11 +745,19 @@ class GcodeReader {
       max_delta = std::min(max_delta, 2.0 * std::acos(1.0 - tolerance_mm / r_max));
     }
     const double segments_real = std::ceil(std::abs(sweep) / max_delta);
-    if (!(segments_real <= static_cast<double>(kMaxArcSegments))) {
-      fail(reported, "the arc would need more than " + std::to_string(kMaxArcSegments) +
-                         " segments at ReaderOptions::arc_chord_tolerance_m");
+    const std::string what =
+        "the arc (radius " + detail::format_number(r_max) + " mm, " +
+        detail::format_number(std::abs(sweep) * 180.0 / std::numbers::pi) +
+        " deg, chord tolerance " + detail::format_number(tolerance_mm) + " mm)";
+    if (!(segments_real <= static_cast<double>(options_.max_points_per_block))) {
+      fail(reported, what + " expands to " + detail::format_number(segments_real) +
+                         " points, more than the limit of " +
+                         std::to_string(options_.max_points_per_block) +
+                         " points per block (ReaderOptions::max_points_per_block)");
     }
     const long segments = std::max(1L, static_cast<long>(segments_real));
+    detail::require_room_for_points(path_, static_cast<std::size_t>(segments), options_, file_, line_,
+                                    reported.column, what);
     if (point.inverse_time_feed_per_s > 0.0) {
       // G93: the whole arc takes 1/F; each segment takes its share.
       point.inverse_time_feed_per_s *= static_cast<double>(segments);
@@ -605,7 +773,7 @@ class GcodeReader {
         p_mm[w] = start_mm[w] + t * (end_mm[w] - start_mm[w]);
       }
       set_pose(point, p_mm);
-      detail::append_point(path_, point);
+      detail::append_point(path_, point, options_, file_, line_);
     }
   }
 
@@ -616,6 +784,7 @@ class GcodeReader {
   std::string line_text_;
   bool ended_ = false;
   bool started_ = false;
+  int warning_count_ = 0;
 
   // Modal state.
   std::optional<int> motion_;
@@ -634,7 +803,21 @@ class GcodeReader {
 
 Toolpath parse_gcode(const std::string& text, const std::string& file_name_for_messages,
                      const ReaderOptions& options) {
-  return GcodeReader(file_name_for_messages, options).read(text);
+  GcodeReader reader(file_name_for_messages, options);
+  try {
+    return reader.read(text);
+  } catch (const InputError&) {
+    throw;
+  } catch (const InfeasibleError&) {
+    throw;  // from a caller's callback (a word outside the axis travel), already located
+  } catch (const std::bad_alloc&) {
+    throw InputError(located_message(file_name_for_messages, reader.current_line(), 0,
+                                     "out of memory reading the tool path"));
+  } catch (const std::exception& error) {
+    // Every failure of a reader is about its input: say where it was.
+    throw InputError(located_message(file_name_for_messages, reader.current_line(), 0,
+                                     std::string("cannot read the tool path: ") + error.what()));
+  }
 }
 
 Toolpath read_gcode(const std::string& path, const ReaderOptions& options) {

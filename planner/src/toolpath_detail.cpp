@@ -3,7 +3,11 @@
 #include <cctype>
 #include <charconv>
 #include <cmath>
+#include <cstdio>
+#include <limits>
+#include <filesystem>
 #include <fstream>
+#include <system_error>
 #include <sstream>
 
 #include "vmsim/common/errors.hpp"
@@ -13,41 +17,161 @@ namespace vmsim::planner::detail {
 std::string read_text_file(const std::string& path) {
   std::ifstream in(path, std::ios::binary);
   if (!in) throw InputError(located_message(path, 0, 0, "cannot open the tool path file"));
-  std::ostringstream text;
+  // Sized first, so that a huge file is refused before it fills the memory, and read once into
+  // its string (no second copy).
+  std::error_code error;
+  const std::uintmax_t size = std::filesystem::file_size(path, error);
+  if (!error && size > kMaxFileBytes) {
+    throw InputError(located_message(
+        path, 0, 0,
+        "the tool path file is " + std::to_string(size) + " bytes, more than the limit of " +
+            std::to_string(kMaxFileBytes) + " (a path of the most points a run takes, " +
+            "ReaderOptions::max_path_points, is far smaller)"));
+  }
+  if (!error) {
+    std::string text(static_cast<std::size_t>(size), '\0');
+    in.read(text.data(), static_cast<std::streamsize>(size));
+    if (in.bad() || static_cast<std::uintmax_t>(in.gcount()) != size) {
+      throw InputError(located_message(path, 0, 0, "cannot read the tool path file"));
+    }
+    return text;
+  }
+  std::ostringstream text;  // not a regular file (a pipe): read to its end
   text << in.rdbuf();
   if (in.bad()) throw InputError(located_message(path, 0, 0, "cannot read the tool path file"));
+  if (text.tellp() > static_cast<std::streamoff>(kMaxFileBytes)) {
+    throw InputError(located_message(path, 0, 0,
+                                     "the tool path is more than " +
+                                         std::to_string(kMaxFileBytes) + " bytes, the limit"));
+  }
   return text.str();
 }
 
-std::optional<double> parse_decimal(std::string_view text) {
+std::string_view without_byte_order_mark(std::string_view text) {
+  if (text.starts_with("\xEF\xBB\xBF")) text.remove_prefix(3);
+  return text;
+}
+
+void require_utf8_text(std::string_view text, const std::string& file) {
+  int line = 1;
+  std::size_t line_start = 0;
+  std::size_t i = 0;
+  const auto fail = [&](std::size_t at, const std::string& what) {
+    char hex[8];
+    std::snprintf(hex, sizeof hex, "0x%02X", static_cast<unsigned>(static_cast<unsigned char>(text[at])));
+    throw InputError(located_message(file, line, static_cast<int>(at - line_start) + 1,
+                                     "byte " + std::string(hex) + " " + what +
+                                         ": a tool path must be UTF-8 (or ASCII) text"));
+  };
+  const auto byte = [&](std::size_t at) { return static_cast<unsigned char>(text[at]); };
+  while (i < text.size()) {
+    const unsigned char lead = byte(i);
+    if (lead == '\n') {
+      ++line;
+      line_start = ++i;
+      continue;
+    }
+    if (lead == 0) fail(i, "(NUL, a binary file?)");
+    if (lead < 0x80) {
+      ++i;
+      continue;
+    }
+    // The ranges of RFC 3629 (no overlong forms, no surrogates, nothing beyond U+10FFFF).
+    std::size_t length = 0;
+    unsigned char second_min = 0x80;
+    unsigned char second_max = 0xBF;
+    if (lead >= 0xC2 && lead <= 0xDF) {
+      length = 2;
+    } else if (lead >= 0xE0 && lead <= 0xEF) {
+      length = 3;
+      if (lead == 0xE0) second_min = 0xA0;
+      if (lead == 0xED) second_max = 0x9F;
+    } else if (lead >= 0xF0 && lead <= 0xF4) {
+      length = 4;
+      if (lead == 0xF0) second_min = 0x90;
+      if (lead == 0xF4) second_max = 0x8F;
+    } else {
+      fail(i, "is not UTF-8");
+    }
+    for (std::size_t k = 1; k < length; ++k) {
+      if (i + k >= text.size()) fail(i, "starts a UTF-8 sequence that the file cuts short");
+      const unsigned char c = byte(i + k);
+      const unsigned char low = k == 1 ? second_min : 0x80;
+      const unsigned char high = k == 1 ? second_max : 0xBF;
+      if (c < low || c > high) {
+        char next_hex[8];
+        std::snprintf(next_hex, sizeof next_hex, "0x%02X", static_cast<unsigned>(c));
+        fail(i, "is not UTF-8 (not followed by a continuation byte: " + std::string(next_hex) +
+                    " comes next)");
+      }
+    }
+    i += length;
+  }
+}
+
+std::optional<double> parse_decimal(std::string_view text, std::string* problem) {
+  const auto refuse = [&](const char* why) -> std::optional<double> {
+    if (problem) *problem = why;
+    return std::nullopt;
+  };
   // Checked by hand first: std::from_chars would also accept "inf", "nan" and hex-like forms.
   std::size_t i = 0;
   if (i < text.size() && (text[i] == '+' || text[i] == '-')) ++i;
   std::size_t digits = 0;
-  while (i < text.size() && std::isdigit(static_cast<unsigned char>(text[i]))) ++i, ++digits;
+  // The decimal order of magnitude of the first non-zero digit, for out-of-range numbers.
+  long order = 0;
+  bool nonzero_seen = false;
+  while (i < text.size() && std::isdigit(static_cast<unsigned char>(text[i]))) {
+    if (nonzero_seen) ++order;
+    if (text[i] != '0') nonzero_seen = true;
+    ++i, ++digits;
+  }
   if (i < text.size() && text[i] == '.') {
     ++i;
-    while (i < text.size() && std::isdigit(static_cast<unsigned char>(text[i]))) ++i, ++digits;
+    while (i < text.size() && std::isdigit(static_cast<unsigned char>(text[i]))) {
+      if (!nonzero_seen) --order;
+      if (text[i] != '0') nonzero_seen = true;
+      ++i, ++digits;
+    }
   }
-  if (digits == 0) return std::nullopt;
+  if (digits == 0) return refuse("malformed number");
+  long exponent = 0;
   if (i < text.size() && (text[i] == 'e' || text[i] == 'E')) {
     ++i;
-    if (i < text.size() && (text[i] == '+' || text[i] == '-')) ++i;
+    bool negative = false;
+    if (i < text.size() && (text[i] == '+' || text[i] == '-')) negative = text[i++] == '-';
     std::size_t exponent_digits = 0;
     while (i < text.size() && std::isdigit(static_cast<unsigned char>(text[i]))) {
+      if (exponent < 100'000'000) exponent = 10 * exponent + (text[i] - '0');
       ++i, ++exponent_digits;
     }
-    if (exponent_digits == 0) return std::nullopt;
+    if (exponent_digits == 0) return refuse("malformed number");
+    if (negative) exponent = -exponent;
   }
-  if (i != text.size()) return std::nullopt;
+  if (i != text.size()) return refuse("malformed number");
   std::string_view body = text;
   if (body.front() == '+') body.remove_prefix(1);
   double value = 0.0;
   const auto [end, error] = std::from_chars(body.data(), body.data() + body.size(), value);
-  if (error != std::errc() || end != body.data() + body.size() || !std::isfinite(value)) {
-    return std::nullopt;
+  if (error == std::errc::result_out_of_range ||
+      (error == std::errc() && (!std::isfinite(value) || (value == 0.0 && nonzero_seen)))) {
+    return refuse(order + exponent > 0 ? "number too large (beyond the range of a double)"
+                                       : "number too small (below the range of a double)");
+  }
+  if (error != std::errc() || end != body.data() + body.size()) {
+    return refuse("malformed number");
+  }
+  if (value != 0.0 && std::abs(value) < std::numeric_limits<double>::min()) {
+    return refuse("number too small (a subnormal double, below 2.2e-308)");
   }
   return value;
+}
+
+std::string format_number(double value) {
+  char buffer[32];
+  const auto [end, error] = std::to_chars(buffer, buffer + sizeof buffer, value);
+  if (error != std::errc()) return std::to_string(value);
+  return std::string(buffer, end);
 }
 
 std::string to_upper(std::string_view text) {
@@ -66,21 +190,66 @@ std::string trim(std::string_view text) {
 
 Eigen::Vector3d unit_tool_axis(const Eigen::Vector3d& v, const std::string& file, int line,
                                int column, const std::string& word) {
-  const double norm = v.norm();
-  if (!std::isfinite(norm) || norm == 0.0) {
+  // Scaled by the largest component first, so that huge or tiny components neither overflow
+  // nor underflow the norm.
+  const double largest = v.cwiseAbs().maxCoeff();
+  if (!std::isfinite(largest) || largest == 0.0) {
     throw InputError(located_message(file, line, column,
                                      "zero tool axis vector in '" + word +
                                          "': the tool axis needs a direction"));
   }
-  return v / norm;
+  if (largest > 1e-100 && largest < 1e100) return v / v.norm();
+  const Eigen::Vector3d scaled = v / largest;
+  return scaled / scaled.norm();
 }
 
-void append_point(Toolpath& path, const PathPoint& point) {
+bool same_rotary_words(const PathPoint& a, const PathPoint& b) {
+  for (std::size_t k = 0; k < a.rotary_words_deg.size(); ++k) {
+    const double x = a.rotary_words_deg[k];
+    const double y = b.rotary_words_deg[k];
+    if (std::isnan(x) != std::isnan(y)) return false;
+    if (!std::isnan(x) && x != y) return false;
+  }
+  return true;
+}
+
+void append_point(Toolpath& path, const PathPoint& point, const ReaderOptions& options,
+                  const std::string& file, int line) {
   if (!path.points.empty()) {
     const PathPoint& last = path.points.back();
-    if (last.tip_W_m == point.tip_W_m && last.axis_W == point.axis_W) return;
+    if (last.tip_W_m == point.tip_W_m && last.axis_W == point.axis_W &&
+        same_rotary_words(last, point)) {
+      return;
+    }
+  }
+  if (path.points.size() >= options.max_path_points) {
+    throw InputError(located_message(
+        file, line, 0,
+        "the tool path expands to more than " + std::to_string(options.max_path_points) +
+            " points by this block, the limit (ReaderOptions::max_path_points; about 1 kB of memory "
+            "per point along the chain)"));
   }
   path.points.push_back(point);
+}
+
+void require_room_for_points(const Toolpath& path, std::size_t more, const ReaderOptions& options,
+                             const std::string& file, int line, int column,
+                             const std::string& what) {
+  if (more > options.max_points_per_block) {
+    throw InputError(located_message(
+        file, line, column,
+        what + " expands to " + std::to_string(more) + " points, more than the limit of " +
+            std::to_string(options.max_points_per_block) + " points per block (ReaderOptions::max_points_per_block)"));
+  }
+  if (path.points.size() + more > options.max_path_points) {
+    throw InputError(located_message(
+        file, line, column,
+        what + " expands to " + std::to_string(more) + " points, which brings the tool path to " +
+            std::to_string(path.points.size() + more) + " points, more than the limit of " +
+            std::to_string(options.max_path_points) +
+            " points (ReaderOptions::max_path_points; about 1 kB of memory per point along the "
+            "chain)"));
+  }
 }
 
 void require_motion(const Toolpath& path, const std::string& file) {

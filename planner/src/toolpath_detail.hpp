@@ -1,6 +1,7 @@
 #pragma once
 // Private helpers shared by the APT/CL and G-code readers (not installed, not part of the API).
 #include <Eigen/Core>
+#include <cstddef>
 #include <optional>
 #include <string>
 #include <string_view>
@@ -13,12 +14,55 @@ inline constexpr double kMetresPerMillimetre = 1e-3;
 inline constexpr double kMillimetresPerInch = 25.4;
 inline constexpr double kSecondsPerMinute = 60.0;
 
-/// The whole file as text; throws InputError naming the file when it cannot be read.
+// What the readers accept (toolpath.hpp, common rules "Numbers" and "Size"). Far beyond any machine,
+// chosen so that sums, squares and tessellations of accepted numbers stay finite and small.
+/// Largest coordinate, arc centre offset or radius [mm] (1 km).
+inline constexpr double kMaxCoordinateMm = 1e6;
+/// Largest rotary axis word [deg] (about 2 800 turns).
+inline constexpr double kMaxRotaryDeg = 1e6;
+/// Feed per minute [mm/min]: 1 um/min to 1 km/min.
+inline constexpr double kMinFeedMmPerMin = 1e-3;
+inline constexpr double kMaxFeedMmPerMin = 1e6;
+/// G93 inverse-time feed [1/min]: a motion of 1000 min to one of 6 ms.
+inline constexpr double kMinInverseTimePerMin = 1e-3;
+inline constexpr double kMaxInverseTimePerMin = 1e4;
+/// Cutter diameter [mm].
+inline constexpr double kMinCutterDiameterMm = 1e-3;
+inline constexpr double kMaxCutterDiameterMm = 1e4;
+/// Spindle speed [rev/min] (APT SPINDL, G-code S).
+inline constexpr double kMaxSpindleRevPerMin = 1e6;
+/// Machining tolerances (APT INTOL OUTTOL TOLER LINTOL) [mm].
+inline constexpr double kMaxToleranceMm = 1e3;
+/// Integer-like words that are ignored (N O T H D, M codes) and G-code numbers.
+inline constexpr double kMaxIgnoredWordValue = 1e9;
+
+/// Largest tool path file [bytes] (1 GiB): a path of ReaderOptions::max_path_points takes
+/// about 150 MB of text.
+inline constexpr std::size_t kMaxFileBytes = std::size_t{1} << 30;
+/// Largest G-code block [words]: each address may appear once, so a real block has a few dozen.
+inline constexpr std::size_t kMaxWordsPerBlock = 64;
+/// Largest APT record, continuations joined [bytes]: its values cost about 25 times their text.
+inline constexpr std::size_t kMaxRecordBytes = std::size_t{4} << 20;
+
+/// The whole file as text; throws InputError naming the file when it cannot be read or is larger
+/// than kMaxFileBytes.
 std::string read_text_file(const std::string& path);
 
+/// `text` without a leading UTF-8 byte-order mark (EF BB BF), which editors on Windows write and
+/// which would otherwise be part of the first word.
+std::string_view without_byte_order_mark(std::string_view text);
+
+/// Throws InputError at file:line:column naming the byte (hex) where `text` is not UTF-8 or holds
+/// a NUL byte (a binary file): the text of blocks goes into messages and JSON reports.
+void require_utf8_text(std::string_view text, const std::string& file);
+
 /// A decimal number written as [+|-]digits[.digits][e[+|-]digits], the whole of `text`
-/// (no surrounding blanks); nullopt if malformed or not finite.
-std::optional<double> parse_decimal(std::string_view text);
+/// (no surrounding blanks); nullopt if malformed, out of the range of a double (1e400) or
+/// subnormal (4.9e-324), with the reason in *problem when given.
+std::optional<double> parse_decimal(std::string_view text, std::string* problem = nullptr);
+
+/// Formats a number read from a file for a message: shortest form that reads back exactly.
+std::string format_number(double value);
 
 std::string to_upper(std::string_view text);
 std::string trim(std::string_view text);
@@ -28,9 +72,22 @@ std::string trim(std::string_view text);
 Eigen::Vector3d unit_tool_axis(const Eigen::Vector3d& v, const std::string& file, int line,
                                int column, const std::string& word);
 
-/// Appends `point` unless it repeats the previous point's tip and axis exactly (a zero-length
-/// motion, which would give the planner nothing to move along).
-void append_point(Toolpath& path, const PathPoint& point);
+/// True when two points hold the same programmed rotary words (both unprogrammed counts as
+/// the same).
+bool same_rotary_words(const PathPoint& a, const PathPoint& b);
+
+/// Appends `point` unless it repeats the previous point's tip, axis and rotary words exactly (a
+/// zero-length motion, which would give the planner nothing to move along). Throws InputError
+/// at file:line when the path would exceed options.max_path_points.
+void append_point(Toolpath& path, const PathPoint& point, const ReaderOptions& options,
+                  const std::string& file, int line);
+
+/// Throws InputError at file:line:column when `more` further points (of one block) would exceed
+/// options.max_points_per_block or, with those already in `path`, options.max_path_points.
+/// `what` names the block's expansion ("the arc (radius ...)").
+void require_room_for_points(const Toolpath& path, std::size_t more, const ReaderOptions& options,
+                             const std::string& file, int line, int column,
+                             const std::string& what);
 
 /// Throws InputError naming the file when the path has no point.
 void require_motion(const Toolpath& path, const std::string& file);

@@ -13,6 +13,24 @@
 //  - A motion that ends exactly where the previous point is (same tip, same axis) adds no point.
 //  - A zero tool axis vector (APT i,j,k; G43.5 I J K; Siemens A3 B3 C3) is an error; others are
 //    normalised.
+//  - Text: a UTF-8 byte-order mark at the start is skipped (columns count after it). The file
+//    must be UTF-8 (ASCII included): a byte that is not (a Latin-1 0xE9, a cut-short sequence)
+//    or a NUL is an error naming its line, column and the byte in hex.
+//  - Numbers: finite, not subnormal (4.9e-324), within a double (1e400 is an error "too large",
+//    1e-400 "too small"); every error quotes the value as written. Plausible ranges (in mm after
+//    UNITS/G20): coordinates, arc centre offsets and radii |v| <= 1e6 mm (also the positions
+//    reached incrementally); rotary words |A B C| <= 1e6 deg; feed 1e-3 .. 1e6 mm/min; G93
+//    inverse time 1e-3 .. 1e4 1/min; CUTTER diameter 1e-3 .. 1e4 mm, corner radius 0 .. d/2;
+//    spindle speed (APT SPINDL, G-code S) |S| <= 1e6 rev/min; APT tolerances (INTOL OUTTOL TOLER
+//    LINTOL) |t| <= 1e3 mm; N O T H D M P and G4 dwell values 0 .. 1e9; G numbers 0 .. 1000.
+//  - Size: a file of at most 1 GiB, a G-code block of at most 64 words, an APT record of at
+//    most 4 MiB (continuations joined). Expansion: ReaderOptions::max_points_per_block (an arc's
+//    tessellation, a long rotary turn's steps) and max_path_points (the whole path), checked
+//    before a block's points are made; the message gives the block's points, the total and the
+//    limit. A block turns an arc at most once (a full circle: no P turns count, no TURN=).
+//  - Errors from the caller's callbacks (axis_words_to_pose, rotary_words_to_tool_axis) are
+//    rethrown at the block, of the same type (InputError or InfeasibleError: a word outside the
+//    axis travel); every other failure inside a reader becomes an InputError naming the line.
 //
 // APT/CL subset (read_apt):
 //  - Records `NAME/v1,v2,...`, case-insensitive; a trailing `$` continues the record on the next
@@ -69,6 +87,12 @@
 //    points too) is the pose of the modal machine axes X Y Z [A B C]; without it, X Y Z are the
 //    tool tip and the axis is +Z (a 3-axis program); a rotary word, or a motion after a tilted
 //    TCP axis, is then an error that says a machine is needed.
+//  - Rotary words through a machine (axis words, or G43.4 / TRAORI A B C): each point carries the
+//    words in force (PathPoint::rotary_words_deg), and a point whose words differ from the
+//    previous one's is kept even where its pose is the same (C0 -> C360 is a real turn). A G0/G1
+//    block that turns a word by 180 deg or more is split into equal steps of at most 90 deg in
+//    axis space (as the NC interpolates the axes), since the chain follows poses and the inverse
+//    kinematics takes the nearest solution from one pose to the next.
 //  - Accepted and ignored: G4 dwell (with X or P), G40 G43 G49 G80 G15 G50 G69 G9 G61 G61.1
 //    G64 [P] G98 G99, G54-G59 (taken as placing the workpiece frame W; offsets not applied).
 //    Errors naming the word: G41/G42 cutter compensation, G68 rotation, G51 scaling, G52 G53
@@ -76,6 +100,9 @@
 //    (G73 G74 G76 G81-G89), any other G-code, and words outside this list (U V W Q L E, P
 //    elsewhere, Siemens keywords other than TRAORI/TRAFOOF).
 #include <Eigen/Core>
+#include <array>
+#include <cstddef>
+#include <limits>
 #include <functional>
 #include <optional>
 #include <string>
@@ -109,6 +136,12 @@ struct PathPoint {
   /// G93 inverse-time feed [1/s] for this motion, where programmed (feed_m_per_s is then 0).
   double inverse_time_feed_per_s = 0.0;
   int block = -1;  ///< index into Toolpath::blocks of the block that programmed this motion
+  /// The rotary axis words A B C [deg] in force here where the program gives machine axes
+  /// (G-code axis words through ReaderOptions::axis_words_to_pose, or G43.4 / TRAORI rotary
+  /// words); NaN where not programmed. Two points with the same pose but different words are
+  /// different machine positions (a 360 deg turn of C), never merged.
+  static constexpr double kNotProgrammed = std::numeric_limits<double>::quiet_NaN();
+  std::array<double, 3> rotary_words_deg = {kNotProgrammed, kNotProgrammed, kNotProgrammed};
 };
 
 /// A warning that names where it comes from (an unknown APT record, an ignored G-code word).
@@ -149,6 +182,13 @@ struct ReaderOptions {
   AxisWordsToPose axis_words_to_pose;
   /// Needed only for G43.4 / TRAORI blocks that give A B C rather than a tool vector.
   RotaryWordsToToolAxis rotary_words_to_tool_axis;
+  /// Expansion limits, checked before the points are made: the points one block may expand to
+  /// (an arc's tessellation, a long rotary turn's steps), and the points of the whole path. A
+  /// path point costs about 100 bytes in the reader and about 1 kB further down the chain (axis
+  /// positions and their derivatives, the planner's grid, set points): 2 million points is about
+  /// 2 GB, as much as a simulation on an ordinary workstation should take.
+  std::size_t max_points_per_block = 1'000'000;
+  std::size_t max_path_points = 2'000'000;
 };
 
 /// Reads an APT/CL file (subset above). Throws vmsim::InputError naming the file, line, column
