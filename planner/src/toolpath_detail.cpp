@@ -11,46 +11,16 @@
 #include <sstream>
 
 #include "vmsim/common/errors.hpp"
+#include "vmsim/common/files.hpp"
 
 namespace vmsim::planner::detail {
 
 std::string read_text_file(const std::string& path) {
-  std::ifstream in(path, std::ios::binary);
-  if (!in) throw InputError(located_message(path, 0, 0, "cannot open the tool path file"));
-  // Sized first, so that a huge file is refused before it fills the memory, and read once into
-  // its string (no second copy).
-  std::error_code error;
-  const std::uintmax_t size = std::filesystem::file_size(path, error);
-  if (!error && size > kMaxFileBytes) {
-    throw InputError(located_message(
-        path, 0, 0,
-        "the tool path file is " + std::to_string(size) + " bytes, more than the limit of " +
-            std::to_string(kMaxFileBytes) + " (a path of the most points a run takes, " +
-            "ReaderOptions::max_path_points, is far smaller)"));
-  }
-  if (!error) {
-    std::string text(static_cast<std::size_t>(size), '\0');
-    in.read(text.data(), static_cast<std::streamsize>(size));
-    if (in.bad() || static_cast<std::uintmax_t>(in.gcount()) != size) {
-      throw InputError(located_message(path, 0, 0, "cannot read the tool path file"));
-    }
-    return text;
-  }
-  std::ostringstream text;  // not a regular file (a pipe): read to its end
-  text << in.rdbuf();
-  if (in.bad()) throw InputError(located_message(path, 0, 0, "cannot read the tool path file"));
-  if (text.tellp() > static_cast<std::streamoff>(kMaxFileBytes)) {
-    throw InputError(located_message(path, 0, 0,
-                                     "the tool path is more than " +
-                                         std::to_string(kMaxFileBytes) + " bytes, the limit"));
-  }
-  return text.str();
+  // read_file refuses what is not a regular file (a FIFO would block) and sizes it first.
+  return read_file(path, kMaxFileBytes);
 }
 
-std::string_view without_byte_order_mark(std::string_view text) {
-  if (text.starts_with("\xEF\xBB\xBF")) text.remove_prefix(3);
-  return text;
-}
+std::string_view without_byte_order_mark(std::string_view text) { return strip_utf8_bom(text); }
 
 void require_utf8_text(std::string_view text, const std::string& file) {
   int line = 1;

@@ -44,8 +44,8 @@ inline constexpr std::size_t kMaxWordsPerBlock = 64;
 /// Largest APT record, continuations joined [bytes]: its values cost about 25 times their text.
 inline constexpr std::size_t kMaxRecordBytes = std::size_t{4} << 20;
 
-/// The whole file as text; throws InputError naming the file when it cannot be read or is larger
-/// than kMaxFileBytes.
+/// The whole file as text (common read_file: a regular file of at most kMaxFileBytes, else an
+/// InputError naming the file).
 std::string read_text_file(const std::string& path);
 
 /// `text` without a leading UTF-8 byte-order mark (EF BB BF), which editors on Windows write and

@@ -5,7 +5,10 @@
 // error that names the file, line, column and value.
 #include <gtest/gtest.h>
 
+#include <sys/stat.h>
+
 #include <cmath>
+#include <cstdio>
 #include <numbers>
 #include <string>
 #include <vector>
@@ -264,6 +267,27 @@ TEST(ReaderDefects, AptRecordOfTenMegabytesIsRefusedAndALongCommentIsNot) {
   const std::string comment = "PPRINT " + std::string(10'000'000, 'x') + "\n";
   EXPECT_EQ(apt(comment + "FEDRAT/1\nGOTO/0,0,0\n").points.size(), 1u);
   EXPECT_EQ(gcode("(" + std::string(10'000'000, 'x') + ")\nG1 X0 F1\n").points.size(), 1u);
+}
+
+}  // namespace
+}  // namespace vmsim::planner
+
+namespace vmsim::planner {
+namespace {
+
+// A FIFO named as the tool path blocked the reader for ever (it waited for a writer): refused at
+// once, naming the file, like every other input (common read_file).
+TEST(ReaderDefects, AFifoAsToolPathIsRefusedAtOnce) {
+  const std::string fifo = ::testing::TempDir() + "/vmsim_toolpath_fifo.nc";
+  std::remove(fifo.c_str());
+  ASSERT_EQ(::mkfifo(fifo.c_str(), 0600), 0);
+  try {
+    read_toolpath(fifo, {});
+    ADD_FAILURE() << "a FIFO was read as a tool path";
+  } catch (const InputError& error) {
+    EXPECT_NE(std::string(error.what()).find(fifo), std::string::npos) << error.what();
+  }
+  std::remove(fifo.c_str());
 }
 
 }  // namespace
