@@ -804,20 +804,7 @@ class GcodeReader {
 Toolpath parse_gcode(const std::string& text, const std::string& file_name_for_messages,
                      const ReaderOptions& options) {
   GcodeReader reader(file_name_for_messages, options);
-  try {
-    return reader.read(text);
-  } catch (const InputError&) {
-    throw;
-  } catch (const InfeasibleError&) {
-    throw;  // from a caller's callback (a word outside the axis travel), already located
-  } catch (const std::bad_alloc&) {
-    throw InputError(located_message(file_name_for_messages, reader.current_line(), 0,
-                                     "out of memory reading the tool path"));
-  } catch (const std::exception& error) {
-    // Every failure of a reader is about its input: say where it was.
-    throw InputError(located_message(file_name_for_messages, reader.current_line(), 0,
-                                     std::string("cannot read the tool path: ") + error.what()));
-  }
+  return detail::read_with_located_errors(reader, text, file_name_for_messages);
 }
 
 Toolpath read_gcode(const std::string& path, const ReaderOptions& options) {

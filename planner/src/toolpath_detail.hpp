@@ -2,10 +2,13 @@
 // Private helpers shared by the APT/CL and G-code readers (not installed, not part of the API).
 #include <Eigen/Core>
 #include <cstddef>
+#include <exception>
+#include <new>
 #include <optional>
 #include <string>
 #include <string_view>
 
+#include "vmsim/common/errors.hpp"
 #include "vmsim/planner/toolpath.hpp"
 
 namespace vmsim::planner::detail {
@@ -91,5 +94,24 @@ void require_room_for_points(const Toolpath& path, std::size_t more, const Reade
 
 /// Throws InputError naming the file when the path has no point.
 void require_motion(const Toolpath& path, const std::string& file);
+
+/// Runs `reader.read(text)`. Every failure of a reader is about its input: an exception that is
+/// not already one of vmsim's located errors (an InfeasibleError comes from a caller's callback,
+/// a word outside the travel) becomes an InputError at the reader's current line.
+template <class Reader>
+Toolpath read_with_located_errors(Reader& reader, const std::string& text, const std::string& file) {
+  try {
+    return reader.read(text);
+  } catch (const InputError&) {
+    throw;
+  } catch (const InfeasibleError&) {
+    throw;
+  } catch (const std::bad_alloc&) {
+    throw InputError(located_message(file, reader.current_line(), 0, "out of memory reading the tool path"));
+  } catch (const std::exception& error) {
+    throw InputError(located_message(file, reader.current_line(), 0,
+                                     std::string("cannot read the tool path: ") + error.what()));
+  }
+}
 
 }  // namespace vmsim::planner::detail
