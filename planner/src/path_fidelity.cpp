@@ -65,6 +65,71 @@ struct Working {
   std::vector<bool> singular;  ///< per point: inside a singular zone
 };
 
+/// Stretch boundaries (path ends and corners) as a flag per point.
+std::vector<bool> stretch_ends(const kinematics::PathKinematics& path) {
+  std::vector<bool> end(path.s_m.size(), false);
+  end.front() = end.back() = true;
+  for (const auto& corner : path.corners) end[corner.point] = true;
+  return end;
+}
+
+/// q of the programmed pose at fraction f of segment i (IKT seeded by the linear interpolation
+/// of the neighbours' q).
+Eigen::VectorXd programmed_q(const kinematics::MachineModel& machine, const Working& w, std::size_t i, double f) {
+  const kinematics::PathKinematics& path = w.path;
+  const Vector3d tip = (1.0 - f) * w.programmed.tip[i] + f * w.programmed.tip[i + 1];
+  const Vector3d axis = slerp(w.programmed.axis[i], w.programmed.axis[i + 1], f);
+  const Eigen::VectorXd seed = (1.0 - f) * path.q.col(idx(i)) + f * path.q.col(idx(i + 1));
+  const auto result = kinematics::inverse_kinematics(machine, kinematics::ToolPose{tip, axis}, seed, path.tool_length_m,
+                                                     path.inverse);
+  if (!result) {
+    const double h = path.s_m[i + 1] - path.s_m[i];
+    throw InfeasibleError("path fidelity: a point added on the programmed path between path points " +
+                          std::to_string(i) + " and " + std::to_string(i + 1) + " (" + path_point_label(path, i + 1) +
+                          ", s = " + format_double(path.s_m[i] * 1e3) + " mm + " + format_double(f * h * 1e3) +
+                          " mm) has no inverse kinematic solution: " +
+                          kinematics::explain_unreachable(machine, {tip, axis}, seed, path.tool_length_m, path.inverse));
+  }
+  return result->q;
+}
+
+/// The end slopes of every stretch from the programmed motion along its end segments (the
+/// fits' slopes smooth over neighbouring points: where a long segment ends a stretch next to
+/// dense ones, the fit across the gap gave slopes 200 times too large and the spline a hook).
+/// One-sided second-order differences of the IKT at delta and 2 delta from the end. PathSpline
+/// takes a stretch's start slope from q_s there and the incoming slope at a corner b from the
+/// point before (q_s + q_ss h + q_sss h^2 / 2 at b - 1): q_ss at b - 1 is set so that it gives
+/// the programmed slope (q_s, q_ss, q_sss of the other points do not enter a fitted path's
+/// spline).
+void set_programmed_end_slopes(const kinematics::MachineModel& machine, Working& w) {
+  const std::vector<bool> end = stretch_ends(w.path);
+  const std::size_t n = w.path.s_m.size();
+  auto slope = [&](std::size_t i, bool at_start) {
+    const double h = w.path.s_m[i + 1] - w.path.s_m[i];
+    const double delta = std::min(0.01 * h, 1e-4);
+    const double f1 = delta / h, f2 = 2.0 * delta / h;
+    const Eigen::VectorXd q0 = w.path.q.col(idx(at_start ? i : i + 1));
+    const Eigen::VectorXd q1 = programmed_q(machine, w, i, at_start ? f1 : 1.0 - f1);
+    const Eigen::VectorXd q2 = programmed_q(machine, w, i, at_start ? f2 : 1.0 - f2);
+    const Eigen::VectorXd forward = (-3.0 * q0 + 4.0 * q1 - q2) / (2.0 * delta);
+    return Eigen::VectorXd(at_start ? forward : Eigen::VectorXd(-forward));
+  };
+  for (std::size_t i = 0; i + 1 < n; ++i) {
+    if (end[i] && w.path.s_m[i + 1] - w.path.s_m[i] > 1e-12) w.path.q_s.col(idx(i)) = slope(i, true);
+  }
+  for (std::size_t b = 1; b < n; ++b) {
+    if (!end[b] || !(w.path.s_m[b] - w.path.s_m[b - 1] > 1e-12)) continue;
+    const Eigen::VectorXd incoming = slope(b - 1, false);
+    if (b + 1 == n) {
+      w.path.q_s.col(idx(b)) = incoming;
+    } else {
+      const double h = w.path.s_m[b] - w.path.s_m[b - 1];
+      w.path.q_ss.col(idx(b - 1)) = (incoming - w.path.q_s.col(idx(b - 1))) / h;
+      w.path.q_sss.col(idx(b - 1)).setZero();
+    }
+  }
+}
+
 /// Inserts points at the given fractions (sorted, in (0, 1)) of segments (sorted, distinct);
 /// returns per new point whether it was inserted.
 std::vector<bool> insert_points(const kinematics::MachineModel& machine, Working& w,
@@ -117,19 +182,8 @@ std::vector<bool> insert_points(const kinematics::MachineModel& machine, Working
     for (const double f : cuts[c].second) {
       const Vector3d tip = (1.0 - f) * w.programmed.tip[i] + f * w.programmed.tip[i + 1];
       const Vector3d axis = slerp(w.programmed.axis[i], w.programmed.axis[i + 1], f);
-      const Eigen::VectorXd seed = (1.0 - f) * old.q.col(idx(i)) + f * old.q.col(idx(i + 1));
-      const auto result =
-          kinematics::inverse_kinematics(machine, kinematics::ToolPose{tip, axis}, seed, old.tool_length_m, old.inverse);
-      if (!result) {
-        throw InfeasibleError("path fidelity: a point added on the programmed path between path points " +
-                              std::to_string(i) + " and " + std::to_string(i + 1) + " (" +
-                              path_point_label(old, i + 1) + ", s = " + format_double(old.s_m[i] * 1e3) +
-                              " mm + " + format_double(f * h * 1e3) +
-                              " mm) has no inverse kinematic solution: " +
-                              kinematics::explain_unreachable(machine, {tip, axis}, seed, old.tool_length_m, old.inverse));
-      }
       out.s_m[k] = old.s_m[i] + f * h;
-      out.q.col(idx(k)) = result->q;
+      out.q.col(idx(k)) = programmed_q(machine, w, i, f);
       // Only the stretch ends' slopes enter the spline of a fitted path; these are never ends.
       out.q_s.col(idx(k)) = (1.0 - f) * old.q_s.col(idx(i)) + f * old.q_s.col(idx(i + 1));
       out.q_ss.col(idx(k)) = (1.0 - f) * old.q_ss.col(idx(i)) + f * old.q_ss.col(idx(i + 1));
@@ -181,14 +235,6 @@ std::vector<double> graded_cuts(double h, double size_start, double size_end, do
   for (const double x : from_start) out.push_back(x / h);
   for (auto it = from_end.rbegin(); it != from_end.rend(); ++it) out.push_back(*it / h);
   return out;
-}
-
-/// Stretch boundaries (path ends and corners) as a flag per point.
-std::vector<bool> stretch_ends(const kinematics::PathKinematics& path) {
-  std::vector<bool> end(path.s_m.size(), false);
-  end.front() = end.back() = true;
-  for (const auto& corner : path.corners) end[corner.point] = true;
-  return end;
 }
 
 struct SegmentDeviation {
@@ -305,6 +351,7 @@ RefinedPath refine_path(const kinematics::MachineModel& machine, const kinematic
   std::vector<bool> dirty(w.path.s_m.size() - 1, true);
   bool full_check = true;
   for (;;) {
+    set_programmed_end_slopes(machine, w);  // the points before the corners may be new
     const PathSpline spline(w.path);
     const std::size_t segments = w.path.s_m.size() - 1;
     std::vector<std::pair<std::size_t, std::vector<double>>> cuts;

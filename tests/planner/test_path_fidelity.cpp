@@ -38,8 +38,7 @@ struct Polyline {
   std::vector<double> s_m;
   explicit Polyline(const std::vector<kinematics::PathPose>& poses) {
     for (const auto& p : poses) {
-      if (!tip.empty()) s_m.push_back(s_m.back() + (p.pose.tip_W_m - tip.back()).norm());
-      else s_m.push_back(0.0);
+      s_m.push_back(tip.empty() ? 0.0 : s_m.back() + (p.pose.tip_W_m - tip.back()).norm());
       tip.push_back(p.pose.tip_W_m);
     }
   }
