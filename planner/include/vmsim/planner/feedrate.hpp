@@ -87,7 +87,9 @@
 // s on the third-order programme's segments (LinearAccelerationLaw: cosh / sinh or cos / sin),
 // else the quintic Hermite interpolant in t of (s, sd, sdd) at its ends (exact for the
 // constant-sdd and the constant-jerk segments); q(s) is the PathSpline
-// (below). The planner's rows use q, q_s, q_ss and q_sss of that same spline, so that they
+// (below) of the path refine_path made follow the programmed path (path_fidelity.hpp: points
+// added where the spline would leave it by more than path_tolerance_m); every set point is
+// checked against the axis travel. The planner's rows use q, q_s, q_ss and q_sss of that same spline, so that they
 // bound what the set points do (with the fitted q_sss of solve_path_kinematics instead, the
 // spline's own third derivative between the points went unseen: on sample part 1 the set points
 // exceeded the X jerk by 44 % round after round).
