@@ -22,6 +22,9 @@ using Eigen::Vector3d;
 
 Index idx(std::size_t i) { return static_cast<Index>(i); }
 
+/// A segment is graded when it is longer than this many times the size field at its ends.
+constexpr double kGradingTrigger = 4.0;
+
 double angle_between(const Vector3d& a, const Vector3d& b) { return std::atan2(a.cross(b).norm(), a.dot(b)); }
 
 /// The unit vector at fraction f of the great circle from a to b (unit vectors).
@@ -330,6 +333,9 @@ RefinedPath refine_path(const kinematics::MachineModel& machine, const kinematic
         size[i - first] = std::min(size[i - first], size[i + 1 - first] + growth * (s[i + 1] - s[i]));
       }
       for (std::size_t i = first; i < last; ++i) {
+        // Only where the ratio is large: grading a mildly uneven spacing changed sample part 1's
+        // spline (and its duration by 8 %) where it already followed the path within 0.5 um.
+        if (s[i + 1] - s[i] <= kGradingTrigger * std::min(size[i - first], size[i + 1 - first])) continue;
         std::vector<double> f = graded_cuts(s[i + 1] - s[i], size[i - first], size[i + 1 - first], options.spacing_ratio);
         if (!f.empty()) {
           result.graded_points += f.size();
