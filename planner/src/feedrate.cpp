@@ -791,6 +791,7 @@ FeedratePlan plan_feedrate(const kinematics::MachineModel& machine,
     plan = plan_refined_path(machine, refined.path, options);
   }
   plan.points_added = added;
+  if (!refined.unmet.empty()) plan.notes.push_back(refined.unmet);
   if (!options.profile_only) {
     check_travel(machine, refined.path, plan.setpoints);
     if (refined.path.derivatives_fitted && refined.path.s_m.size() >= 3) {

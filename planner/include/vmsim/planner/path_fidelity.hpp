@@ -28,6 +28,7 @@
 // by hand carries the exact derivatives of a smooth curve, not a polyline.
 #include <Eigen/Core>
 #include <cstddef>
+#include <string>
 #include <vector>
 
 #include "vmsim/kinematics/machine_model.hpp"
@@ -74,11 +75,14 @@ struct RefinedPath {
   int rounds = 0;                  ///< check rounds that added points
   /// The largest deviation of the final spline at the check's samples.
   PathDeviation deviation;
+  /// Empty, or where the tolerance was not met after max_rounds (within 10 times it).
+  std::string unmet;
 };
 
 /// Refines `path` (see the header notes). Throws vmsim::InputError for bad options;
 /// vmsim::InfeasibleError naming the path point and block when an inserted pose has no inverse
-/// kinematic solution, or when the tolerance is not met after options.max_rounds rounds.
+/// kinematic solution, or when a segment is still more than 10 times the tolerance off after
+/// options.max_rounds rounds (less: RefinedPath::unmet says where).
 RefinedPath refine_path(const kinematics::MachineModel& machine,
                         const kinematics::PathKinematics& path,
                         const PathFidelityOptions& options = {});
