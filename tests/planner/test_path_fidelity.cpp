@@ -121,6 +121,7 @@ TEST(PathFidelity, DenseArcTangentToALongLineStaysOnThePath) {
   FeedrateOptions options;
   options.third_order = false;
   options.feed_m_per_s = 0.1;
+  options.path_tolerance_m = 0.5e-6;
   const FeedratePlan plan = plan_feedrate(machine, path, options);
   double worst = 0.0, worst_brute = 0.0;
   for (Eigen::Index n = 0; n < plan.setpoints.q.cols(); ++n) {
@@ -141,7 +142,8 @@ TEST(PathFidelity, RefinedSplineOfTheDenseArcCaseStaysWithinTheTolerance) {
   const auto poses = line_arc_line(reachable_origin(machine));
   const Polyline programmed(poses);
   const auto path = solve(machine, poses);
-  const PathFidelityOptions options;
+  PathFidelityOptions options;
+  options.tolerance_m = 0.5e-6;
   const RefinedPath refined = refine_path(machine, path, options);
   EXPECT_GT(refined.graded_points, 0u);
   // The input points keep their s.
@@ -267,7 +269,8 @@ TEST(PathFidelity, RandomCamPathsStayWithinTheToleranceAndTheTravel) {
   const auto machine = kinematics::make_table_table_sample();
   const Vector3d origin = reachable_origin(machine);
   std::mt19937_64 rng(20261202);
-  const PathFidelityOptions fidelity;
+  PathFidelityOptions fidelity;
+  fidelity.tolerance_m = 0.5e-6;  // tighter than the default: the mechanism, not the samples' setting
   constexpr int kPaths = 10000, kPlanned = 300, kRotaryEvery = 20;
   double worst_spline = 0.0, worst_setpoints = 0.0, worst_axis = 0.0, worst_travel = 0.0;
   std::size_t points = 0, added = 0, planned = 0;
@@ -286,6 +289,7 @@ TEST(PathFidelity, RandomCamPathsStayWithinTheToleranceAndTheTravel) {
     if (n % (kPaths / kPlanned) == 0) {
       FeedrateOptions options;
       options.third_order = false;
+      options.path_tolerance_m = fidelity.tolerance_m;
       const FeedratePlan plan = plan_feedrate(machine, path, options);
       ++planned;
       added += plan.points_added;
