@@ -297,7 +297,9 @@ RefinedPath refine_path(const kinematics::MachineModel& machine, const kinematic
   w.source_point.resize(n0);
   std::iota(w.source_point.begin(), w.source_point.end(), std::size_t{0});
   RefinedPath result;
-  if (!path.derivatives_fitted || n0 < 3) {
+  // Paths through singular zones are left as they are for now: the IKT swings the free axis
+  // there, and refining sample path 2 made it 7 times slower (open item).
+  if (!path.derivatives_fitted || n0 < 3 || !path.singular_zones.empty()) {
     result.path = std::move(w.path);
     result.source_point = std::move(w.source_point);
     return result;
@@ -365,7 +367,9 @@ RefinedPath refine_path(const kinematics::MachineModel& machine, const kinematic
     double worst_excess = 0.0, worst_tip_m = 0.0, worst_axis_rad = 0.0;
     std::size_t worst_segment = 0;
     for (std::size_t i = 0; i < segments; ++i) {
-      if (!dirty[i]) continue;
+      // Singular zones: the IKT holds the free rotary axis there and reaches the tool axis only
+      // to within its singular angle; midpoints do not converge (path 2 hung).
+      if (!dirty[i] || w.singular[i] || w.singular[i + 1]) continue;
       const SegmentDeviation d = segment_deviation(machine, spline, w, i, options.samples_per_segment);
       if (d.tip_m > worst.tip_m) worst.tip_m = d.tip_m, worst.tip_s_m = w.path.s_m[i] + d.tip_sigma_m, worst.tip_point = i + 1;
       if (d.axis_rad > worst.axis_rad) {
@@ -388,7 +392,8 @@ RefinedPath refine_path(const kinematics::MachineModel& machine, const kinematic
       full_check = true;
       continue;
     }
-    if (result.rounds >= options.max_rounds) {
+    // A bound on the work: rounds, and at most 4 added points per input point.
+    if (result.rounds >= options.max_rounds || result.refined_points > 4 * n0 + 1000) {
       const std::size_t i = worst_segment;
       const std::string where = 
           "path fidelity: between path points " + std::to_string(i) + " and " + std::to_string(i + 1) + " (" +
