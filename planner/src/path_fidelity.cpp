@@ -299,7 +299,16 @@ RefinedPath refine_path(const kinematics::MachineModel& machine, const kinematic
   RefinedPath result;
   // Paths through singular zones are left as they are for now: the IKT swings the free axis
   // there, and refining sample path 2 made it 7 times slower (open item).
-  if (!path.derivatives_fitted || n0 < 3 || !path.singular_zones.empty()) {
+  bool rotary_turns_in_singular_zone = false;  // (a 3-axis path along C is singular, and fine)
+  for (const auto& zone : path.singular_zones) {
+    for (std::size_t j = 0; j < machine.axes.size(); ++j) {
+      if (machine.axes[j].type != kinematics::AxisType::rotary) continue;
+      for (std::size_t i = zone.first_point; i <= zone.last_point && i < n0; ++i) {
+        if (std::abs(path.q(idx(j), idx(i)) - path.q(idx(j), idx(zone.first_point))) > 1e-9) rotary_turns_in_singular_zone = true;
+      }
+    }
+  }
+  if (!path.derivatives_fitted || n0 < 3 || rotary_turns_in_singular_zone) {
     result.path = std::move(w.path);
     result.source_point = std::move(w.source_point);
     return result;
