@@ -376,9 +376,7 @@ RefinedPath refine_path(const kinematics::MachineModel& machine, const kinematic
     double worst_excess = 0.0, worst_tip_m = 0.0, worst_axis_rad = 0.0;
     std::size_t worst_segment = 0;
     for (std::size_t i = 0; i < segments; ++i) {
-      // Singular zones: the IKT holds the free rotary axis there and reaches the tool axis only
-      // to within its singular angle; midpoints do not converge (path 2 hung).
-      if (!dirty[i] || w.singular[i] || w.singular[i + 1]) continue;
+      if (!dirty[i]) continue;  // (paths whose rotary axes turn in a singular zone are not refined)
       const SegmentDeviation d = segment_deviation(machine, spline, w, i, options.samples_per_segment);
       if (d.tip_m > worst.tip_m) worst.tip_m = d.tip_m, worst.tip_s_m = w.path.s_m[i] + d.tip_sigma_m, worst.tip_point = i + 1;
       if (d.axis_rad > worst.axis_rad) {
