@@ -68,6 +68,13 @@ struct Working {
   std::vector<bool> singular;  ///< per point: inside a singular zone
 };
 
+/// Whether the tool axis turns between path points i and i + 1 (direct kinematics of q).
+bool tool_axis_turns(const kinematics::MachineModel& machine, const kinematics::PathKinematics& path, std::size_t i) {
+  const Eigen::Vector3d a = kinematics::forward_kinematics(machine, path.q.col(idx(i)), path.tool_length_m).axis_W;
+  const Eigen::Vector3d b = kinematics::forward_kinematics(machine, path.q.col(idx(i + 1)), path.tool_length_m).axis_W;
+  return std::atan2(a.cross(b).norm(), a.dot(b)) > 1e-7;
+}
+
 /// Stretch boundaries (path ends and corners) as a flag per point.
 std::vector<bool> stretch_ends(const kinematics::PathKinematics& path) {
   std::vector<bool> end(path.s_m.size(), false);
@@ -377,6 +384,11 @@ RefinedPath refine_path(const kinematics::MachineModel& machine, const kinematic
     std::size_t worst_segment = 0;
     for (std::size_t i = 0; i < segments; ++i) {
       if (!dirty[i]) continue;  // (paths whose rotary axes turn in a singular zone are not refined)
+      // In a singular zone where the tool axis turns, the IKT holds the free rotary axis and
+      // reaches the tool axis only to within its singular angle: midpoints swing that axis and
+      // do not converge (path 2). Where the tool axis stands still (a 3-axis path along C) the
+      // midpoints keep the rotary axes, and the segment is refined like any other.
+      if ((w.singular[i] || w.singular[i + 1]) && tool_axis_turns(machine, w.path, i)) continue;
       const SegmentDeviation d = segment_deviation(machine, spline, w, i, options.samples_per_segment);
       if (d.tip_m > worst.tip_m) worst.tip_m = d.tip_m, worst.tip_s_m = w.path.s_m[i] + d.tip_sigma_m, worst.tip_point = i + 1;
       if (d.axis_rad > worst.axis_rad) {
