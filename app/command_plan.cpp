@@ -209,6 +209,16 @@ int run_plan(const PlanOptions& options, const CommandContext& context) {
   summary["grid_points"] = prof.s_m.size();
   summary["path_length_mm"] = prof.s_m.back() * 1e3;
   summary["slowdown_rounds"] = plan.slowdown_rounds;
+  // Path fidelity (planner/path_fidelity.hpp): points added on the programmed path, and the
+  // set points' largest distance from it.
+  if (plan.path_fidelity_checked) {
+    summary["path_fidelity"] = {{"tolerance_um", fo.path_tolerance_m * 1e6},
+                                {"points_added", plan.points_added},
+                                {"largest_deviation_um", plan.path_deviation_max_m * 1e6},
+                                {"largest_deviation_s_mm", plan.path_deviation_s_m * 1e3},
+                                {"largest_deviation_block", plan.path_deviation_block},
+                                {"largest_axis_deviation_deg", plan.path_axis_deviation_max_rad * 180.0 / std::numbers::pi}};
+  }
   summary["notes"] = plan.notes;
   // Share of the path length over which each constraint (and axis) limits sd_lim.
   nlohmann::json limiting = nlohmann::json::object();

@@ -247,7 +247,7 @@ Run simulate_run(const Context& context, const std::string& name, double feed_m_
   const double record_s = record_period_s(machine, feed_m_per_s, context.options.max_sample_chord_m);
   if (context.options.perfect_drives) {
     StageTimer timer(run, "perfect drives", context.progress);
-    const planner::PathSpline spline(context.path);
+    const planner::PathSpline spline(run.plan.path);  // with the points the planner added
     const double duration = run.plan.setpoints.t_s.back();
     const auto n = static_cast<std::size_t>(std::ceil(duration / record_s)) + 1;
     run.q_cmd.resize(static_cast<Eigen::Index>(machine.axes.size()), static_cast<Eigen::Index>(n));

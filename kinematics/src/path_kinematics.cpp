@@ -190,6 +190,11 @@ PathKinematics solve_path_kinematics(const MachineModel& model, const std::vecto
   // Later stretches overwrite the shared corner point: it keeps the outgoing derivatives.
   for (const Stretch& stretch : stretches) fit_stretch(stretch, out.s_m, out.q, options, out);
   out.derivatives_fitted = true;
+  out.tool_length_m = tool_length_m;
+  out.inverse = options.inverse;
+  out.block_names = block_names;
+  out.block.resize(n);
+  for (std::size_t i = 0; i < n; ++i) out.block[i] = path[i].block;
 
   // Singular zones: runs of singular points.
   for (std::size_t i = 0; i < n; ++i) {

@@ -567,6 +567,10 @@ void FeedrateOptions::validate() const {
   if (!(feed_m_per_s >= 0.0) || !std::isfinite(feed_m_per_s)) bad("feed_m_per_s", feed_m_per_s, "must be >= 0");
   if (!(max_grid_step_m >= 0.0)) bad("max_grid_step_m", max_grid_step_m, "must be >= 0");
   if (!(period_s >= 0.0)) bad("period_s", period_s, "must be >= 0");
+  if (!(path_tolerance_m > 0.0) || !std::isfinite(path_tolerance_m)) bad("path_tolerance_m", path_tolerance_m, "must be > 0");
+  if (!(path_axis_tolerance_rad > 0.0) || !std::isfinite(path_axis_tolerance_rad)) {
+    bad("path_axis_tolerance_rad", path_axis_tolerance_rad, "must be > 0");
+  }
   for (std::size_t i = 0; i < point_feed_m_per_s.size(); ++i) {
     if (!(point_feed_m_per_s[i] >= 0.0)) {
       bad("point_feed_m_per_s[" + std::to_string(i) + "]", point_feed_m_per_s[i], "must be >= 0");
@@ -718,9 +722,99 @@ SetPointCheck check_setpoints(const kinematics::MachineModel& machine,
   return check_samples(machine, dynamics, limits, options, setpoints).check;
 }
 
+namespace {
+
+/// The largest step [joint unit] a set point may stand beyond an end stop: rounding only.
+constexpr double kTravelRounding = 1e-9;
+
+/// Throws vmsim::InfeasibleError for the set point farthest beyond an axis's travel.
+void check_travel(const kinematics::MachineModel& machine, const kinematics::PathKinematics& path,
+                  const SetPoints& sp) {
+  double worst_excess = 0.0;
+  std::size_t worst_axis = 0, worst_sample = 0;
+  for (std::size_t j = 0; j < machine.axes.size(); ++j) {
+    const kinematics::Axis& axis = machine.axes[j];
+    if (axis.type == kinematics::AxisType::rotary && axis.continuous) continue;
+    for (Index n = 0; n < sp.q.cols(); ++n) {
+      const double value = sp.q(idx(j), n);
+      const double excess = std::max(axis.travel_min - value, value - axis.travel_max);
+      if (excess > kTravelRounding && excess > worst_excess) {
+        worst_excess = excess, worst_axis = j, worst_sample = static_cast<std::size_t>(n);
+      }
+    }
+  }
+  if (worst_excess == 0.0) return;
+  const kinematics::Axis& axis = machine.axes[worst_axis];
+  const bool rotary = axis.type == kinematics::AxisType::rotary;
+  const double f = rotary ? 180.0 / std::numbers::pi : 1e3;
+  const std::string unit = rotary ? " deg" : " mm";
+  const double s = sp.s_m[worst_sample];
+  const auto it = std::upper_bound(path.s_m.begin(), path.s_m.end(), s);
+  std::size_t point = static_cast<std::size_t>(it - path.s_m.begin());
+  point = std::clamp<std::size_t>(point, 1, path.s_m.size() - 1);
+  throw InfeasibleError("set point at t = " + format_double(sp.t_s[worst_sample]) + " s, s = " +
+                        format_double(s * 1e3) + " mm (" + path_point_label(path, point) + "): axis " +
+                        axis.name + " at " + format_double(sp.q(idx(worst_axis), idx(worst_sample)) * f) + unit +
+                        ", outside its travel [" + format_double(axis.travel_min * f) + ", " +
+                        format_double(axis.travel_max * f) + "]" + unit);
+}
+
+FeedratePlan plan_refined_path(const kinematics::MachineModel& machine, const kinematics::PathKinematics& path,
+                               const FeedrateOptions& options);
+
+}  // namespace
+
 FeedratePlan plan_feedrate(const kinematics::MachineModel& machine,
                            const kinematics::PathKinematics& path, const FeedrateOptions& options) {
   options.validate();
+  if (static_cast<std::size_t>(path.q.rows()) != machine.axes.size()) {
+    throw InputError("feedrate interpolation: the path has " + std::to_string(path.q.rows()) +
+                     " axes, the machine " + std::to_string(machine.axes.size()));
+  }
+  if (path.s_m.size() < 2) throw InputError("feedrate interpolation needs a path of at least 2 points");
+  PathFidelityOptions fidelity;
+  fidelity.tolerance_m = options.path_tolerance_m;
+  fidelity.axis_tolerance_rad = options.path_axis_tolerance_rad;
+  RefinedPath refined = refine_path(machine, path, fidelity);
+  const std::size_t added = refined.graded_points + refined.refined_points;
+  FeedratePlan plan;
+  if (added > 0 && !options.point_feed_m_per_s.empty()) {
+    // An added point's feed is that of the input point that ends its segment.
+    FeedrateOptions mapped = options;
+    mapped.point_feed_m_per_s.assign(refined.source_point.size(), 0.0);
+    for (std::size_t k = 0; k < refined.source_point.size(); ++k) {
+      const std::size_t source = refined.source_point[k];
+      if (source < options.point_feed_m_per_s.size()) mapped.point_feed_m_per_s[k] = options.point_feed_m_per_s[source];
+    }
+    plan = plan_refined_path(machine, refined.path, mapped);
+  } else {
+    plan = plan_refined_path(machine, refined.path, options);
+  }
+  plan.points_added = added;
+  if (!refined.unmet.empty()) plan.notes.push_back(refined.unmet);
+  if (!options.profile_only) {
+    check_travel(machine, refined.path, plan.setpoints);
+    if (refined.path.derivatives_fitted && refined.path.s_m.size() >= 3) {
+      PathDeviation d = pose_deviation(machine, refined.path, plan.setpoints.s_m, plan.setpoints.q);
+      if (refined.deviation.tip_m > d.tip_m) {
+        d.tip_m = refined.deviation.tip_m, d.tip_s_m = refined.deviation.tip_s_m, d.tip_point = refined.deviation.tip_point;
+      }
+      d.axis_rad = std::max(d.axis_rad, refined.deviation.axis_rad);
+      plan.path_fidelity_checked = true;
+      plan.path_deviation_max_m = d.tip_m;
+      plan.path_deviation_s_m = d.tip_s_m;
+      plan.path_deviation_block = path_point_label(refined.path, d.tip_point);
+      plan.path_axis_deviation_max_rad = d.axis_rad;
+    }
+  }
+  plan.path = std::move(refined.path);
+  return plan;
+}
+
+namespace {
+
+FeedratePlan plan_refined_path(const kinematics::MachineModel& machine, const kinematics::PathKinematics& path,
+                               const FeedrateOptions& options) {
   const PathSpline spline(path);
   const std::size_t axes = machine.axes.size();
   if (static_cast<std::size_t>(path.q.rows()) != axes) {
@@ -1192,5 +1286,7 @@ FeedratePlan plan_feedrate(const kinematics::MachineModel& machine,
   }
   return plan;
 }
+
+}  // namespace
 
 }  // namespace vmsim::planner

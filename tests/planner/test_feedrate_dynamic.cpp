@@ -118,7 +118,7 @@ TEST(Path1Dynamic, FrictionMakesTheTorqueLimitJumpAtVelocityReversals) {
   with.effects = kinematics::EffectSet{kinematics::Effect::inertia, kinematics::Effect::friction};
   const FeedratePlan plan = limits_only(with);
   const auto& tau = plan.profile.sd_lim_by_kind[static_cast<std::size_t>(ConstraintKind::torque)];
-  const PathSpline spline(s.path);
+  const PathSpline spline(plan.path);  // the planned path (points added on the programmed one)
   // Where the axis limiting the torque profile reverses (q_s changes sign), sd_lim jumps: the
   // step across the reversal is much larger than the typical step between grid points.
   std::vector<double> steps;

@@ -21,6 +21,8 @@ kinematics::MachineModel line_machine(double v, double a, double j) {
   auto m = kinematics::make_table_table_sample();
   for (auto& axis : m.axes) axis.limits = {100.0, 1000.0, 1e5};
   m.axes[0].limits = {v, a, j};
+  m.axes[0].travel_min = -2.0;  // lines up to 1 m long from X = 0: every set point within the travel
+  m.axes[0].travel_max = 2.0;
   m.interpolation_period_s = 0.002;
   return m;
 }

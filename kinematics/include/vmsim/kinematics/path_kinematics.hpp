@@ -60,6 +60,14 @@ struct PathKinematics {
   /// Points at which the derivatives are one-sided because a corner or a path end is there.
   std::vector<Corner> corners;
   std::vector<SingularZone> singular_zones;
+  /// What the points were solved with, so that points can be added on the programmed path
+  /// later (planner::refine_path): the tool length [m] (direct kinematics of q gives the
+  /// programmed tips), the IKT options, and per point the tool path block (PathPose::block,
+  /// -1 unknown) with the block names (for messages; may be empty).
+  double tool_length_m = 0.0;
+  InverseOptions inverse;
+  std::vector<int> block;
+  std::vector<std::string> block_names;
 };
 
 /// IKT of every pose, continuous along the path from q_start, then the derivatives.

@@ -87,7 +87,9 @@
 // s on the third-order programme's segments (LinearAccelerationLaw: cosh / sinh or cos / sin),
 // else the quintic Hermite interpolant in t of (s, sd, sdd) at its ends (exact for the
 // constant-sdd and the constant-jerk segments); q(s) is the PathSpline
-// (below). The planner's rows use q, q_s, q_ss and q_sss of that same spline, so that they
+// (below) of the path refine_path made follow the programmed path (path_fidelity.hpp: points
+// added where the spline would leave it by more than path_tolerance_m); every set point is
+// checked against the axis travel. The planner's rows use q, q_s, q_ss and q_sss of that same spline, so that they
 // bound what the set points do (with the fitted q_sss of solve_path_kinematics instead, the
 // spline's own third derivative between the points went unseen: on sample part 1 the set points
 // exceeded the X jerk by 44 % round after round).
@@ -108,6 +110,7 @@
 #include "vmsim/kinematics/dynamics.hpp"
 #include "vmsim/kinematics/machine_model.hpp"
 #include "vmsim/kinematics/path_kinematics.hpp"
+#include "vmsim/planner/path_fidelity.hpp"
 
 namespace vmsim::planner {
 
@@ -191,6 +194,13 @@ struct FeedrateOptions {
   /// Stop after the maximum feedrate profile (FeedratePlan::profile's grid, sd_lim_* and
   /// lower_bound_s only; no executed profile, no set points).
   bool profile_only = false;
+  /// Path fidelity (path_fidelity.hpp): between the path points the tool tip stays within this
+  /// distance [m] of the programmed segment (points are added on the programmed path until the
+  /// spline does), as an NC's linear interpolation does to within its rounding.
+  double path_tolerance_m = PathFidelityOptions{}.tolerance_m;
+  /// ... and the tool axis within this angle [rad] of the programmed one (great-circle
+  /// interpolation between the points).
+  double path_axis_tolerance_rad = PathFidelityOptions{}.axis_tolerance_rad;
   /// Throws vmsim::InputError naming the field and value.
   void validate() const;
 };
@@ -241,13 +251,32 @@ struct FeedratePlan {
   double duration_s = 0.0;     ///< T
   double lower_bound_s = 0.0;  ///< T_lb = integral ds / sd_lim(s) (trapezoid on the grid)
   int slowdown_rounds = 0;     ///< set-point checks that led to a slow-down
+  /// The path planned: the input with the points refine_path added on the programmed path
+  /// (profile.s_m and the set points refer to it; s of the input points is unchanged).
+  kinematics::PathKinematics path;
+  std::size_t points_added = 0;  ///< points refine_path added (grading and check)
+  /// Largest distance [m] of a set point's tool tip (or of the spline at the refinement's
+  /// check samples) from its programmed segment, where it is (s [m], the block of the segment's
+  /// end point) and the largest tool-axis angle [rad] from the programmed one. Only for paths
+  /// from solve_path_kinematics (path_fidelity_checked); within path_tolerance_m by
+  /// construction.
+  bool path_fidelity_checked = false;
+  double path_deviation_max_m = 0.0;
+  double path_deviation_s_m = 0.0;
+  std::string path_deviation_block;
+  double path_axis_deviation_max_rad = 0.0;
   std::vector<std::string> notes;  ///< what the user should know (e.g. unlimited axes)
 };
 
 /// Plans the feedrate along `path` (from kinematics::solve_path_kinematics on `machine`).
+/// First refine_path adds points on the programmed path where the spline would leave it by
+/// more than path_tolerance_m (paths with fitted derivatives only); after planning every set
+/// point of every axis with end stops is checked against the travel.
 /// Throws vmsim::InputError for bad options or a path that cannot be parameterised by s;
 /// vmsim::InfeasibleError (naming s and the axis) where the machine cannot hold the path even
-/// at rest (e.g. gravity above the torque limit), or when no admissible plan is found.
+/// at rest (e.g. gravity above the torque limit), when no admissible plan is found, when the
+/// path tolerance cannot be met (refine_path), or when a set point leaves an axis's travel
+/// (naming the axis, the value and the travel in mm or deg, s, and the block).
 FeedratePlan plan_feedrate(const kinematics::MachineModel& machine,
                            const kinematics::PathKinematics& path,
                            const FeedrateOptions& options = {});
