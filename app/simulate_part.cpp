@@ -199,6 +199,7 @@ Run simulate_run(const Context& context, const std::string& name, double feed_m_
     plan_options.limits = context.options.limits;
     plan_options.effects = context.options.effects;
     plan_options.third_order = context.options.third_order;
+    plan_options.path_tolerance_m = context.options.setpoint_path_tolerance_m;
     // The run's feed replaces the programmed one on cutting moves (a feed override); rapids
     // keep no feed limit and go as fast as the axes allow, identically in both runs.
     plan_options.point_feed_m_per_s.resize(context.inputs.path.size());

@@ -51,7 +51,8 @@ struct SimulatePartOptions {
   std::function<void(double t_s, Eigen::VectorXd& q)> production_disturbance;
   /// Largest distance allowed between a set point's tool tip and the programmed path [m]:
   /// beyond it the run stops with an error (the set points are not what the program asks for).
-  double setpoint_path_tolerance_m = 1e-6;
+  /// The planner holds its path to the same tolerance (FeedrateOptions::path_tolerance_m).
+  double setpoint_path_tolerance_m = planner::FeedrateOptions{}.path_tolerance_m;
   bool commanded_check = true;  ///< also cut the commanded tool path and compare the reference
   /// Also run the production feed with the other planning method (kinematic <-> dynamic) against
   /// the same reference: the report's "method_comparison" gives each method's cycle time and

@@ -125,7 +125,9 @@ TEST(OutputFolder, AFolderHoldingAnInputIsRefusedEvenWithTheMarker) {
   // the input inside a previous result, and the inputs' own folder (and one above it)
   const std::vector<std::pair<fs::path, fs::path>> cases = {
       {folder / "out", folder / "out" / "part.yaml"}, {folder, folder / "path.apt"}, {folder.parent_path(), folder / "path.apt"}};
-  for (const auto& [target, input] : cases) {
+  for (const auto& target_and_input : cases) {
+    const fs::path& target = target_and_input.first;  // (clang 14 cannot capture structured bindings)
+    const fs::path& input = target_and_input.second;
     SCOPED_TRACE(target.string());
     const std::string message = input_error_of([&] { OutputFolder(target.string(), {input.string()}, kOrigin); });
     EXPECT_NE(message.find("holds the input file " + input.string()), std::string::npos) << message;

@@ -111,7 +111,6 @@ TEST(Path1Dynamic, ActuatorLimitsMoreThanDoubleTheTorqueLimitedFeed) {
 }
 
 TEST(Path1Dynamic, FrictionMakesTheTorqueLimitJumpAtVelocityReversals) {
-  const auto& s = path1();
   FeedrateOptions with;
   with.method = FeedrateMethod::dynamic;
   with.limits = DynamicLimitSource::tuned;

@@ -149,7 +149,9 @@ TEST(PathFidelity, RefinedSplineOfTheDenseArcCaseStaysWithinTheTolerance) {
   // The input points keep their s.
   for (std::size_t i = 0, k = 0; k < refined.path.s_m.size(); ++k) {
     if (refined.source_point[k] == i && refined.path.s_m[k] == path.s_m[i]) ++i;
-    if (k + 1 == refined.path.s_m.size()) EXPECT_EQ(i, path.s_m.size());
+    if (k + 1 == refined.path.s_m.size()) {
+      EXPECT_EQ(i, path.s_m.size());
+    }
   }
   const PathSpline spline(refined.path);
   double worst = 0.0;
