@@ -685,8 +685,16 @@ std::vector<ViewComparison> compare_views(const Context& context, const Run& pro
     comparison.view = &context.views[v];
     comparison.index = v;
     comparison.deviation_m = removal::difference(production.buffers[v], reference.buffers[v]);
-    comparison.steep_lines_excluded =
-        exclude_steep_lines(reference.buffers[v], context.views[v].spacing_m, comparison.deviation_m);
+    // Steep in either run: a line in the plane of a tool face (a view's row at the floor's
+    // height under a flat end) is cut whole or not at all by a rounding of the tool's height.
+    std::vector<double> assessed(comparison.deviation_m.size(), 1.0);  // 0 where not assessed
+    exclude_steep_lines(reference.buffers[v], context.views[v].spacing_m, assessed);
+    exclude_steep_lines(production.buffers[v], context.views[v].spacing_m, assessed);
+    for (std::size_t line = 0; line < assessed.size(); ++line) {
+      if (assessed[line] != 0.0) continue;
+      comparison.deviation_m[line] = 0.0;
+      ++comparison.steep_lines_excluded;
+    }
     comparison.marks = removal::find_marks(production.buffers[v], comparison.deviation_m, mark_options);
   }
   return comparisons;

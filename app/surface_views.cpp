@@ -83,9 +83,12 @@ SurfaceView wall_view(const DesignPlane& plane, const removal::Box& stock, doubl
     b_min = std::min(b_min, r.dot(view.v_W));
     b_max = std::max(b_max, r.dot(view.v_W));
   }
-  view.corner_W_m = plane.point_W_m + a_min * view.u_W + b_min * view.v_W;
-  view.nu = static_cast<int>(std::floor((a_max - a_min) / spacing_m + 1e-9)) + 1;
-  view.nv = static_cast<int>(std::floor((b_max - b_min) / spacing_m + 1e-9)) + 1;
+  // Lines at the centres of the grid's cells, never on the box's faces: a line in the plane of a
+  // stock face or of a floor is in the plane of a flat end's face there, and is cut whole or not
+  // at all by a rounding of the tool's height.
+  view.corner_W_m = plane.point_W_m + (a_min + 0.5 * spacing_m) * view.u_W + (b_min + 0.5 * spacing_m) * view.v_W;
+  view.nu = static_cast<int>(std::floor((a_max - a_min) / spacing_m + 1e-9));
+  view.nv = static_cast<int>(std::floor((b_max - b_min) / spacing_m + 1e-9));
   view.title = "wall " + std::to_string(number) + ": plane through " +
                millimetres(plane.point_W_m, 1e3) + " mm, normal " + millimetres(plane.normal_W, 1.0) +
                "; x: along " + millimetres(view.u_W, 1.0) + ", y: along " + millimetres(view.v_W, 1.0) +
@@ -260,8 +263,10 @@ SurfaceView cylinder_view(const DesignCylinder& cylinder, const removal::Box& st
     view.azimuth_first_rad = (gap_end + 0.5) * bin_rad;
     view.nu = static_cast<int>(std::floor(band_rad / view.azimuth_step_rad + 1e-9)) + 1;
   }
-  view.axial_first_m = axial_first;
-  view.nv = static_cast<int>(std::floor((axial_last - axial_first) / view.spacing_m + 1e-9)) + 1;
+  // Rows at the centres of the axial cells, never at the ends of the patch (the floor's height:
+  // a line there lies in the plane of a flat end's face, see wall_view).
+  view.axial_first_m = axial_first + 0.5 * view.spacing_m;
+  view.nv = static_cast<int>(std::floor((axial_last - axial_first) / view.spacing_m + 1e-9));
   view.title = "cylinder " + std::to_string(number) + ": axis through " + millimetres(cylinder.axis_point_W_m, 1e3) +
                " mm along " + millimetres(view.axis_W, 1.0) + ", radius " + format_double(radius * 1e3) +
                " mm, seen along its normals; x: azimuth from " + rounded(view.azimuth_first_rad * kDegreesPerRadian, 2) +

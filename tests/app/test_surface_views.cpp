@@ -81,9 +81,10 @@ TEST(SurfaceViews, ACylinderViewsLinesAreItsNormalsOverThePatchTheTipsReach) {
   EXPECT_LT(x_min, bin_m + view.spacing_m);
   EXPECT_LE(x_max, 7.5e-3 + 1e-12);
   EXPECT_GT(x_max, 7.5e-3 - bin_m - view.spacing_m);
-  EXPECT_NEAR(y_min, -5e-3, 1e-12);
-  EXPECT_NEAR(y_max, 5e-3, 1e-9);
-  EXPECT_EQ(view.nv, static_cast<int>(std::round(10e-3 / view.spacing_m)) + 1);
+  // Rows at the centres of the axial cells: half a spacing inside each end.
+  EXPECT_NEAR(y_min, -5e-3 + 0.5 * view.spacing_m, 1e-12);
+  EXPECT_NEAR(y_max, 5e-3 - 0.5 * view.spacing_m, 1e-9);
+  EXPECT_EQ(view.nv, static_cast<int>(std::round(10e-3 / view.spacing_m)));
   // Neighbouring lines are a spacing apart on the surface (along the arc and along the axis).
   Eigen::Vector3d a, b, c, direction;
   view.line(0, 0, a, direction);
@@ -127,14 +128,14 @@ TEST(SurfaceViews, ACylinderViewAllRoundABossLooksAwayFromTheAxis) {
   const app::SurfaceView& view = views[1];
   EXPECT_EQ(view.nu, static_cast<int>(std::ceil(2 * std::numbers::pi * 10e-3 / view.spacing_m)));
   EXPECT_NEAR(view.nu * view.azimuth_step_rad, 2 * std::numbers::pi, 1e-12);
-  EXPECT_NEAR(view.axial_first_m, 20e-3, 1e-12);
-  ASSERT_EQ(view.nv, static_cast<int>(std::round(10e-3 / view.spacing_m)) + 1);
+  EXPECT_NEAR(view.axial_first_m, 20e-3 + 0.5 * view.spacing_m, 1e-12);  // the first cell's centre
+  ASSERT_EQ(view.nv, static_cast<int>(std::round(10e-3 / view.spacing_m)));
   for (int i = 0; i < view.nu; i += 7) {
     Eigen::Vector3d origin, direction;
     view.line(i, view.nv / 2, origin, direction);
     const Eigen::Vector3d foot = origin + view.depth_inside_m * direction;
     EXPECT_NEAR(std::hypot(foot.x(), foot.y()), 10e-3, 1e-12);
-    EXPECT_NEAR(foot.z(), 25e-3, 1e-12);
+    EXPECT_NEAR(foot.z(), 20e-3 + (view.nv / 2 + 0.5) * view.spacing_m, 1e-12);  // the middle row's cell centre
     EXPECT_NEAR(direction.dot(Eigen::Vector3d(foot.x(), foot.y(), 0).normalized()), 1.0, 1e-12);
     EXPECT_NEAR(std::atan2(foot.y(), foot.x()), std::remainder(i * view.azimuth_step_rad, 2 * std::numbers::pi), 1e-9);
   }
