@@ -277,8 +277,10 @@ void read_stock(const PartReader& reader, const YAML::Node& stock_node,
     if (stock_node["box"]) reader.fail(stock_node, "stock: give either box or stl, not both");
     if (!stock_node["stl"].IsScalar()) reader.fail(stock_node["stl"], "stock.stl: expected a file name");
     part.stock_stl_path = (folder / stock_node["stl"].Scalar()).lexically_normal().string();
-    if (!std::filesystem::is_regular_file(part.stock_stl_path)) {
-      reader.fail(stock_node["stl"], "stock.stl: no file '" + part.stock_stl_path + "'");
+    std::error_code status;  // (a name too long for the file system throws without one)
+    if (!std::filesystem::is_regular_file(part.stock_stl_path, status)) {
+      reader.fail(stock_node["stl"], "stock.stl: no file '" + part.stock_stl_path + "'" +
+                                         (status ? " (" + status.message() + ")" : std::string()));
     }
     try {
       part.stock_mesh = removal::read_stl(part.stock_stl_path);

@@ -115,9 +115,12 @@ fuzz_target() {
   done
   local dict=()
   if [[ -f "fuzz/dicts/$target.dict" ]]; then dict=(-dict="fuzz/dicts/$target.dict"); fi
+  # Hand-written seeds, where the reader has any (git keeps no empty folder).
+  local own_seeds=()
+  if [[ -d "fuzz/seeds/$target" ]]; then own_seeds=("fuzz/seeds/$target"); fi
   "$program" -max_total_time="$seconds" -timeout="$timeout" -rss_limit_mb=2048 \
     -max_len="$max_len" -print_final_stats=1 -artifact_prefix="$crashes/" "${dict[@]}" \
-    "${extra_args[@]}" "$corpus" "$seeds" "fuzz/seeds/$target" > "$log" 2>&1 || finding=1
+    "${extra_args[@]}" "$corpus" "$seeds" "${own_seeds[@]}" > "$log" 2>&1 || finding=1
   if [[ -n "$(find "$crashes" -type f -newer "$seeds" | head -n 1)" ]]; then
     finding=1  # -fork with -ignore_crashes keeps going but saves what it found
   fi

@@ -42,8 +42,10 @@ RigidBody to_body(const urdf::InertialSharedPtr& inertial) {
 
 void append_urdf_chain(const UrdfChainRequest& request, MachineModel& model,
                        const std::string& context) {
-  if (!std::filesystem::exists(request.path)) {
-    throw InputError(context + ": URDF file '" + request.path + "' does not exist");
+  std::error_code error;  // (a name too long for the file system throws without one)
+  if (!std::filesystem::exists(request.path, error)) {
+    throw InputError(context + ": URDF file '" + request.path + "' does not exist" +
+                     (error ? " (" + error.message() + ")" : std::string()));
   }
   // Read through read_file (regular files only, size cap) and checked by vmsim itself before
   // urdfdom sees it: urdfdom drops what it cannot read and would loop on a cycle.

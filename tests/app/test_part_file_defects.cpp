@@ -50,6 +50,18 @@ std::string error_of(const std::string& test_name, const std::string& text) {
 
 TEST(PartFileDefects, TheBaseTextLoads) { EXPECT_EQ(error_of("part_ok", part_text(kGoodTool)), ""); }
 
+// A stock STL name longer than the file system allows threw std::filesystem::filesystem_error
+// ("File name too long"), an internal error (found by fuzz_part_file).
+TEST(PartFileDefects, AStlNameTooLongForTheFileSystemIsLocated) {
+  std::string text = part_text(kGoodTool);
+  text.replace(text.find("stock: {box: {min_mm: [-40, -5, 0], max_mm: [40, 5, 40]}}"),
+               std::string("stock: {box: {min_mm: [-40, -5, 0], max_mm: [40, 5, 40]}}").size(),
+               "stock: {stl: " + std::string(5000, 'a') + ".stl}");
+  const std::string message = error_of("part_long_stl", text);
+  EXPECT_NE(message.find("part.yaml:5"), std::string::npos) << message;
+  EXPECT_NE(message.find("stock.stl: no file"), std::string::npos) << message;
+}
+
 TEST(PartFileDefects, MisspeltKeyIsRefusedWithTheNearestKnownOne) {
   const std::string error = error_of(
       "part_misspelt",
