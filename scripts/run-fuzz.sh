@@ -12,6 +12,9 @@
 #
 # Environment:
 #   VMSIM_FUZZ_SECONDS    fuzzing time per target [s] (60)
+#   VMSIM_FUZZ_RUNS       instead of a time: this many inputs per target, from a fixed seed
+#                         (-seed=1), so that a run repeats exactly (CI: what passed here passes
+#                         there; a new finding comes from a change, not from chance)
 #   VMSIM_FUZZ_PARALLEL   targets fuzzed at once (2)
 #   VMSIM_FUZZ_TARGETS    targets to run, space-separated (all seven)
 #   VMSIM_FUZZ_TIMEOUT    one input slower than this [s] is a hang (10)
@@ -26,6 +29,8 @@ cd "$(dirname "$0")/.."
 root=$PWD
 build_dir=${VMSIM_FUZZ_BUILD_DIR:-build-fuzz}
 seconds=${VMSIM_FUZZ_SECONDS:-60}
+runs=${VMSIM_FUZZ_RUNS:-}
+if [[ -n "$runs" ]]; then budget=(-runs="$runs" -seed=1); else budget=(-max_total_time="$seconds"); fi
 parallel=${VMSIM_FUZZ_PARALLEL:-2}
 timeout=${VMSIM_FUZZ_TIMEOUT:-10}
 max_len=${VMSIM_FUZZ_MAX_LEN:-16384}
@@ -118,7 +123,7 @@ fuzz_target() {
   # Hand-written seeds, where the reader has any (git keeps no empty folder).
   local own_seeds=()
   if [[ -d "fuzz/seeds/$target" ]]; then own_seeds=("fuzz/seeds/$target"); fi
-  "$program" -max_total_time="$seconds" -timeout="$timeout" -rss_limit_mb=2048 \
+  "$program" "${budget[@]}" -timeout="$timeout" -rss_limit_mb=2048 \
     -max_len="$max_len" -print_final_stats=1 -artifact_prefix="$crashes/" "${dict[@]}" \
     "${extra_args[@]}" "$corpus" "$seeds" "${own_seeds[@]}" > "$log" 2>&1 || finding=1
   if [[ -n "$(find "$crashes" -type f -newer "$seeds" | head -n 1)" ]]; then
