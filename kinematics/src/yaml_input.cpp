@@ -4,7 +4,10 @@
 #include <charconv>
 #include <cmath>
 #include <map>
+#include <sstream>
 #include <system_error>
+
+#include <yaml-cpp/eventhandler.h>
 
 #include "machine_loader_internal.hpp"
 #include "vmsim/common/errors.hpp"
@@ -16,6 +19,38 @@ namespace {
 // More nodes than any machine or part file has; a file beyond it is aliases expanding
 // exponentially (a "billion laughs"), which would otherwise exhaust time and memory.
 constexpr std::size_t kNodeBudget = 1'000'000;
+
+// Sees the documents of a YAML stream without building them: whether each holds anything, and
+// where it starts.
+struct DocumentScan : YAML::EventHandler {
+  bool has_content = false;
+  YAML::Mark start;    ///< of the document
+  YAML::Mark content;  ///< of its first node
+  void OnDocumentStart(const YAML::Mark& mark) override { start = mark, has_content = false; }
+  void OnDocumentEnd() override {}
+  void OnNull(const YAML::Mark&, YAML::anchor_t) override {}
+  void OnAlias(const YAML::Mark& mark, YAML::anchor_t) override { saw(mark); }
+  void OnScalar(const YAML::Mark& mark, const std::string&, YAML::anchor_t, const std::string&) override {
+    saw(mark);
+  }
+  void OnSequenceStart(const YAML::Mark& mark, const std::string&, YAML::anchor_t,
+                       YAML::EmitterStyle::value) override {
+    saw(mark);
+  }
+  void OnSequenceEnd() override {}
+  void OnMapStart(const YAML::Mark& mark, const std::string&, YAML::anchor_t, YAML::EmitterStyle::value) override {
+    saw(mark);
+  }
+  void OnMapEnd() override {}
+  void saw(const YAML::Mark& mark) {
+    if (!has_content) content = mark;
+    has_content = true;
+  }
+};
+
+// More empty documents than any file has: yaml-cpp 0.7 returns empty documents for ever on a
+// ',' outside brackets (its LoadAll then fills the memory).
+constexpr int kDocumentBudget = 1000;
 
 struct DuplicateKeyCheck {
   const std::string& file;
@@ -59,24 +94,36 @@ std::string located_at(const std::string& file, const YAML::Node& node, const st
 }
 
 YAML::Node parse_yaml_input(std::string_view text, const std::string& file_name_for_messages) {
-  std::vector<YAML::Node> documents;
+  const std::string content(strip_utf8_bom(text));
+  YAML::Node document;
   try {
-    documents = YAML::LoadAll(std::string(strip_utf8_bom(text)));
+    document = YAML::Load(content);
+    // The documents after the first: `---` with nothing after it carries nothing; anything else
+    // is refused (not LoadAll: see kDocumentBudget).
+    std::istringstream stream(content);
+    YAML::Parser parser(stream);
+    DocumentScan scan;
+    for (int index = 0; parser.HandleNextDocument(scan); ++index) {
+      if (index == 0) continue;
+      if (scan.has_content) {
+        throw InputError(located_message(file_name_for_messages, scan.content.line + 1, scan.content.column + 1,
+                                         "a second YAML document starts here (after a '---' or '...' line); "
+                                         "an input file holds one document: remove it or merge it into the "
+                                         "first"));
+      }
+      if (index > kDocumentBudget) {
+        throw InputError(located_message(file_name_for_messages, scan.start.line + 1, scan.start.column + 1,
+                                         "YAML syntax: the parser does not get past this place (a ',' "
+                                         "outside brackets?)"));
+      }
+    }
   } catch (const YAML::Exception& error) {
     throw InputError(located_message(file_name_for_messages, error.mark.line + 1,
                                      error.mark.column + 1, "YAML syntax: " + error.msg));
   }
-  if (documents.empty()) return YAML::Node();
-  for (std::size_t i = 1; i < documents.size(); ++i) {
-    if (documents[i].IsNull()) continue;  // `---` with nothing after it carries nothing
-    throw InputError(located_at(file_name_for_messages, documents[i],
-                                "a second YAML document starts here (after a '---' or '...' line); "
-                                "an input file holds one document: remove it or merge it into the "
-                                "first"));
-  }
   DuplicateKeyCheck check{file_name_for_messages};
-  check.walk(documents.front());
-  return documents.front();
+  check.walk(document);
+  return document;
 }
 
 YAML::Node load_yaml_input(const std::string& path) { return parse_yaml_input(read_file(path), path); }
