@@ -173,8 +173,9 @@ for target in "${targets[@]}"; do
     fi
   fi
 done
+if [[ -n "$runs" ]]; then per_target="$runs inputs per target from seed 1"; else per_target="$seconds s per target"; fi
 echo "fuzz: build ${build_s} s, sanitizer tests ${tests_s} s, fuzzing ${fuzz_s} s" \
-     "(${seconds} s per target, ${parallel} at once)"
+     "(${per_target}, ${parallel} at once)"
 if ((${#failures[@]} > 0)); then
   echo "fuzz: FAILED: ${failures[*]}" >&2
   exit 1
