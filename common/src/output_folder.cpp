@@ -165,7 +165,9 @@ void remove_stale_entries(const fs::path& folder, const std::vector<std::string>
       const std::string digits = name.substr(prefix.size());
       if (digits.find_first_not_of("0123456789") != std::string::npos || digits.size() > 9) continue;
       if (process_alive(std::stol(digits))) continue;
+      // Only a real folder of that name (a link is not followed nor removed): vmsim made it.
       std::error_code ignored;
+      if (!fs::is_directory(fs::symlink_status(it->path(), ignored))) continue;
       fs::remove_all(it->path(), ignored);
     }
   }
@@ -320,11 +322,17 @@ void OutputFolder::commit() {
     }
     committed_ = true;
     std::error_code ignored;
-    fs::remove_all(retired, ignored);
+    if (folder_state(retired, shown) != FolderState::foreign) fs::remove_all(retired, ignored);
     return;
   }
-  committed_ = true;
+  // The old set is removed only if it still is a vmsim result (or empty): something put into
+  // the folder between the check and the swap is swapped back, and the run refused.
   std::error_code ignored;
+  if (folder_state(staging_, shown) == FolderState::foreign) {
+    ::renameat2(AT_FDCWD, staging_.c_str(), AT_FDCWD, target_.c_str(), RENAME_EXCHANGE);
+    refuse_foreign(shown);
+  }
+  committed_ = true;
   fs::remove_all(staging_, ignored);  // the old set; what stays is removed by the next run
 }
 
