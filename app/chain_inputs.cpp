@@ -65,7 +65,7 @@ Eigen::VectorXd axes_from_words(const kinematics::MachineModel& machine,
 }
 
 // True when both points carry the same rotary words (NaN: not programmed, equal to NaN).
-bool same_rotary_words(const planner::PathPoint& a, const planner::PathPoint& b) {
+bool same_rotary_words(const toolpath::PathPoint& a, const toolpath::PathPoint& b) {
   for (std::size_t k = 0; k < a.rotary_words_deg.size(); ++k) {
     const double x = a.rotary_words_deg[k];
     const double y = b.rotary_words_deg[k];
@@ -96,7 +96,7 @@ ChainInputs load_chain_inputs(const ChainInputOptions& options) {
   inputs.warnings.insert(inputs.warnings.end(), inputs.machine.warnings.begin(),
                          inputs.machine.warnings.end());
 
-  planner::ReaderOptions reader;
+  toolpath::ReaderOptions reader;
   const kinematics::MachineModel& machine = inputs.machine;
   reader.rotary_words_to_tool_axis = [&machine, tool_length_m](const auto& words) {
     return kinematics::forward_kinematics(machine, axes_from_words(machine, words), tool_length_m)
@@ -105,9 +105,9 @@ ChainInputs load_chain_inputs(const ChainInputOptions& options) {
   reader.axis_words_to_pose = [&machine, tool_length_m](const auto& words) {
     const kinematics::ToolPose pose =
         kinematics::forward_kinematics(machine, axes_from_words(machine, words), tool_length_m);
-    return planner::AxisWordPose{pose.tip_W_m, pose.axis_W};
+    return toolpath::AxisWordPose{pose.tip_W_m, pose.axis_W};
   };
-  inputs.toolpath = planner::read_toolpath(toolpath_path, reader);
+  inputs.toolpath = toolpath::read_toolpath(toolpath_path, reader);
   if (inputs.toolpath.points.empty()) {
     throw InputError(toolpath_path + ": the tool path has no motion");
   }
@@ -135,10 +135,10 @@ ChainInputs load_chain_inputs(const ChainInputOptions& options) {
   // Consecutive identical poses carry no motion: merge them, and say so. Not when their
   // programmed rotary words differ: the same pose at C0 and C360 is a real turn of C.
   for (std::size_t i = 0; i < inputs.toolpath.points.size(); ++i) {
-    const planner::PathPoint& point = inputs.toolpath.points[i];
+    const toolpath::PathPoint& point = inputs.toolpath.points[i];
     if (!inputs.path.empty()) {
       const kinematics::ToolPose& last = inputs.path.back().pose;
-      const planner::PathPoint& last_point = inputs.toolpath.points[inputs.toolpath_point.back()];
+      const toolpath::PathPoint& last_point = inputs.toolpath.points[inputs.toolpath_point.back()];
       if ((last.tip_W_m - point.tip_W_m).norm() < 1e-12 &&
           (last.axis_W - point.axis_W).norm() < 1e-12 &&
           same_rotary_words(last_point, point)) {

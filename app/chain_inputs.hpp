@@ -8,7 +8,7 @@
 #include "vmsim/kinematics/machine_model.hpp"
 #include "vmsim/kinematics/path_kinematics.hpp"
 #include "vmsim/planner/corner_blend.hpp"
-#include "vmsim/planner/toolpath.hpp"
+#include "vmsim/toolpath/toolpath.hpp"
 
 namespace vmsim::app {
 
@@ -31,7 +31,7 @@ struct ChainInputs {
   kinematics::MachineModel machine;
   /// The tool path as executed: corners blended when ChainInputOptions::corner_tolerance_m > 0
   /// (blend points carry the block of the corner they replace), else as read.
-  planner::Toolpath toolpath;
+  toolpath::Toolpath toolpath;
   double tool_length_m = 0.0;
   /// The tool path as poses for the kinematics; consecutive duplicate poses merged.
   std::vector<kinematics::PathPose> path;

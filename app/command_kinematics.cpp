@@ -30,7 +30,7 @@ struct KinematicsOptions {
 std::vector<double> nominal_time(const ChainInputs& inputs, const kinematics::PathKinematics& result) {
   std::vector<double> t(result.s_m.size(), 0.0);
   for (std::size_t i = 1; i < t.size(); ++i) {
-    const planner::PathPoint& point = inputs.toolpath.points[inputs.toolpath_point[i]];
+    const toolpath::PathPoint& point = inputs.toolpath.points[inputs.toolpath_point[i]];
     double dt = 0.0;
     const double ds = result.s_m[i] - result.s_m[i - 1];
     if (point.inverse_time_feed_per_s > 0.0) {

@@ -116,8 +116,8 @@ int run_plan(const PlanOptions& options, const CommandContext& context) {
       inputs.block_names, inputs.path_kinematics);
   fo.point_feed_m_per_s.resize(path.s_m.size(), 0.0);
   for (std::size_t i = 0; i < path.s_m.size(); ++i) {
-    const planner::PathPoint& point = inputs.toolpath.points[inputs.toolpath_point[i]];
-    fo.point_feed_m_per_s[i] = point.kind == planner::MotionKind::rapid ? 0.0 : point.feed_m_per_s;
+    const toolpath::PathPoint& point = inputs.toolpath.points[inputs.toolpath_point[i]];
+    fo.point_feed_m_per_s[i] = point.kind == toolpath::MotionKind::rapid ? 0.0 : point.feed_m_per_s;
   }
   const planner::FeedratePlan plan = planner::plan_feedrate(inputs.machine, path, fo);
   const auto& prof = plan.profile;

@@ -25,7 +25,7 @@
 #include "vmsim/kinematics/kinematics.hpp"
 #include "vmsim/kinematics/machine_loader.hpp"
 #include "vmsim/kinematics/yaml_input.hpp"
-#include "vmsim/planner/toolpath.hpp"
+#include "vmsim/toolpath/toolpath.hpp"
 #include "vmsim/removal/level_set.hpp"
 #include "vmsim/removal/nbuffer.hpp"
 #include "vmsim/removal/output.hpp"
@@ -264,7 +264,7 @@ int run_remove(const RemoveOptions& o, const CommandContext& context) {
     source = o.trace_path + " (" + signal + " columns, direct kinematics of " + machine_path + ")";
   } else {
     if (toolpath_path.empty()) throw InputError("no trajectory: give --toolpath, --trace or --part");
-    const planner::Toolpath path = planner::read_toolpath(toolpath_path);
+    const toolpath::Toolpath path = toolpath::read_toolpath(toolpath_path);
     for (const auto& w : path.warnings) context.warn(w.file + ":" + std::to_string(w.line) + ": " + w.message);
     for (const auto& p : path.points) poses.push_back(removal::Pose{p.tip_W_m, p.axis_W});
     source = toolpath_path + " (commanded tool path)";

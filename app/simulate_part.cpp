@@ -205,7 +205,7 @@ Run simulate_run(const Context& context, const std::string& name, double feed_m_
     plan_options.point_feed_m_per_s.resize(context.inputs.path.size());
     for (std::size_t i = 0; i < context.inputs.path.size(); ++i) {
       const auto& point = context.inputs.toolpath.points[context.inputs.toolpath_point[i]];
-      plan_options.point_feed_m_per_s[i] = point.kind == planner::MotionKind::rapid ? 0.0 : feed_m_per_s;
+      plan_options.point_feed_m_per_s[i] = point.kind == toolpath::MotionKind::rapid ? 0.0 : feed_m_per_s;
     }
     try {
       run.plan = planner::plan_feedrate(machine, context.path, plan_options);
@@ -232,7 +232,7 @@ Run simulate_run(const Context& context, const std::string& name, double feed_m_
                                                      run.plan.setpoints, context.inputs.block_names, name));
   std::vector<bool> rapid_end(context.inputs.path.size());
   for (std::size_t i = 0; i < rapid_end.size(); ++i) {
-    rapid_end[i] = context.inputs.toolpath.points[context.inputs.toolpath_point[i]].kind == planner::MotionKind::rapid;
+    rapid_end[i] = context.inputs.toolpath.points[context.inputs.toolpath_point[i]].kind == toolpath::MotionKind::rapid;
   }
   run.checks.push_back(check_setpoints_on_path(machine, context.inputs.path, rapid_end, context.path.s_m,
                                                context.inputs.tool_length_m, run.plan.setpoints,
@@ -461,7 +461,7 @@ std::vector<bool> cutting_samples(const Context& context, const Run& run) {
     std::size_t i = static_cast<std::size_t>(std::upper_bound(s_points.begin(), s_points.end(), s) - s_points.begin());
     i = std::min(std::max<std::size_t>(i, 1), s_points.size() - 1);
     const auto& point = context.inputs.toolpath.points[context.inputs.toolpath_point[i]];
-    cutting[k] = point.kind != planner::MotionKind::rapid;
+    cutting[k] = point.kind != toolpath::MotionKind::rapid;
   }
   return cutting;
 }
@@ -930,7 +930,7 @@ Json simulate_part(const SimulatePartOptions& options, const ProgressSink& progr
   std::vector<Eigen::Vector3d> cutting_tips;
   for (std::size_t i = 0; i < context.inputs.path.size(); ++i) {
     const auto& point = context.inputs.toolpath.points[context.inputs.toolpath_point[i]];
-    if (point.kind != planner::MotionKind::rapid) cutting_tips.push_back(point.tip_W_m);
+    if (point.kind != toolpath::MotionKind::rapid) cutting_tips.push_back(point.tip_W_m);
   }
   context.views = surface_views(context.part, context.stock.bounds, options.grid_m, cutting_tips,
                                 context.tool.diameter_m);

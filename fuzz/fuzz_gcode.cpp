@@ -1,6 +1,6 @@
-// Fuzz target: the G-code (planner/src/gcode_reader.cpp) through planner::read_toolpath, with the
+// Fuzz target: the G-code (toolpath/src/gcode_reader.cpp) through toolpath::read_toolpath, with the
 // options app/chain_inputs.cpp gives it (the Mikron sample's direct kinematics for axis words);
-// a tool path it returns must keep the laws of planner/toolpath.hpp (check_toolpath).
+// a tool path it returns must keep the laws of toolpath/toolpath.hpp (check_toolpath).
 #include "fuzz_support.hpp"
 
 extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size) {
@@ -8,7 +8,7 @@ extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size
   const std::filesystem::path path = vmsim::fuzz::work_folder("gcode") / "toolpath.nc";
   vmsim::fuzz::write_bytes(path, data, size);
   vmsim::fuzz::expect_only_typed_errors([&] {
-    vmsim::fuzz::check_toolpath(vmsim::planner::read_toolpath(path.string(), reader.options()));
+    vmsim::fuzz::check_toolpath(vmsim::toolpath::read_toolpath(path.string(), reader.options()));
   });
   return 0;
 }

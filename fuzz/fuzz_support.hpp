@@ -25,7 +25,7 @@
 #include "vmsim/kinematics/kinematics.hpp"
 #include "vmsim/kinematics/machine_loader.hpp"
 #include "vmsim/kinematics/machine_model.hpp"
-#include "vmsim/planner/toolpath.hpp"
+#include "vmsim/toolpath/toolpath.hpp"
 
 namespace vmsim::fuzz {
 
@@ -89,11 +89,11 @@ void expect_only_typed_errors(Read&& read) {
   }
 }
 
-/// What every tool path a reader returns must satisfy (planner/toolpath.hpp): motion, finite
+/// What every tool path a reader returns must satisfy (toolpath/toolpath.hpp): motion, finite
 /// tips, unit axes, feeds finite and not negative, each point naming one of the blocks.
-inline void check_toolpath(const planner::Toolpath& path) {
+inline void check_toolpath(const toolpath::Toolpath& path) {
   require(!path.points.empty(), "a tool path has at least one point (else 'no motion')");
-  for (const planner::PathPoint& point : path.points) {
+  for (const toolpath::PathPoint& point : path.points) {
     require(point.tip_W_m.allFinite(), "tool tip finite");
     require(point.axis_W.allFinite() && std::abs(point.axis_W.norm() - 1.0) < 1e-9,
             "tool axis unit");
@@ -145,13 +145,13 @@ class SampleMachineReaderOptions {
     options_.axis_words_to_pose = [this](const auto& words) {
       const kinematics::ToolPose pose =
           kinematics::forward_kinematics(machine_, axes_from_words(words), kToolLength_m);
-      return planner::AxisWordPose{pose.tip_W_m, pose.axis_W};
+      return toolpath::AxisWordPose{pose.tip_W_m, pose.axis_W};
     };
   }
   SampleMachineReaderOptions(const SampleMachineReaderOptions&) = delete;
   SampleMachineReaderOptions& operator=(const SampleMachineReaderOptions&) = delete;
 
-  const planner::ReaderOptions& options() const { return options_; }
+  const toolpath::ReaderOptions& options() const { return options_; }
 
  private:
   static constexpr double kToolLength_m = 0.1;
@@ -170,7 +170,7 @@ class SampleMachineReaderOptions {
   }
 
   kinematics::MachineModel machine_;
-  planner::ReaderOptions options_;
+  toolpath::ReaderOptions options_;
 };
 
 }  // namespace vmsim::fuzz

@@ -10,7 +10,7 @@
 #include "vmsim/common/trace.hpp"
 #include "vmsim/kinematics/kinematics.hpp"
 #include "vmsim/kinematics/machine_loader.hpp"
-#include "vmsim/planner/toolpath.hpp"
+#include "vmsim/toolpath/toolpath.hpp"
 
 namespace vmsim {
 namespace {
@@ -32,7 +32,7 @@ TEST(CliKinematics, SetPointsReproduceTheToolPathThroughTheDirectKinematics) {
   const kinematics::MachineModel machine = kinematics::load_machine(kMikron);
   const Trace trace = read_trace(out);
   const double tool_length_m = std::stod(trace.metadata_value("tool_length_mm").value()) * 1e-3;
-  const planner::Toolpath toolpath = planner::read_toolpath(kRoot + "/samples/parts/path1_yz/toolpath.apt");
+  const toolpath::Toolpath toolpath = toolpath::read_toolpath(kRoot + "/samples/parts/path1_yz/toolpath.apt");
   ASSERT_EQ(trace.sample_count(), toolpath.points.size());
   for (std::size_t i = 0; i < trace.sample_count(); ++i) {
     Eigen::VectorXd q(5);

@@ -17,7 +17,7 @@
 #include "vmsim/common/trace.hpp"
 #include "vmsim/kinematics/kinematics.hpp"
 #include "vmsim/kinematics/machine_loader.hpp"
-#include "vmsim/planner/toolpath.hpp"
+#include "vmsim/toolpath/toolpath.hpp"
 
 namespace vmsim {
 namespace {
@@ -79,7 +79,7 @@ std::vector<Eigen::VectorXd> joint_samples(const Trace& trace, const kinematics:
   return q;
 }
 
-double distance_to_polyline(const Eigen::Vector3d& p, const planner::Toolpath& path) {
+double distance_to_polyline(const Eigen::Vector3d& p, const toolpath::Toolpath& path) {
   double best = INFINITY;
   for (std::size_t i = 0; i + 1 < path.points.size(); ++i) {
     const Eigen::Vector3d a = path.points[i].tip_W_m, d = path.points[i + 1].tip_W_m - a;
@@ -100,7 +100,7 @@ struct SetPointFigures {
 // maximum.
 SetPointFigures check_set_points(const std::filesystem::path& setpoints) {
   const kinematics::MachineModel machine = kinematics::load_machine(kMikron);
-  const planner::Toolpath path = planner::read_toolpath(kPath);
+  const toolpath::Toolpath path = toolpath::read_toolpath(kPath);
   const Trace trace = read_trace(setpoints.string());
   const double T = std::stod(trace.metadata_value("period_s").value());
   EXPECT_NEAR(T, machine.interpolation_period_s, 1e-15);

@@ -396,7 +396,7 @@ TEST(CornerBlend, ToolAxisIsBlendedWithinItsToleranceAndJoinsTheLegsSmoothly) {
 TEST(CornerBlend, ArcToLineTangentJumpIsACornerAndTheArcItselfIsNot) {
   // A line along +x into a clockwise half circle that starts going +y: a 90 deg tangent jump.
   const Toolpath path =
-      parse_gcode("G21 G90 G17\nG1 X0 Y0 Z0 F1000\nG1 X10\nG2 X20 Y0 I5 J0\nG1 X30\n", "arc.nc");
+      toolpath::parse_gcode("G21 G90 G17\nG1 X0 Y0 Z0 F1000\nG1 X10\nG2 X20 Y0 I5 J0\nG1 X30\n", "arc.nc");
   CornerBlendOptions options;
   options.tolerance_m = 0.01e-3;
   const CornerBlendResult r = blend_corners(path, options);

@@ -12,7 +12,7 @@
 #include "vmsim/kinematics/machine_loader.hpp"
 #include "vmsim/kinematics/path_kinematics.hpp"
 #include "vmsim/planner/feedrate.hpp"
-#include "vmsim/planner/toolpath.hpp"
+#include "vmsim/toolpath/toolpath.hpp"
 
 namespace vmsim::planner {
 namespace {
@@ -28,7 +28,7 @@ const Sample& path1() {
     Sample out;
     const std::string root = VMSIM_SOURCE_DIR;
     out.machine = kinematics::load_machine(root + "/samples/machines/mikron_ucp710.yaml");
-    const Toolpath tp = read_apt(root + "/samples/parts/path1_yz/toolpath.apt");
+    const Toolpath tp = toolpath::read_apt(root + "/samples/parts/path1_yz/toolpath.apt");
     std::vector<kinematics::PathPose> poses;
     for (const auto& p : tp.points) {
       if (p.kind == MotionKind::rapid) continue;

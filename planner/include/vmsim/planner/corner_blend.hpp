@@ -67,9 +67,15 @@
 #include <vector>
 
 #include "vmsim/kinematics/path_kinematics.hpp"
-#include "vmsim/planner/toolpath.hpp"
+#include "vmsim/toolpath/toolpath.hpp"
 
 namespace vmsim::planner {
+
+// The canonical motion the readers produce (toolpath/), which the planner consumes.
+using toolpath::MotionKind;
+using toolpath::PathPoint;
+using toolpath::Toolpath;
+
 
 struct CornerBlendOptions {
   /// Largest distance between the blended and the programmed path [m]; > 0.

@@ -109,7 +109,7 @@
 #include <utility>
 #include <vector>
 
-namespace vmsim::planner {
+namespace vmsim::toolpath {
 
 /// One source block (a line of G-code, or an APT record with its `$` continuations). Only the
 /// blocks that program a motion are listed.
@@ -142,6 +142,14 @@ struct PathPoint {
   /// different machine positions (a 360 deg turn of C), never merged.
   static constexpr double kNotProgrammed = std::numeric_limits<double>::quiet_NaN();
   std::array<double, 3> rotary_words_deg = {kNotProgrammed, kNotProgrammed, kNotProgrammed};
+  /// The tool (T number, made active by M6) in the spindle for this motion; -1 where the program
+  /// selects none (the part file's tool is meant).
+  int tool_number = -1;
+  /// What the program asks at the corner where this motion ends [m]: 0 = exact stop (G61, G9),
+  /// > 0 = blending within this tolerance (G64 P, high-precision contouring G5.1 / G05 P10000 /
+  /// G187 with its tolerance); NaN where the program says nothing (the part file or the command
+  /// line decides).
+  double corner_tolerance_m = kNotProgrammed;
 };
 
 /// A warning that names where it comes from (an unknown APT record, an ignored G-code word).
@@ -206,4 +214,4 @@ Toolpath parse_gcode(const std::string& text, const std::string& file_name_for_m
 /// Picks the reader by extension: .apt .cl .cls -> APT; .nc .ngc .gcode .mpf .tap .iso -> G-code.
 Toolpath read_toolpath(const std::string& path, const ReaderOptions& options = {});
 
-}  // namespace vmsim::planner
+}  // namespace vmsim::toolpath

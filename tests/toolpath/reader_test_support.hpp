@@ -7,7 +7,7 @@
 
 #include "vmsim/common/errors.hpp"
 
-namespace vmsim::planner::test {
+namespace vmsim::toolpath::test {
 
 /// The message of the InputError that `parse()` throws ("" when it does not throw).
 template <typename Parse>
@@ -27,4 +27,4 @@ inline void expect_vector(const Eigen::Vector3d& actual, const Eigen::Vector3d& 
   EXPECT_NEAR(actual.z(), expected.z(), tolerance);
 }
 
-}  // namespace vmsim::planner::test
+}  // namespace vmsim::toolpath::test

@@ -1,4 +1,4 @@
-// APT/CL reader: the subset documented in vmsim/planner/toolpath.hpp ("APT/CL subset").
+// APT/CL reader: the subset documented in vmsim/toolpath/toolpath.hpp ("APT/CL subset").
 #include <array>
 #include <cctype>
 #include <cmath>
@@ -12,9 +12,9 @@
 
 #include "toolpath_detail.hpp"
 #include "vmsim/common/errors.hpp"
-#include "vmsim/planner/toolpath.hpp"
+#include "vmsim/toolpath/toolpath.hpp"
 
-namespace vmsim::planner {
+namespace vmsim::toolpath {
 namespace {
 
 using detail::kMetresPerMillimetre;
@@ -487,4 +487,4 @@ Toolpath read_apt(const std::string& path, const ReaderOptions& options) {
   return parse_apt(detail::read_text_file(path), path, options);
 }
 
-}  // namespace vmsim::planner
+}  // namespace vmsim::toolpath

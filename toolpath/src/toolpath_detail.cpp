@@ -13,7 +13,7 @@
 #include "vmsim/common/errors.hpp"
 #include "vmsim/common/files.hpp"
 
-namespace vmsim::planner::detail {
+namespace vmsim::toolpath::detail {
 
 std::string read_text_file(const std::string& path) {
   // read_file refuses what is not a regular file (a FIFO would block) and sizes it first.
@@ -229,4 +229,4 @@ void require_motion(const Toolpath& path, const std::string& file) {
   }
 }
 
-}  // namespace vmsim::planner::detail
+}  // namespace vmsim::toolpath::detail

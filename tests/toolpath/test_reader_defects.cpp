@@ -15,9 +15,9 @@
 
 #include "reader_test_support.hpp"
 #include "vmsim/common/errors.hpp"
-#include "vmsim/planner/toolpath.hpp"
+#include "vmsim/toolpath/toolpath.hpp"
 
-namespace vmsim::planner {
+namespace vmsim::toolpath {
 namespace {
 
 using test::expect_vector;
@@ -270,9 +270,9 @@ TEST(ReaderDefects, AptRecordOfTenMegabytesIsRefusedAndALongCommentIsNot) {
 }
 
 }  // namespace
-}  // namespace vmsim::planner
+}  // namespace vmsim::toolpath
 
-namespace vmsim::planner {
+namespace vmsim::toolpath {
 namespace {
 
 // A FIFO named as the tool path blocked the reader for ever (it waited for a writer): refused at
@@ -291,4 +291,4 @@ TEST(ReaderDefects, AFifoAsToolPathIsRefusedAtOnce) {
 }
 
 }  // namespace
-}  // namespace vmsim::planner
+}  // namespace vmsim::toolpath

@@ -1,4 +1,4 @@
-// ISO G-code reader: the Fanuc / Siemens subset documented in vmsim/planner/toolpath.hpp
+// ISO G-code reader: the Fanuc / Siemens subset documented in vmsim/toolpath/toolpath.hpp
 // ("G-code subset").
 #include <array>
 #include <cctype>
@@ -15,9 +15,9 @@
 
 #include "toolpath_detail.hpp"
 #include "vmsim/common/errors.hpp"
-#include "vmsim/planner/toolpath.hpp"
+#include "vmsim/toolpath/toolpath.hpp"
 
-namespace vmsim::planner {
+namespace vmsim::toolpath {
 namespace {
 
 using detail::kMetresPerMillimetre;
@@ -811,4 +811,4 @@ Toolpath read_gcode(const std::string& path, const ReaderOptions& options) {
   return parse_gcode(detail::read_text_file(path), path, options);
 }
 
-}  // namespace vmsim::planner
+}  // namespace vmsim::toolpath

@@ -9,9 +9,9 @@
 #include <string>
 
 #include "reader_test_support.hpp"
-#include "vmsim/planner/toolpath.hpp"
+#include "vmsim/toolpath/toolpath.hpp"
 
-namespace vmsim::planner {
+namespace vmsim::toolpath {
 namespace {
 
 #define EXPECT_CONTAINS(text, part) \
@@ -117,4 +117,4 @@ TEST(ReaderLimits, AFullTurnUnderG43_4IsSplitIntoToolAxesAlongTheCone) {
 }
 
 }  // namespace
-}  // namespace vmsim::planner
+}  // namespace vmsim::toolpath

@@ -9,9 +9,9 @@
 #include <string_view>
 
 #include "vmsim/common/errors.hpp"
-#include "vmsim/planner/toolpath.hpp"
+#include "vmsim/toolpath/toolpath.hpp"
 
-namespace vmsim::planner::detail {
+namespace vmsim::toolpath::detail {
 
 inline constexpr double kMetresPerMillimetre = 1e-3;
 inline constexpr double kMillimetresPerInch = 25.4;
@@ -114,4 +114,4 @@ Toolpath read_with_located_errors(Reader& reader, const std::string& text, const
   }
 }
 
-}  // namespace vmsim::planner::detail
+}  // namespace vmsim::toolpath::detail

@@ -10,9 +10,9 @@
 
 #include "vmsim/common/errors.hpp"
 #include "reader_test_support.hpp"
-#include "vmsim/planner/toolpath.hpp"
+#include "vmsim/toolpath/toolpath.hpp"
 
-namespace vmsim::planner {
+namespace vmsim::toolpath {
 namespace {
 
 constexpr double kPi = std::numbers::pi;
@@ -495,4 +495,4 @@ TEST(SameMotion, G43_4ThroughATestMachineGivesTheAptPoints) {
 }
 
 }  // namespace
-}  // namespace vmsim::planner
+}  // namespace vmsim::toolpath

@@ -3,9 +3,9 @@
 #include <filesystem>
 
 #include "vmsim/common/errors.hpp"
-#include "vmsim/planner/toolpath.hpp"
+#include "vmsim/toolpath/toolpath.hpp"
 
-namespace vmsim::planner {
+namespace vmsim::toolpath {
 
 Toolpath read_toolpath(const std::string& path, const ReaderOptions& options) {
   std::string extension = std::filesystem::path(path).extension().string();
@@ -24,4 +24,4 @@ Toolpath read_toolpath(const std::string& path, const ReaderOptions& options) {
           "': use .apt/.cl/.cls for APT/CL or .nc/.ngc/.gcode/.mpf/.tap/.iso for G-code"));
 }
 
-}  // namespace vmsim::planner
+}  // namespace vmsim::toolpath

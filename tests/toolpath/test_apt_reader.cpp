@@ -6,9 +6,9 @@
 
 #include "vmsim/common/errors.hpp"
 #include "reader_test_support.hpp"
-#include "vmsim/planner/toolpath.hpp"
+#include "vmsim/toolpath/toolpath.hpp"
 
-namespace vmsim::planner {
+namespace vmsim::toolpath {
 namespace {
 
 Toolpath apt(const std::string& text) { return parse_apt(text, "part.apt"); }
@@ -217,4 +217,4 @@ TEST(AptReader, ReadsAFileAndNamesItInErrors) {
 }
 
 }  // namespace
-}  // namespace vmsim::planner
+}  // namespace vmsim::toolpath
