@@ -1,5 +1,6 @@
 #include "chain_inputs.hpp"
 
+#include <filesystem>
 #include <cmath>
 #include <numbers>
 
@@ -128,7 +129,8 @@ ChainInputs load_chain_inputs(const ChainInputOptions& options) {
     inputs.exact_stop_corners = std::move(result.exact_stops);
   }
   for (const auto& block : inputs.toolpath.blocks) {
-    std::string name = block.file + ":" + std::to_string(block.line);
+    // The file's name, not its path: block names go into reports that are forwarded.
+    std::string name = std::filesystem::path(block.file).filename().string() + ":" + std::to_string(block.line);
     if (block.block_number >= 0) name += " N" + std::to_string(block.block_number);
     inputs.block_names.push_back(name);
   }

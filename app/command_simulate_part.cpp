@@ -8,6 +8,7 @@
 
 #include "commands.hpp"
 #include "effects_option.hpp"
+#include "report_marks.hpp"
 #include "simulate_part.hpp"
 #include "vmsim/common/errors.hpp"
 #include "vmsim/common/files.hpp"
@@ -31,6 +32,7 @@ struct CommandOptions {
   bool third_order = false;
   bool compare_methods = false;
   double corner_tolerance_mm = 0.0;
+  double tolerance_um = 0.0;
   int threads = 0;
 };
 
@@ -73,6 +75,12 @@ int run(const CommandOptions& command, const CommandContext& context) {
   }
   options.corner_tolerance_m = command.corner_tolerance_mm * 1e-3;
   options.threads = command.threads;
+  if (!(command.tolerance_um >= 0.0) || command.tolerance_um > 1e4) {
+    throw InputError("--tolerance-um must be > 0 and at most 10 000 (10 mm), got " +
+                     format_double(command.tolerance_um));
+  }
+  options.tolerance_m = command.tolerance_um * 1e-6;
+  options.command_line = context.command_line;
 
   const auto start = std::chrono::steady_clock::now();
   const bool terminal = ::isatty(STDOUT_FILENO) != 0;
@@ -91,20 +99,22 @@ int run(const CommandOptions& command, const CommandContext& context) {
   const nlohmann::json report = simulate_part(options, progress);
   if (terminal && !context.quiet) std::cout << '\n';
 
-  context.say("wrote " + options.out_dir + "/ (report.json, report.html, surfaces, images)");
+  context.say("wrote " + options.out_dir + "/ (report.json, report.html, marks.csv, surfaces, images)");
   const auto& production = report["runs"]["production"];
   const auto& reference = report["runs"]["reference"];
   context.say("production " + format_double(production["feed_mm_per_min"].get<double>()) +
               " mm/min: T = " + format_double(std::round(production["duration_s"].get<double>() * 1e3) / 1e3) +
               " s; reference " + format_double(reference["feed_mm_per_min"].get<double>()) +
               " mm/min: T = " + format_double(std::round(reference["duration_s"].get<double>() * 1e3) / 1e3) + " s");
+  context.say(report["verdict"]["headline"].get<std::string>());
   context.say("marks deeper than " + format_double(options.mark_threshold_m * 1e6) +
-              " um: " + std::to_string(report["marks"].size()));
+              " um: " + std::to_string(report["marks"].size()) + " (and " +
+              std::to_string(report["specks"]["count"].get<std::size_t>()) + " specks too small to be marks)");
   std::size_t shown = 0;
   for (const auto& mark : report["marks"]) {
     if (shown++ == 5) break;
     std::string places;
-    for (const auto& place : mark["place"]) places += (places.empty() ? "" : ", ") + place.get<std::string>();
+    for (const auto& place : mark["place"]) places += (places.empty() ? "" : ", ") + place_in_words(place.get<std::string>());
     std::string axes;
     for (const auto& axis : mark["responsible_axes"]) axes += (axes.empty() ? "" : ",") + axis.get<std::string>();
     char line[400];
@@ -147,6 +157,9 @@ void add_simulate_part_command(CLI::App& app, CommandContext& context) {
   command->add_option("--mark-threshold-um", options->mark_threshold_um,
                       "a mark is a connected region deviating by more than this [um]")
       ->capture_default_str();
+  command->add_option("--tolerance-um", options->tolerance_um,
+                      "the deepest mark the part can take [um]: the report's verdict (default: the part "
+                      "file's tolerance_um; none: no verdict)");
   command->add_option("--threads", options->threads, "threads for the removal (0: all)")
       ->capture_default_str();
   command->add_flag("--perfect-drives", options->perfect_drives,

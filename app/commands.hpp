@@ -9,6 +9,8 @@ namespace vmsim::app {
 struct CommandContext {
   bool quiet = false;
   int result = 0;
+  /// The command line as typed (arguments quoted where needed), for reports.
+  std::string command_line;
   void say(const std::string& line) const {
     if (!quiet) std::cout << line << '\n';
   }

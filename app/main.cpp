@@ -4,6 +4,7 @@
 #include <exception>
 #include <filesystem>
 #include <iostream>
+#include <string>
 
 #include "commands.hpp"
 #include "exit_codes.hpp"
@@ -19,6 +20,20 @@ int main(int argc, char** argv) {
   app.footer(kExitCodeHelp);
   app.require_subcommand(1);
   CommandContext context;
+  // For reports, which are forwarded: an absolute path is shown by its last name only.
+  for (int i = 0; i < argc; ++i) {
+    std::string argument = i == 0 ? std::filesystem::path(argv[0]).filename().string() : argv[i];
+    const std::size_t value_at = argument.rfind("--", 0) == 0 && argument.find('=') != std::string::npos
+                                     ? argument.find('=') + 1
+                                     : 0;
+    if (argument.size() > value_at && argument[value_at] == '/') {
+      std::filesystem::path path(argument.substr(value_at));
+      if (!path.has_filename()) path = path.parent_path();  // "/tmp/out/"
+      argument = argument.substr(0, value_at) + ".../" + path.filename().string();
+    }
+    if (argument.find_first_of(" \t\"'") != std::string::npos) argument = "'" + argument + "'";
+    context.command_line += (i ? " " : "") + argument;
+  }
   app.add_flag("-q,--quiet", context.quiet, "print nothing but warnings and errors");
   add_simulate_part_command(app, context);
   add_kinematics_command(app, context);

@@ -325,7 +325,7 @@ PartDescription load_part(const std::string& path) {
   PartReader reader(path);
   if (!root.IsMap()) throw InputError(located_message(path, 0, 0, "a part file is a YAML map"));
   reader.require_map(root, "", {"name", "description", "machine", "toolpath", "tool", "stock",
-                                "design", "strategy", "feeds"});
+                                "design", "strategy", "feeds", "tolerance_um"});
   const std::filesystem::path folder = std::filesystem::path(path).parent_path();
   PartDescription part;
   part.file = path;
@@ -344,6 +344,15 @@ PartDescription load_part(const std::string& path) {
   reader.require_map(feeds, "feeds", {"production_mm_per_min", "reference_mm_per_min"});
   part.production_feed_m_per_s = read_feed_m_per_s(reader, feeds, "production_mm_per_min");
   part.reference_feed_m_per_s = read_feed_m_per_s(reader, feeds, "reference_mm_per_min");
+  if (root["tolerance_um"]) {
+    // The depth of mark the part can take: the report's verdict (simulate-part --tolerance-um
+    // overrides it). Beyond 10 mm it is no surface tolerance but a unit mistake.
+    part.tolerance_m = reader.positive_number(root, "tolerance_um", "") * 1e-6;
+    if (part.tolerance_m > 10e-3) {
+      reader.fail(root["tolerance_um"], "tolerance_um: " + root["tolerance_um"].Scalar() +
+                                            " um is not a plausible surface tolerance (more than 10 mm)");
+    }
+  }
   part.warnings = std::move(reader.warnings);
   return part;
 }

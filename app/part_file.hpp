@@ -80,6 +80,8 @@ struct PartDescription {
   std::vector<DesignCylinder> design_cylinders;  ///< the cylinder patches of `design.surfaces`
   double production_feed_m_per_s = 0.0;
   double reference_feed_m_per_s = 0.0;
+  /// `tolerance_um`: the deepest mark the part can take [m] (the report's verdict); 0 = not given.
+  double tolerance_m = 0.0;
   /// Values plausible but unusual (a feed of 500 m/min, a tool 2 m long), each naming the file,
   /// line and field; the program prints them as warnings.
   std::vector<std::string> warnings;

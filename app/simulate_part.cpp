@@ -3,6 +3,7 @@
 #include <unistd.h>
 
 #include <algorithm>
+#include <ctime>
 #include <chrono>
 #include <cmath>
 #include <filesystem>
@@ -13,6 +14,8 @@
 
 #include "chain_inputs.hpp"
 #include "json_text.hpp"
+#include "report_html.hpp"
+#include "report_marks.hpp"
 #include "part_file.hpp"
 #include "surface_views.hpp"
 #include "validity_checks.hpp"
@@ -362,8 +365,26 @@ Json relate_mark(const Context& context, const Run& production, const removal::M
   Json related;
   related["time_s"] = t;
   related["s_mm"] = s * 1e3;
-  related["block"] = block >= 0 ? context.inputs.block_names[static_cast<std::size_t>(block)] : "";
+  // The block by file name and line (report.json holds no absolute path).
+  related["block"] = "";
+  if (block >= 0) {
+    const toolpath::SourceBlock& source = context.inputs.toolpath.blocks[static_cast<std::size_t>(block)];
+    related["block"] = std::filesystem::path(source.file).filename().string() + ":" + std::to_string(source.line) +
+                       (source.block_number >= 0 ? " N" + std::to_string(source.block_number) : "");
+  }
   related["line"] = block >= 0 ? context.inputs.toolpath.blocks[static_cast<std::size_t>(block)].line : 0;
+  if (block >= 0) {
+    // The block as written and its neighbours: the report links each mark to the program.
+    const auto& blocks = context.inputs.toolpath.blocks;
+    const auto b = static_cast<std::size_t>(block);
+    related["block_text"] = blocks[b].text;
+    Json excerpt = Json::array();
+    for (std::size_t i = b >= 3 ? b - 3 : 0; i < std::min(blocks.size(), b + 4); ++i) {
+      if (blocks[i].file != blocks[b].file) continue;
+      excerpt.push_back({{"line", blocks[i].line}, {"text", blocks[i].text}});
+    }
+    related["excerpt"] = excerpt;
+  }
 
   // Each axis's following error at that time, and the tool-tip deviation it alone causes
   // (the direct kinematics with that one axis at its actual position, the others commanded).
@@ -530,135 +551,6 @@ Json run_summary(const Context& context, const Run& run) {
   return summary;
 }
 
-std::string html_escape(const std::string& text) {
-  std::string out;
-  for (char c : text) {
-    if (c == '<') out += "&lt;";
-    else if (c == '>') out += "&gt;";
-    else if (c == '&') out += "&amp;";
-    else out += c;
-  }
-  return out;
-}
-
-std::string html_report(const Json& report, const std::vector<std::string>& images) {
-  std::ostringstream html;
-  html << "<!doctype html><html><head><meta charset=\"utf-8\"><title>vmsim: "
-       << html_escape(report["part"]["name"].get<std::string>())
-       << "</title><style>body{font-family:sans-serif;max-width:1100px;margin:auto}"
-          "table{border-collapse:collapse}td,th{border:1px solid #999;padding:3px 8px}"
-          "img{max-width:100%}</style></head><body>\n";
-  html << "<h1>" << html_escape(report["part"]["name"].get<std::string>()) << "</h1>\n<p>"
-       << html_escape(report["part"]["description"].get<std::string>()) << "</p>\n";
-  html << "<p>Machine: " << html_escape(report["machine"].get<std::string>())
-       << "; method: " << report["method"].get<std::string>() << "; grid "
-       << report["surface"]["grid_um"].get<double>() << " um.</p>\n";
-  if (report.contains("validity_checks")) {
-    // First: whether the figures below can be trusted.
-    html << "<h2>Validity checks</h2><table><tr><th>check</th><th>found</th><th>limit</th><th>result</th>"
-            "<th>where</th></tr>\n";
-    for (const auto& check : report["validity_checks"]) {
-      const std::string status = check["status"].get<std::string>();
-      const char* colour = status == "ok" ? "#060" : status == "not done" ? "#666" : "#b00";
-      html << "<tr><td>" << html_escape(check["check"].get<std::string>()) << "</td><td>";
-      if (check.contains("value")) {
-        if (check["value"].is_number()) {
-          html << round_to(check["value"].get<double>(), 0.001);
-        } else {
-          html << html_escape(check["value"].get<std::string>());
-        }
-        html << " " << html_escape(check["unit"].get<std::string>()) << "</td><td>"
-             << round_to(check["limit"].get<double>(), 0.001);
-      } else {
-        html << "-</td><td>-";
-      }
-      html << "</td><td style=\"color:" << colour << ";font-weight:bold\">" << html_escape(status) << "</td><td>"
-           << html_escape(check["detail"].get<std::string>()) << "</td></tr>\n";
-    }
-    html << "</table>\n";
-  }
-  html << "<h2>Runs</h2><table><tr><th>run</th><th>feed [mm/min]</th><th>T [s]</th><th>T_lb [s]</th>"
-          "<th>following error peaks</th></tr>\n";
-  for (const char* name : {"production", "reference"}) {
-    const Json& run = report["runs"][name];
-    html << "<tr><td>" << name << "</td><td>" << run["feed_mm_per_min"].get<double>() << "</td><td>"
-         << run["duration_s"].get<double>() << "</td><td>" << run["lower_bound_s"].get<double>()
-         << "</td><td>";
-    for (const auto& axis : run["axes"]) {
-      html << axis["axis"].get<std::string>() << " ";
-      if (axis.contains("following_error_peak_um")) {
-        html << round_to(axis["following_error_peak_um"].get<double>(), 0.01) << " um; ";
-      } else {
-        html << round_to(axis["following_error_peak_mdeg"].get<double>(), 0.0001) << " mdeg; ";
-      }
-    }
-    html << "</td></tr>\n";
-  }
-  if (report.contains("method_comparison")) {
-    html << "</table>\n<h2>Planning methods side by side (production feed)</h2><table><tr><th>method</th>"
-            "<th>T [s]</th><th>T_lb [s]</th><th>marks</th><th>deepest [um]</th><th>at s [mm]</th>"
-            "<th>place</th></tr>\n";
-    for (const auto& method : report["method_comparison"]) {
-      html << "<tr><td>" << method["method"].get<std::string>() << "</td><td>"
-           << round_to(method["duration_s"].get<double>(), 0.001) << "</td><td>"
-           << round_to(method["lower_bound_s"].get<double>(), 0.001) << "</td><td>"
-           << method["marks"].get<std::size_t>() << "</td><td>";
-      if (method.contains("deepest_mark")) {
-        html << round_to(method["deepest_mark"]["depth_um"].get<double>(), 0.01) << "</td><td>"
-             << round_to(method["deepest_mark"]["s_mm"].get<double>(), 0.01) << "</td><td>";
-        for (const auto& place : method["deepest_mark"]["place"]) html << html_escape(place.get<std::string>()) << " ";
-      } else {
-        html << "-</td><td>-</td><td>";
-      }
-      html << "</td></tr>\n";
-    }
-  }
-  html << "</table>\n<h2>Surface views</h2><table><tr><th>view</th><th>lines</th><th>marks</th>"
-          "<th>deviation min / max / rms [um]</th><th>steep lines not assessed</th></tr>\n";
-  for (const auto& view : report["surface"]["views"]) {
-    html << "<tr><td>" << html_escape(view["id"].get<std::string>()) << ": "
-         << html_escape(view["title"].get<std::string>()) << "</td><td>" << view["lines"].get<std::size_t>()
-         << "</td><td>" << view["marks"].get<std::size_t>() << "</td><td>"
-         << round_to(view["deviation_min_um"].get<double>(), 0.01) << " / "
-         << round_to(view["deviation_max_um"].get<double>(), 0.01) << " / "
-         << round_to(view["deviation_rms_um"].get<double>(), 0.001) << "</td><td>"
-         << view["steep_lines_not_assessed"].get<std::size_t>() << "</td></tr>\n";
-  }
-  html << "</table>\n<h2>Marks</h2>\n";
-  if (report["marks"].empty()) {
-    html << "<p>No mark deeper than " << report["surface"]["mark_threshold_um"].get<double>()
-         << " um.</p>\n";
-  } else {
-    html << "<table><tr><th>#</th><th>view</th><th>kind</th><th>depth [um]</th><th>area [mm2]</th>"
-            "<th>at (x, y, z) [mm]</th><th>s [mm]</th><th>block</th><th>place</th><th>axes</th></tr>\n";
-    int index = 1;
-    for (const auto& mark : report["marks"]) {
-      html << "<tr><td>" << index++ << "</td><td>" << mark["view"].get<std::string>() << "</td><td>"
-           << mark["kind"].get<std::string>() << "</td><td>"
-           << round_to(mark["depth_um"].get<double>(), 0.01) << "</td><td>"
-           << round_to(mark["area_mm2"].get<double>(), 0.001) << "</td><td>";
-      for (double c : mark["deepest_point_mm"]) html << round_to(c, 0.001) << " ";
-      html << "</td><td>" << round_to(mark["s_mm"].get<double>(), 0.01) << "</td><td>"
-           << html_escape(mark["block"].get<std::string>()) << "</td><td>";
-      for (const auto& place : mark["place"]) html << html_escape(place.get<std::string>()) << " ";
-      html << "</td><td>";
-      for (const auto& axis : mark["responsible_axes"]) html << axis.get<std::string>() << " ";
-      html << "</td></tr>\n";
-    }
-    html << "</table>\n";
-  }
-  if (report["renders"].contains("skipped")) {
-    html << "<p><b>Renders skipped:</b> " << html_escape(report["renders"]["skipped"].get<std::string>())
-         << "</p>\n";
-  }
-  for (const std::string& image : images) {
-    html << "<h3>" << html_escape(image) << "</h3><img src=\"" << html_escape(image) << "\">\n";
-  }
-  html << "<h2>Stage times [s]</h2><pre>" << html_escape(json_file_text(report["stage_seconds"]))
-       << "</pre>\n</body></html>\n";
-  return html.str();
-}
-
 // The per-node mark outline mask of a (strided) view.
 std::vector<std::uint8_t> mark_mask(const ViewComparison& comparison, const removal::NBuffer& buffer,
                                     int i0, int i1, int j0, int j1, int stride, int only_label) {
@@ -807,55 +699,142 @@ void write_renders(const Context& context, const Run& production, const Run& ref
     }
   }
   if (worst) render_worst_mark(context, production, *worst, folder, images);
-  // Feedrate along s: programmed, limit, planned and actual (production run).
-  viz::FeedratePlotInput feed;
-  feed.title = context.part.name + ": feedrate (production run)";
-  const auto& profile = production.plan.profile;
-  // Around the deepest mark (one pass of a finishing program), else the whole path.
-  double s_from = -std::numeric_limits<double>::infinity(), s_to = std::numeric_limits<double>::infinity();
-  if (report.contains("marks") && !report["marks"].empty()) {
-    const double s_mark = report["marks"][0]["s_mm"].get<double>() * 1e-3;
-    s_from = s_mark - 0.06;
-    s_to = s_mark + 0.06;
-    feed.title += " near the deepest mark";
-  }
-  auto in_window = [&](double s) { return s >= s_from && s <= s_to; };
-  for (std::size_t i = 0; i < profile.s_m.size(); ++i) {
-    if (!in_window(profile.s_m[i])) continue;
-    feed.limit.x.push_back(profile.s_m[i]);
-    feed.limit.y.push_back(std::min(profile.sd_lim[i], 2 * production.feed_m_per_s));
-    feed.planned.x.push_back(profile.s_m[i]);
-    feed.planned.y.push_back(profile.sd[i]);
-  }
-  feed.programmed.x = {std::max(profile.s_m.front(), s_from), std::min(profile.s_m.back(), s_to)};
-  feed.programmed.y = {production.feed_m_per_s, production.feed_m_per_s};
-  for (std::size_t k = 1; k < production.trajectory.size(); ++k) {
-    const double dt = production.trajectory_t_s[k] - production.trajectory_t_s[k - 1];
-    if (dt <= 0) continue;
-    const double s_actual = plan_s_at(production.plan, production.trajectory_t_s[k]);
-    if (!in_window(s_actual)) continue;
-    feed.actual.x.push_back(s_actual);
-    feed.actual.y.push_back((production.trajectory[k].tip_W_m - production.trajectory[k - 1].tip_W_m).norm() / dt);
-  }
-  viz::plot_feedrate((folder / "feedrate.png").string(), feed);
-  images.push_back("feedrate.png");
-  std::vector<viz::AxisErrorSeries> errors;
-  const auto& machine = context.inputs.machine;
-  const std::size_t step = std::max<std::size_t>(1, production.samples / 20000);
-  for (std::size_t j = 0; j < machine.axes.size(); ++j) {
-    viz::AxisErrorSeries series;
-    series.axis = machine.axes[j].name;
-    series.rotary = machine.axes[j].type == kinematics::AxisType::rotary;
-    for (std::size_t k = 0; k < production.samples; k += step) {
-      series.t_s.push_back(production.t_s[k]);
-      series.error.push_back(production.q_cmd(static_cast<Eigen::Index>(j), static_cast<Eigen::Index>(k)) -
-                             production.q_actual(static_cast<Eigen::Index>(j), static_cast<Eigen::Index>(k)));
+  // Where the marks are along the path (the first ones in the report's order), for markers.
+  std::vector<double> mark_s_m;
+  if (report.contains("marks")) {
+    for (const auto& mark : report["marks"]) {
+      if (mark_s_m.size() == 10) break;
+      mark_s_m.push_back(mark["s_mm"].get<double>() * 1e-3);
     }
-    errors.push_back(std::move(series));
   }
-  viz::plot_following_error((folder / "following_error.png").string(), errors,
-                            context.part.name + ": following error (production run)");
-  images.push_back("following_error.png");
+  // Feedrate along s: programmed, limit, planned and actual (production run), over the whole
+  // path (decimated to about 20 000 points a curve) and zoomed on each of the three deepest marks.
+  const auto& profile = production.plan.profile;
+  const auto feed_plot = [&](double s_from, double s_to, const std::string& title, const std::string& name) {
+    viz::FeedratePlotInput feed;
+    feed.title = title;
+    auto in_window = [&](double s) { return s >= s_from && s <= s_to; };
+    std::size_t inside = 0;
+    for (double s_m : profile.s_m) inside += in_window(s_m) ? 1 : 0;
+    const std::size_t step = std::max<std::size_t>(1, inside / 20000);
+    std::size_t counter = 0;
+    for (std::size_t i = 0; i < profile.s_m.size(); ++i) {
+      if (!in_window(profile.s_m[i]) || counter++ % step != 0) continue;
+      feed.limit.x.push_back(profile.s_m[i]);
+      feed.limit.y.push_back(std::min(profile.sd_lim[i], 2 * production.feed_m_per_s));
+      feed.planned.x.push_back(profile.s_m[i]);
+      feed.planned.y.push_back(profile.sd[i]);
+    }
+    if (feed.planned.x.empty()) return;
+    feed.programmed.x = {std::max(profile.s_m.front(), s_from), std::min(profile.s_m.back(), s_to)};
+    feed.programmed.y = {production.feed_m_per_s, production.feed_m_per_s};
+    std::size_t actual_inside = 0;
+    for (double t : production.trajectory_t_s) actual_inside += in_window(plan_s_at(production.plan, t)) ? 1 : 0;
+    const std::size_t actual_step = std::max<std::size_t>(1, actual_inside / 20000);
+    counter = 0;
+    for (std::size_t k = 1; k < production.trajectory.size(); ++k) {
+      const double dt = production.trajectory_t_s[k] - production.trajectory_t_s[k - 1];
+      if (dt <= 0) continue;
+      const double s_actual = plan_s_at(production.plan, production.trajectory_t_s[k]);
+      if (!in_window(s_actual) || counter++ % actual_step != 0) continue;
+      feed.actual.x.push_back(s_actual);
+      feed.actual.y.push_back((production.trajectory[k].tip_W_m - production.trajectory[k - 1].tip_W_m).norm() / dt);
+    }
+    viz::plot_feedrate((folder / name).string(), feed);
+    images.push_back(name);
+  };
+  feed_plot(-std::numeric_limits<double>::infinity(), std::numeric_limits<double>::infinity(),
+            context.part.name + ": feedrate along the whole path (production run)", "feedrate.png");
+  for (std::size_t m = 0; m < std::min<std::size_t>(mark_s_m.size(), 3); ++m) {
+    feed_plot(mark_s_m[m] - 0.03, mark_s_m[m] + 0.03,
+              context.part.name + ": feedrate within 30 mm of mark " + std::to_string(m + 1) + " (at s = " +
+                  format_double(std::round(mark_s_m[m] * 1e4) / 10) + " mm)",
+              "feedrate_mark_" + std::to_string(m + 1) + ".png");
+  }
+
+  // Following error of each axis along s, cutting moves only (rapids run at the axes' own limits,
+  // alike in both runs); a rotary axis whose error stays at the level of numerical noise while
+  // cutting is left out (its scale would show nothing but that noise).
+  const auto& machine = context.inputs.machine;
+  const std::vector<bool> cutting = cutting_samples(context, production);
+  std::size_t cutting_count = 0;
+  for (bool c : cutting) cutting_count += c ? 1 : 0;
+  if (cutting_count > 1) {
+    viz::AlongPathPlotInput along;
+    along.title = "Following error while cutting (production run)";
+    const std::size_t step = std::max<std::size_t>(1, cutting_count / 20000);
+    std::vector<std::string> quiet_axes;
+    bool any_linear = false, any_rotary = false;
+    for (std::size_t j = 0; j < machine.axes.size(); ++j) {
+      const bool rotary = machine.axes[j].type == kinematics::AxisType::rotary;
+      const double to_display = rotary ? 180.0 / std::numbers::pi * 1e3 : 1e6;  // mdeg or um
+      viz::Series series;
+      series.name = machine.axes[j].name + (rotary ? " [mdeg]" : " [um]");
+      series.style = rotary ? viz::LineStyle::dashed : viz::LineStyle::solid;
+      series.right_axis = rotary;
+      double peak = 0.0;
+      std::size_t counter = 0;
+      for (std::size_t k = 0; k < production.samples; ++k) {
+        if (!cutting[k] || counter++ % step != 0) continue;
+        const double error = production.q_cmd(static_cast<Eigen::Index>(j), static_cast<Eigen::Index>(k)) -
+                             production.q_actual(static_cast<Eigen::Index>(j), static_cast<Eigen::Index>(k));
+        peak = std::max(peak, std::abs(error * to_display));
+        series.x.push_back(plan_s_at(production.plan, production.t_s[k]));
+        series.y.push_back(error * to_display);
+      }
+      if (rotary && peak < 1e-3) {
+        quiet_axes.push_back(machine.axes[j].name);
+        continue;
+      }
+      any_linear = any_linear || !rotary;
+      any_rotary = any_rotary || rotary;
+      along.series.push_back(std::move(series));
+    }
+    if (!any_linear) {
+      for (viz::Series& series : along.series) series.right_axis = false;
+    }
+    along.y_title = any_linear ? "linear axes [um]" : "rotary axes [mdeg]";
+    if (any_linear && any_rotary) along.y2_title = "rotary axes [mdeg]";
+    if (!quiet_axes.empty()) {
+      std::string names;
+      for (const std::string& name : quiet_axes) names += (names.empty() ? "" : ", ") + name;
+      along.title += "; " + names + ": below 0.001 mdeg, not shown";
+    }
+    along.markers_s_m = mark_s_m;
+    if (!along.series.empty()) {
+      viz::plot_along_path((folder / "following_error.png").string(), along);
+      images.push_back("following_error.png");
+    }
+    // The production surface's deviation from the reference at the tool tip (the Z-map line
+    // under it): where along the program the floor and 3-axis surfaces are marked.
+    const removal::NBuffer& zmap = production.buffers[0];
+    if (zmap.is_zmap() && context.views[0].zmap) {
+      viz::AlongPathPlotInput deviation;
+      deviation.title = "Production minus reference surface under the tool tip (Z-map)";
+      deviation.y_title = "deviation [um]";
+      viz::Series series;
+      series.name = "under the tip";
+      const std::size_t pose_step = std::max<std::size_t>(1, production.trajectory.size() / 20000);
+      const Eigen::Vector3d origin = zmap.zmap_origin_m();
+      for (std::size_t k = 0; k < production.trajectory.size(); k += pose_step) {
+        const Eigen::Vector3d& tip = production.trajectory[k].tip_W_m;
+        const long iu = std::lround((tip.x() - origin.x()) / zmap.spacing_m());
+        const long iv = std::lround((tip.y() - origin.y()) / zmap.spacing_m());
+        if (iu < 0 || iv < 0 || iu >= zmap.nu() || iv >= zmap.nv()) continue;
+        const double d = comparisons[0].deviation_m[static_cast<std::size_t>(iv) * static_cast<std::size_t>(zmap.nu()) +
+                                                    static_cast<std::size_t>(iu)];
+        if (!std::isfinite(d)) continue;
+        series.x.push_back(plan_s_at(production.plan, production.trajectory_t_s[k]));
+        series.y.push_back(d * 1e6);
+      }
+      deviation.series.push_back(std::move(series));
+      deviation.markers_s_m = mark_s_m;
+      if (deviation.series.front().x.size() > 1) {
+        viz::plot_along_path((folder / "deviation_along_path.png").string(), deviation);
+        images.push_back("deviation_along_path.png");
+      }
+    }
+  }
   // Histogram over the lines the reference run cut, in every view.
   std::vector<double> machined;
   for (const ViewComparison& comparison : comparisons) {
@@ -869,13 +848,84 @@ void write_renders(const Context& context, const Run& production, const Run& ref
   }
   if (!machined.empty()) {
     viz::plot_deviation_histogram((folder / "deviation_histogram.png").string(), machined, 60,
-                                  context.part.name + ": production minus reference");
+                                  context.part.name + ": production minus reference, machined lines",
+                                  {}, true);
     images.push_back("deviation_histogram.png");
   }
   report["renders"]["images"] = images;
 }
 
 }  // namespace
+
+// Paths in the report (it is forwarded: no absolute path). The part file as given when relative
+// and inside the current folder, else its folder's name and its own; the files the part file
+// names, relative to the part file's folder when inside it, else by their names.
+std::string part_path_for_report(const std::string& part_path) {
+  const std::filesystem::path given(part_path);
+  const std::filesystem::path normal = given.lexically_normal();
+  if (given.is_relative() && !normal.empty() && *normal.begin() != "..") return normal.string();
+  const std::filesystem::path absolute = std::filesystem::absolute(given).lexically_normal();
+  return (absolute.parent_path().filename() / absolute.filename()).string();
+}
+
+std::string path_for_report(const std::string& path, const std::string& part_path) {
+  if (path.empty()) return path;
+  const std::filesystem::path part_folder = std::filesystem::absolute(part_path).lexically_normal().parent_path();
+  const std::filesystem::path relative =
+      std::filesystem::absolute(path).lexically_normal().lexically_relative(part_folder);
+  // A file outside the part's folder: its name (the path above it says where the sender keeps
+  // it, nothing about the part).
+  if (relative.empty() || *relative.begin() == "..") return std::filesystem::path(path).filename().string();
+  return relative.string();
+}
+
+std::string millimetres_text(double metres) { return format_double(std::round(metres * 1e7) / 1e4); }
+
+// What the run was: the report's "context" (shown at the top of report.html).
+Json report_context(const Context& context, double production_feed_m_per_s, double reference_feed_m_per_s) {
+  const SimulatePartOptions& options = context.options;
+  Json out;
+  out["part_file"] = part_path_for_report(options.part_path);
+  out["machine"] = context.inputs.machine.name + " (" +
+                   path_for_report(context.inputs.machine.source_file, options.part_path) + ")";
+  out["toolpath"] = path_for_report(context.part.toolpath_path, options.part_path);
+  const char* type = context.tool.type == removal::ToolType::ball   ? "ball-end"
+                     : context.tool.type == removal::ToolType::flat ? "flat-end"
+                                                                     : "bull-nose";
+  out["tool"] = std::string(type) + " mill, diameter " + millimetres_text(context.tool.diameter_m) +
+                " mm, corner radius " + millimetres_text(context.tool.corner_radius()) + " mm, length " +
+                millimetres_text(context.part.tool.length_m) + " mm (cutting body " +
+                millimetres_text(context.tool.length_m) + " mm)";
+  const auto corner = [](const Eigen::Vector3d& v) {
+    return "(" + millimetres_text(v.x()) + ", " + millimetres_text(v.y()) + ", " + millimetres_text(v.z()) + ")";
+  };
+  out["stock"] = (context.stock.mesh ? "mesh " + path_for_report(context.part.stock_stl_path, options.part_path) +
+                                           ", within the box "
+                                     : std::string("box ")) +
+                 corner(context.stock.bounds.min_W_m) + " to " + corner(context.stock.bounds.max_W_m) + " mm";
+  const auto feed_text = [](double feed_m_per_s, bool from_command_line, const char* option) {
+    return format_double(std::round(feed_m_per_s * 60e4) / 10.0) + " mm/min (" +
+           (from_command_line ? std::string(option) : std::string("part file")) + ")";
+  };
+  out["production_feed"] = feed_text(production_feed_m_per_s, options.production_feed_m_per_s > 0, "--feed-mm-per-min");
+  out["reference_feed"] =
+      feed_text(reference_feed_m_per_s, options.reference_feed_m_per_s > 0, "--reference-feed-mm-per-min");
+  out["planning"] = method_name(options.method) + std::string(options.third_order ? ", jerk / torque-rate limits"
+                                                                                  : ", no jerk limit") +
+                    (options.perfect_drives ? ", perfect drives (no servo)" : "");
+  out["corners"] = options.corner_tolerance_m > 0
+                       ? "blended within " + millimetres_text(options.corner_tolerance_m) + " mm"
+                       : std::string("exact stop at every corner");
+  out["grid"] = format_double(options.grid_m * 1e6) + " um line spacing; marks deeper than " +
+                format_double(options.mark_threshold_m * 1e6) + " um";
+  const std::time_t now = std::time(nullptr);
+  char date[32];
+  std::strftime(date, sizeof date, "%Y-%m-%d %H:%M:%S UTC", std::gmtime(&now));
+  out["date_utc"] = date;
+  out["vmsim_version"] = VMSIM_VERSION;
+  out["command_line"] = options.command_line;
+  return out;
+}
 
 Json simulate_part(const SimulatePartOptions& options, const ProgressSink& progress) {
   const Clock::time_point start = Clock::now();
@@ -944,7 +994,7 @@ Json simulate_part(const SimulatePartOptions& options, const ProgressSink& progr
                      {"max_mm", millimetres(context.stock.bounds.max_W_m)}};
   report["removal_tool_length_mm"] = context.tool.length_m * 1e3;
   if (context.stock.mesh) {
-    report["stock"]["stl"] = context.part.stock_stl_path;
+    report["stock"]["stl"] = path_for_report(context.part.stock_stl_path, options.part_path);
     report["stock"]["triangles"] = context.stock.mesh->triangles.size();
     report["stock"]["zmap_lines_outside_the_mesh"] = mesh_report.lines_missing;
     report["stock"]["zmap_lines_filled_below"] = mesh_report.lines_filled;
@@ -1097,14 +1147,27 @@ Json simulate_part(const SimulatePartOptions& options, const ProgressSink& progr
   report["validity_checks"] = check_list;
 
   report["part"] = {{"name", context.part.name}, {"description", context.part.description},
-                    {"file", context.part.file}};
-  report["machine"] = context.inputs.machine.name + " (" + context.inputs.machine.source_file + ")";
-  report["toolpath"] = context.part.toolpath_path;
+                    {"file", part_path_for_report(options.part_path)}};
+  report["machine"] = context.inputs.machine.name + " (" +
+                      path_for_report(context.inputs.machine.source_file, options.part_path) + ")";
+  report["toolpath"] = path_for_report(context.part.toolpath_path, options.part_path);
   report["method"] = method_name(options.method);
   report["runs"]["production"] = run_summary(context, production);
   report["runs"]["reference"] = run_summary(context, reference);
   report["surface"] = surface;
-  report["marks"] = mark_list;
+  // The marks a machinist acts on, deepest first; specks counted apart (report_marks.hpp).
+  const Json curated =
+      curate_marks(mark_list, min_mark_area_mm2(options.grid_m * 1e6, context.tool.diameter_m * 1e3));
+  report["marks"] = curated["marks"];
+  report["specks"] = curated["specks"];
+  Tolerance tolerance;
+  if (options.tolerance_m > 0) {
+    tolerance = {options.tolerance_m * 1e6, "--tolerance-um"};
+  } else if (context.part.tolerance_m > 0) {
+    tolerance = {context.part.tolerance_m * 1e6, "part file"};
+  }
+  report["verdict"] = make_verdict(curated, check_list, tolerance);
+  report["context"] = report_context(context, production_feed, reference_feed);
   report["corners"] = context.path.corners.size();
   report["singular_zones"] = context.path.singular_zones.size();
   report["renders"] = Json::object();
@@ -1141,6 +1204,7 @@ Json simulate_part(const SimulatePartOptions& options, const ProgressSink& progr
   report["stage_seconds"] = stage_seconds;
   write_file_atomically((staging / "report.json").string(), json_file_text(report));
   write_file_atomically((staging / "report.html").string(), html_report(report, images));
+  write_file_atomically((staging / "marks.csv").string(), marks_csv(curated));
   output.commit();
   return report;
 }

@@ -60,6 +60,11 @@ struct SimulatePartOptions {
   bool compare_methods = false;
   bool renders = true;
   int threads = 0;
+  /// The deepest mark the part can take [m], for the report's verdict; 0 = the part file's
+  /// `tolerance_um` (none there: the report gives no verdict).
+  double tolerance_m = 0.0;
+  /// The command line as typed, for the report's context (empty: not shown).
+  std::string command_line;
 };
 
 /// Progress lines for the long stages (the command prints them).

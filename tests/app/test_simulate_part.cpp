@@ -125,7 +125,38 @@ TEST(SimulatePart, TheReferenceRunMatchesTheCommandedSurface) {
                          "reference_vs_commanded"}) {
     EXPECT_EQ(ids.count(id), 1u) << id;
   }
-  EXPECT_NE(read_file(options.out_dir + "/report.html").find("Validity checks"), std::string::npos);
+  const std::string html = read_file(options.out_dir + "/report.html");
+  EXPECT_NE(html.find("Validity checks"), std::string::npos);
+  // The verdict comes first; without a tolerance it says there is none and how to give one.
+  EXPECT_EQ(report["verdict"]["status"], "no_tolerance");
+  EXPECT_LT(html.find("No tolerance was given"), html.find("Validity checks"));
+  // A page to forward: no absolute path (of the sources, of the output) and no code identifier.
+  EXPECT_EQ(html.find(VMSIM_SOURCE_DIR), std::string::npos);
+  EXPECT_EQ(html.find(folder.string()), std::string::npos);
+  EXPECT_EQ(html.find("_or_"), std::string::npos);
+  EXPECT_EQ(html.find("following_error_peak"), std::string::npos);
+  EXPECT_TRUE(std::filesystem::exists(folder / "out" / "marks.csv"));
+}
+
+TEST(SimulatePart, TheVerdictTakesTheToleranceFromTheOptionOrThePartFile) {
+  const auto folder = test::fresh_folder("simulate_verdict");
+  app::SimulatePartOptions options = options_for(folder);
+  options.perfect_drives = true;
+  options.commanded_check = false;
+  options.production_disturbance = [](double, Eigen::VectorXd& q) {
+    if (q[0] >= -6e-3 && q[0] <= -4e-3 && std::abs(q[1] + 4.75e-3) < 1e-6) q[2] -= 20e-6;
+  };
+  options.tolerance_m = 10e-6;
+  const nlohmann::json beyond = app::simulate_part(options, kSilent);
+  EXPECT_EQ(beyond["verdict"]["status"], "not_within") << beyond["verdict"].dump(2);
+  EXPECT_EQ(beyond["verdict"]["tolerance_source"], "--tolerance-um");
+  EXPECT_NEAR(beyond["verdict"]["worst_mark"]["depth_um"].get<double>(), 20.0, 0.5);
+  options.tolerance_m = 30e-6;
+  const nlohmann::json within = app::simulate_part(options, kSilent);
+  EXPECT_EQ(within["verdict"]["status"], "within") << within["verdict"].dump(2);
+  const std::string csv = read_file(options.out_dir + "/marks.csv");
+  EXPECT_EQ(csv.rfind("rank,speck,kind,depth_um", 0), 0u);
+  EXPECT_NE(csv.find("\n1,no,gouge,"), std::string::npos) << csv;
 }
 
 // The box [-12, 16] x [-5, -4.5] x [0, 40] mm of small_part as an ASCII STL: 12 outward

@@ -18,6 +18,7 @@
 #include <algorithm>
 #include <array>
 #include <cmath>
+#include <limits>
 #include <numbers>
 
 #include "render_output.hpp"
@@ -166,6 +167,12 @@ void write_line_plot_png(const std::string& png_path, const LinePlot& plot,
   chart->GetAxis(vtkAxis::LEFT)->SetTitle(plot.y_title);
   chart->GetAxis(vtkAxis::RIGHT)->SetTitle(plot.y2_title);
   chart->SetShowLegend(plot.legend);
+  if (plot.legend_outside) {
+    // Beside the plot area, which shrinks to leave it room: never over the data.
+    chart->GetLegend()->SetInline(false);
+    chart->GetLegend()->SetHorizontalAlignment(vtkChartLegend::RIGHT);
+    chart->GetLegend()->SetVerticalAlignment(vtkChartLegend::TOP);
+  }
 
   std::size_t palette_index = 0;
   for (std::size_t k = 0; k < plot.series.size(); ++k) {
@@ -189,10 +196,46 @@ void write_line_plot_png(const std::string& png_path, const LinePlot& plot,
     }
     if (series.right_axis) chart->SetPlotCorner(line, 1);  // bottom and right axes
   }
+  if (!plot.x_markers.empty()) {
+    // Across the left axis's range: the data's, or the one given.
+    double low = std::numeric_limits<double>::infinity(), high = -low;
+    for (const Series& series : plot.series) {
+      if (series.right_axis) continue;
+      for (double y : series.y) low = std::min(low, y), high = std::max(high, y);
+    }
+    if (plot.y_range) low = plot.y_range->min, high = plot.y_range->max;
+    if (std::isfinite(low) && std::isfinite(high)) {
+      for (double x : plot.x_markers) {
+        vtkPlot* marker = chart->AddPlot(vtkChart::LINE);
+        marker->SetInputData(two_column_table("x", {x, x}, "marks", {low, high}), 0, 1);
+        marker->SetColor(90, 90, 90, 255);
+        marker->SetWidth(2.0f);
+        marker->GetPen()->SetLineType(vtkPen::DOT_LINE);
+        marker->SetLabel("marks");
+        // One legend entry for all of them.
+        if (x != plot.x_markers.front()) marker->SetLegendVisibility(false);
+      }
+    }
+  }
   if (plot.x_range) fix_axis(chart->GetAxis(vtkAxis::BOTTOM), *plot.x_range);
   if (plot.y_range) fix_axis(chart->GetAxis(vtkAxis::LEFT), *plot.y_range);
 
   detail::write_window_png(chart_view.view->GetRenderWindow(), png_path);
+}
+
+void plot_along_path(const std::string& png_path, const AlongPathPlotInput& input, const ImageSize& size) {
+  LinePlot plot;
+  plot.title = input.title;
+  plot.x_title = "path length s [mm]";
+  plot.y_title = input.y_title;
+  plot.y2_title = input.y2_title;
+  for (const Series& series : input.series) {
+    Series in_mm = series;
+    in_mm.x = scaled(series.x, 1e3);
+    plot.series.push_back(std::move(in_mm));
+  }
+  plot.x_markers = scaled(input.markers_s_m, 1e3);
+  write_line_plot_png(png_path, plot, size);
 }
 
 Histogram make_histogram(const std::vector<double>& values, int bin_count,
@@ -263,11 +306,15 @@ void write_histogram_png(const std::string& png_path, const HistogramPlot& plot,
   chart->SetShowLegend(false);
   chart->SetBarWidthFraction(0.9f);
   vtkPlot* bars = chart->AddPlot(vtkChart::BAR);
-  bars->SetInputData(two_column_table("x", centres, plot.y_title, h.counts), 0, 1);
+  std::vector<double> heights = h.counts;
+  if (plot.log_counts) {
+    for (double& count : heights) count = std::log10(1.0 + count);
+  }
+  bars->SetInputData(two_column_table("x", centres, plot.y_title, heights), 0, 1);
   const Rgb colour = plot.colour.value_or(Rgb{31 / 255.0, 119 / 255.0, 180 / 255.0});
   bars->SetColor(channel(colour.r), channel(colour.g), channel(colour.b), 255);
   fix_axis(chart->GetAxis(vtkAxis::BOTTOM), {h.edges.front(), h.edges.back()});
-  const double top = *std::max_element(h.counts.begin(), h.counts.end());
+  const double top = *std::max_element(heights.begin(), heights.end());
   fix_axis(chart->GetAxis(vtkAxis::LEFT), {0.0, top > 0.0 ? 1.05 * top : 1.0});
 
   detail::write_window_png(chart_view.view->GetRenderWindow(), png_path);
@@ -353,10 +400,13 @@ void plot_residuals(const std::string& png_path, const ResidualPlotInput& input,
 }
 
 void plot_deviation_histogram(const std::string& png_path, const std::vector<double>& deviation_m,
-                              int bin_count, const std::string& title, const ImageSize& size) {
+                              int bin_count, const std::string& title, const ImageSize& size,
+                              bool log_counts) {
   HistogramPlot plot;
   plot.title = title;
   plot.x_title = "deviation [um]";
+  plot.log_counts = log_counts;
+  if (log_counts) plot.y_title = "lines, log10(1 + count)";
   plot.histogram = make_histogram(scaled(deviation_m, 1e6), bin_count);
   write_histogram_png(png_path, plot, size);
 }

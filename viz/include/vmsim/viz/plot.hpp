@@ -57,6 +57,10 @@ struct LinePlot {
   std::optional<Range> x_range;  ///< default: fitted to the data
   std::optional<Range> y_range;  ///< left axis; default: fitted to the data
   bool legend = true;
+  /// The legend beside the plot area (right, top), never over the data; false: inside it.
+  bool legend_outside = true;
+  /// Vertical dotted lines across the plot (e.g. where the marks are), at these x values.
+  std::vector<double> x_markers;
 };
 
 /// Checks the plot's data; throws vmsim::InputError naming the series, the field and the index.
@@ -86,6 +90,9 @@ struct HistogramPlot {
   std::string y_title = "count";
   Histogram histogram;
   std::optional<Rgb> colour;
+  /// Bars of log10(1 + count) (y_title should say so): the few lines of a mark's tail stay
+  /// visible next to the millions of lines at zero deviation.
+  bool log_counts = false;
 };
 
 /// Renders `plot` as bars off-screen and writes it as a PNG of `size` to `png_path`.
@@ -128,6 +135,19 @@ void plot_following_error(const std::string& png_path, const std::vector<AxisErr
                           const std::string& title = "Following error",
                           const ImageSize& size = {});
 
+/// Values along the tool path: x = path length s of the tool tip [m], one curve per named
+/// quantity in the display unit `y_title` names (the caller converts), markers at given s [m].
+struct AlongPathPlotInput {
+  std::string title;
+  std::string y_title;   ///< left axis, with its unit
+  std::string y2_title;  ///< right axis, with its unit (for series with right_axis)
+  std::vector<Series> series;   ///< x in m (converted to mm here), y as displayed
+  std::vector<double> markers_s_m;  ///< e.g. the marks' places
+};
+
+/// Plots `input` against s in mm.
+void plot_along_path(const std::string& png_path, const AlongPathPlotInput& input, const ImageSize& size = {});
+
 /// A residual before and after a correction (identification, compensation), on a common x.
 /// Values are plotted as given: the caller chooses the display unit and names it in the titles.
 struct ResidualPlotInput {
@@ -146,6 +166,6 @@ void plot_residuals(const std::string& png_path, const ResidualPlotInput& input,
 /// range: the data's).
 void plot_deviation_histogram(const std::string& png_path, const std::vector<double>& deviation_m,
                               int bin_count = 50, const std::string& title = "Deviation",
-                              const ImageSize& size = {});
+                              const ImageSize& size = {}, bool log_counts = false);
 
 }  // namespace vmsim::viz

@@ -1,0 +1,226 @@
+#include "report_marks.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <cstdio>
+#include <map>
+#include <sstream>
+#include <utility>
+#include <vector>
+
+namespace vmsim::app {
+namespace {
+
+using Json = nlohmann::json;
+
+/// A length for a sentence: 3 significant digits at most, no trailing zeros.
+std::string figure(double value) {
+  char text[32];
+  std::snprintf(text, sizeof text, "%.3g", value);
+  return text;
+}
+
+double depth_of(const Json& mark) { return mark.value("depth_um", 0.0); }
+
+std::string point_text(const Json& point_mm) {
+  if (!point_mm.is_array() || point_mm.size() != 3) return "";
+  char text[96];
+  std::snprintf(text, sizeof text, "(%.3f, %.3f, %.3f) mm", point_mm[0].get<double>(),
+                point_mm[1].get<double>(), point_mm[2].get<double>());
+  return text;
+}
+
+/// "corners (3), reversals of Y (1)": the kinds counted over the marks, most frequent first.
+std::string counted(const std::map<std::string, int>& counts) {
+  std::vector<std::pair<int, std::string>> sorted;
+  for (const auto& [name, count] : counts) sorted.emplace_back(count, name);
+  std::stable_sort(sorted.begin(), sorted.end(), [](const auto& a, const auto& b) { return a.first > b.first; });
+  std::string text;
+  for (const auto& [count, name] : sorted) {
+    text += (text.empty() ? "" : ", ") + name + " (" + std::to_string(count) + ")";
+  }
+  return text;
+}
+
+std::string csv_field(const std::string& text) {
+  if (text.find_first_of(",\"\n\r") == std::string::npos) return text;
+  std::string quoted = "\"";
+  for (char c : text) {
+    if (c == '"') quoted += '"';
+    quoted += c;
+  }
+  return quoted + "\"";
+}
+
+std::string joined(const Json& list, const char* separator, bool in_words) {
+  std::string text;
+  if (!list.is_array()) return text;
+  for (const auto& item : list) {
+    const std::string word = in_words ? place_in_words(item.get<std::string>()) : item.get<std::string>();
+    text += (text.empty() ? "" : separator) + word;
+  }
+  return text;
+}
+
+}  // namespace
+
+double min_mark_area_mm2(double grid_um, double tool_diameter_mm) {
+  const double grid_mm = grid_um * 1e-3;
+  return std::max(25.0 * grid_mm * grid_mm, std::pow(tool_diameter_mm / 20.0, 2));
+}
+
+std::string place_in_words(const std::string& place) {
+  if (place == "tangency_or_curvature_change") return "tangency or change of curvature";
+  std::string words = place;
+  std::replace(words.begin(), words.end(), '_', ' ');
+  return words;
+}
+
+Json curate_marks(const Json& raw_marks, double min_area_mm2) {
+  std::vector<Json> marks, specks;
+  for (const auto& mark : raw_marks) {
+    (mark.value("area_mm2", 0.0) >= min_area_mm2 ? marks : specks).push_back(mark);
+  }
+  const auto deepest_first = [](const Json& a, const Json& b) { return depth_of(a) > depth_of(b); };
+  std::stable_sort(marks.begin(), marks.end(), deepest_first);
+  std::stable_sort(specks.begin(), specks.end(), deepest_first);
+  Json result;
+  result["marks"] = Json::array();
+  result["specks"] = {{"count", specks.size()},
+                      {"deepest_um", 0.0},
+                      {"largest_area_mm2", 0.0},
+                      {"min_area_mm2", min_area_mm2},
+                      {"list", Json::array()}};
+  int rank = 1;
+  for (Json& mark : marks) {
+    mark["rank"] = rank++;
+    result["marks"].push_back(std::move(mark));
+  }
+  rank = 1;
+  double largest_area = 0.0;
+  for (Json& speck : specks) {
+    largest_area = std::max(largest_area, speck.value("area_mm2", 0.0));
+    speck["rank"] = rank++;
+    result["specks"]["list"].push_back(std::move(speck));
+  }
+  if (!specks.empty()) result["specks"]["deepest_um"] = depth_of(result["specks"]["list"][0]);
+  result["specks"]["largest_area_mm2"] = largest_area;
+  return result;
+}
+
+Json make_verdict(const Json& curated, const Json& checks, const Tolerance& tolerance) {
+  const Json& marks = curated["marks"];
+  const Json& specks = curated["specks"];
+  Json verdict;
+  verdict["tolerance_um"] = tolerance.um ? Json(*tolerance.um) : Json(nullptr);
+  verdict["tolerance_source"] = tolerance.source;
+  verdict["worst_mark"] = marks.empty() ? Json(nullptr) : marks[0];
+  std::size_t beyond = 0, specks_beyond = 0;
+  if (tolerance.um) {
+    for (const auto& mark : marks) beyond += depth_of(mark) > *tolerance.um ? 1 : 0;
+    for (const auto& speck : specks["list"]) specks_beyond += depth_of(speck) > *tolerance.um ? 1 : 0;
+  }
+  verdict["marks_beyond_tolerance"] = beyond;
+  verdict["specks_beyond_tolerance"] = specks_beyond;
+
+  const double worst = marks.empty() ? 0.0 : depth_of(marks[0]);
+  std::string headline;
+  if (!tolerance.um) {
+    verdict["status"] = "no_tolerance";
+    headline = marks.empty() ? "No mark found. No tolerance was given"
+                             : "The deepest mark is " + figure(worst) + " um. No tolerance was given";
+    headline += " (--tolerance-um, or tolerance_um in the part file), so there is no verdict.";
+  } else if (beyond == 0) {
+    verdict["status"] = "within";
+    headline = "Within tolerance (" + figure(*tolerance.um) + " um): " +
+               (marks.empty() ? std::string("no mark found.")
+                              : "the deepest mark is " + figure(worst) + " um.");
+  } else {
+    verdict["status"] = "not_within";
+    headline = "Not within tolerance (" + figure(*tolerance.um) + " um): " + std::to_string(beyond) +
+               (beyond == 1 ? " mark exceeds it" : " marks exceed it") + ", the deepest " + figure(worst) + " um.";
+  }
+  verdict["headline"] = headline;
+
+  std::string summary;
+  if (!marks.empty()) {
+    const Json& mark = marks[0];
+    summary = "The deepest mark is " + std::string(mark.value("kind", "") == "gouge" ? "a gouge" : "excess material") +
+              " of " + figure(worst) + " um over " + figure(mark.value("area_mm2", 0.0)) + " mm2 at " +
+              point_text(mark.value("deepest_point_mm", Json())) + " (" + mark.value("view", "") + " view)";
+    if (mark.value("line", 0) > 0) {
+      summary += ", made by program line " + std::to_string(mark.value("line", 0));
+      const std::string text = mark.value("block_text", "");
+      if (!text.empty()) summary += " (" + text + ")";
+    }
+    const std::string places = joined(mark.value("place", Json::array()), ", ", true);
+    if (!places.empty()) summary += ", at a " + places;
+    const std::string axes = joined(mark.value("responsible_axes", Json::array()), ", ", false);
+    if (!axes.empty()) summary += "; the following error of " + axes + " causes most of it";
+    summary += ".";
+    std::map<std::string, int> place_counts, axis_counts;
+    std::map<int, int> line_counts;
+    for (const auto& m : marks) {
+      for (const auto& place : m.value("place", Json::array())) place_counts[place_in_words(place.get<std::string>())]++;
+      for (const auto& axis : m.value("responsible_axes", Json::array())) axis_counts[axis.get<std::string>()]++;
+      if (m.value("line", 0) > 0) line_counts[m.value("line", 0)]++;
+    }
+    if (marks.size() > 1) {
+      summary += " " + std::to_string(marks.size()) + " marks in all";
+      if (!place_counts.empty()) summary += "; at: " + counted(place_counts);
+      if (!axis_counts.empty()) summary += "; caused by the axes: " + counted(axis_counts);
+      std::vector<std::pair<int, int>> lines;
+      for (const auto& [line, count] : line_counts) lines.emplace_back(count, line);
+      std::stable_sort(lines.begin(), lines.end(), [](const auto& a, const auto& b) { return a.first > b.first; });
+      if (!lines.empty()) {
+        summary += "; program lines with most marks: ";
+        for (std::size_t i = 0; i < std::min<std::size_t>(lines.size(), 5); ++i) {
+          summary += (i ? ", " : "") + std::to_string(lines[i].second);
+        }
+      }
+      summary += ".";
+    }
+  }
+  const std::size_t speck_count = specks.value("count", std::size_t{0});
+  if (speck_count > 0) {
+    summary += (summary.empty() ? "" : " ") + std::to_string(speck_count) + " smaller deviations (under " +
+               figure(specks.value("min_area_mm2", 0.0)) + " mm2 each, the deepest " +
+               figure(specks.value("deepest_um", 0.0)) + " um) are not counted as marks";
+    if (specks_beyond > 0) summary += "; " + std::to_string(specks_beyond) + " of them exceed the tolerance";
+    summary += " (marks.csv lists them).";
+  }
+  for (const auto& check : checks) {
+    const std::string status = check.value("status", "");
+    if (status != "ok") {
+      summary += (summary.empty() ? "" : " ") + std::string("Validity check ") + check.value("check", "") + ": " +
+                 status + (check.contains("detail") ? " (" + check.value("detail", "") + ")" : "") + ".";
+    }
+  }
+  verdict["summary"] = summary;
+  return verdict;
+}
+
+std::string marks_csv(const Json& curated) {
+  std::ostringstream csv;
+  csv << "rank,speck,kind,depth_um,area_mm2,lines,view,x_mm,y_mm,z_mm,s_mm,line,block,block_text,place,"
+         "responsible_axes\n";
+  const auto row = [&csv](const Json& mark, bool speck) {
+    const Json point = mark.value("deepest_point_mm", Json::array({0.0, 0.0, 0.0}));
+    char numbers[256];
+    std::snprintf(numbers, sizeof numbers, "%.4f,%.5f,%zu", depth_of(mark), mark.value("area_mm2", 0.0),
+                  mark.value("lines", std::size_t{0}));
+    char position[160];
+    std::snprintf(position, sizeof position, "%.4f,%.4f,%.4f,%.3f", point[0].get<double>(), point[1].get<double>(),
+                  point[2].get<double>(), mark.value("s_mm", 0.0));
+    csv << mark.value("rank", 0) << ',' << (speck ? "yes" : "no") << ',' << mark.value("kind", "") << ','
+        << numbers << ',' << csv_field(mark.value("view", "")) << ',' << position << ',' << mark.value("line", 0)
+        << ',' << csv_field(mark.value("block", "")) << ',' << csv_field(mark.value("block_text", "")) << ','
+        << csv_field(joined(mark.value("place", Json::array()), "; ", true)) << ','
+        << csv_field(joined(mark.value("responsible_axes", Json::array()), " ", false)) << '\n';
+  };
+  for (const auto& mark : curated["marks"]) row(mark, false);
+  for (const auto& speck : curated["specks"]["list"]) row(speck, true);
+  return csv.str();
+}
+
+}  // namespace vmsim::app
