@@ -145,7 +145,8 @@ void marks_section(std::ostringstream& html, const Json& report) {
     html << "<p>No mark.</p>\n";
   } else {
     html << "<table class=\"marks\"><tr><th>#</th><th>depth [um]</th><th>kind</th><th>area [mm2]</th>"
-            "<th>deepest point (x, y, z) [mm]</th><th>program line</th><th>place</th><th>axes</th></tr>\n";
+            "<th>deepest point (x, y, z) [mm]</th><th>program line</th><th>place</th><th>axes</th>"
+            "<th>close-up</th></tr>\n";
     std::size_t shown = 0;
     for (const auto& mark : marks) {
       if (shown++ == kHtmlMarkRows) break;
@@ -171,7 +172,13 @@ void marks_section(std::ostringstream& html, const Json& report) {
       for (const auto& axis : mark.value("responsible_axes", Json::array())) {
         axes += (axes.empty() ? "" : ", ") + axis.get<std::string>();
       }
-      html << html_escape(axes) << "</td></tr>\n";
+      html << html_escape(axes) << "</td><td>";
+      if (mark.contains("thumbnail")) {
+        const std::string image = html_escape(mark["thumbnail"].get<std::string>());
+        html << "<a href=\"" << image << "\"><img class=\"thumbnail\" src=\"" << image << "\" alt=\"close-up of mark "
+             << mark.value("rank", 0) << "\"></a>";
+      }
+      html << "</td></tr>\n";
     }
     html << "</table>\n";
     if (marks.size() > kHtmlMarkRows) {
@@ -368,7 +375,7 @@ std::string html_report(const Json& report, const std::vector<std::string>& imag
           "pre.program{background:#f7f7f7;padding:6px;overflow-x:auto}"
           "pre.program span.marked{font-weight:bold;background:#fff3b0}"
           ".verdict{border:2px solid;padding:4px 14px;margin:10px 0}"
-          "img{max-width:100%}figure{margin:14px 0}figcaption{color:#333;font-size:92%}"
+          "img{max-width:100%}img.thumbnail{width:160px}figure{margin:14px 0}figcaption{color:#333;font-size:92%}"
           "</style></head><body>\n";
   html << "<h1>" << html_escape(name) << "</h1>\n<p>" << html_escape(report["part"].value("description", ""))
        << "</p>\n";

@@ -648,14 +648,15 @@ void render_view_surfaces(const Context& context, const Run& production,
 }
 
 // A close-up of the deepest mark over all views (the first of `comparisons` that holds it).
-void render_worst_mark(const Context& context, const Run& production, const ViewComparison& comparison,
-                       const std::filesystem::path& folder, std::vector<std::string>& images) {
+// A close-up of one mark: its region outlined, the tool's size around it.
+void render_mark(const Context& context, const Run& production, const ViewComparison& comparison,
+                 const removal::Mark& mark, const std::string& title, const viz::ImageSize& size,
+                 const std::filesystem::path& png_path) {
   const SurfaceView& view = *comparison.view;
   const removal::NBuffer& buffer = production.buffers[comparison.index];
-  const removal::Mark& worst = comparison.marks.marks.front();
   const int margin = static_cast<int>(std::max(2e-3, 2 * context.tool.diameter_m) / view.spacing_m);
-  const int i0 = std::max(0, worst.iu_min - margin), i1 = std::min(buffer.nu() - 1, worst.iu_max + margin);
-  const int j0 = std::max(0, worst.iv_min - margin), j1 = std::min(buffer.nv() - 1, worst.iv_max + margin);
+  const int i0 = std::max(0, mark.iu_min - margin), i1 = std::min(buffer.nu() - 1, mark.iu_max + margin);
+  const int j0 = std::max(0, mark.iv_min - margin), j1 = std::min(buffer.nv() - 1, mark.iv_max + margin);
   const viz::HeightField whole = view_height_field(view, buffer, &comparison.deviation_m, 1);
   viz::HeightField crop;
   crop.origin_x_m = whole.origin_x_m + i0 * view.spacing_m;
@@ -670,11 +671,43 @@ void render_worst_mark(const Context& context, const Run& production, const View
     }
   }
   viz::SurfaceRenderOptions options;
-  options.title = "Deepest mark: " + format_double(round_to(worst.depth_m * 1e6, 0.1)) + " um" +
-                  (view.zmap ? "" : " (" + view.id + ")");
+  options.title = title;
+  options.size = size;
   options.region_mask = mark_mask(comparison, buffer, i0, i1, j0, j1, 1, 0);
-  viz::render_surface_png((folder / "worst_mark.png").string(), crop, options);
+  viz::render_surface_png(png_path.string(), crop, options);
+}
+
+void render_worst_mark(const Context& context, const Run& production, const ViewComparison& comparison,
+                       const std::filesystem::path& folder, std::vector<std::string>& images) {
+  const removal::Mark& worst = comparison.marks.marks.front();
+  render_mark(context, production, comparison, worst,
+              "Deepest mark: " + format_double(round_to(worst.depth_m * 1e6, 0.1)) + " um" +
+                  (comparison.view->zmap ? "" : " (" + comparison.view->id + ")"),
+              {1000, 800}, folder / "worst_mark.png");
   images.push_back("worst_mark.png");
+}
+
+// A small close-up of each of the first marks of the report (mark_<rank>.png), shown in the
+// marks table; the mark's report entry gets its "thumbnail".
+void render_mark_thumbnails(const Context& context, const Run& production,
+                            const std::vector<ViewComparison>& comparisons, const std::filesystem::path& folder,
+                            Json& report) {
+  constexpr std::size_t kThumbnails = 5;
+  if (!report.contains("marks")) return;
+  for (std::size_t m = 0; m < std::min<std::size_t>(report["marks"].size(), kThumbnails); ++m) {
+    Json& entry = report["marks"][m];
+    const std::string view_id = entry["view"].get<std::string>();
+    const std::size_t index = entry["view_mark_index"].get<std::size_t>();
+    for (const ViewComparison& comparison : comparisons) {
+      if (comparison.view->id != view_id || index >= comparison.marks.marks.size()) continue;
+      const std::string name = "mark_" + std::to_string(m + 1) + ".png";
+      render_mark(context, production, comparison, comparison.marks.marks[index],
+                  "Mark " + std::to_string(m + 1) + ": " + format_double(round_to(entry["depth_um"].get<double>(), 0.1)) +
+                      " um",
+                  {480, 360}, folder / name);
+      entry["thumbnail"] = name;
+    }
+  }
 }
 
 void write_renders(const Context& context, const Run& production, const Run& reference,
@@ -699,6 +732,7 @@ void write_renders(const Context& context, const Run& production, const Run& ref
     }
   }
   if (worst) render_worst_mark(context, production, *worst, folder, images);
+  render_mark_thumbnails(context, production, comparisons, folder, report);
   // Where the marks are along the path (the first ones in the report's order), for markers.
   std::vector<double> mark_s_m;
   if (report.contains("marks")) {
@@ -1012,9 +1046,11 @@ Json simulate_part(const SimulatePartOptions& options, const ProgressSink& progr
   Json views = Json::array();
   for (std::size_t v = 0; v < context.views.size(); ++v) {
     const ViewComparison& comparison = comparisons[v];
-    for (const removal::Mark& mark : comparison.marks.marks) {
+    for (std::size_t k = 0; k < comparison.marks.marks.size(); ++k) {
+      const removal::Mark& mark = comparison.marks.marks[k];
       Json entry = relate_mark(context, production, mark, curvature);
       entry["view"] = comparison.view->id;
+      entry["view_mark_index"] = k;  // the mark's place in its view's mark map (the renders)
       entry["kind"] = mark.kind == removal::MarkKind::gouge ? "gouge" : "excess";
       entry["depth_um"] = mark.depth_m * 1e6;
       entry["area_mm2"] = mark.area_m2 * 1e6;

@@ -12,6 +12,9 @@
 namespace vmsim::app {
 namespace {
 
+/// Floating-point rounding allowed at an end of the travel [m or rad] (as the planner's check).
+constexpr double kTravelRoundingSi = 1e-9;
+
 double distance_to_segment(const Eigen::Vector3d& point, const Eigen::Vector3d& a, const Eigen::Vector3d& b) {
   const Eigen::Vector3d ab = b - a;
   const double length_squared = ab.squaredNorm();
@@ -115,7 +118,9 @@ ValidityCheck check_setpoints_within_travel(const kinematics::MachineModel& mach
       const double q = row[k];
       const double beyond = std::isnan(q) ? std::numeric_limits<double>::infinity()
                                           : std::max(axis.travel_min - q, q - axis.travel_max);
-      if (beyond > 0.0 && user_value(axis, beyond) > worst_beyond) {
+      // A nanometre (nanoradian) of floating-point rounding at an end of the travel is no excess:
+      // a G28 return to Z0 = the end of Z's travel lands there within 1e-13 m.
+      if (beyond > kTravelRoundingSi && user_value(axis, beyond) > worst_beyond) {
         worst_beyond = user_value(axis, beyond);
         check.status = CheckStatus::failed;
         check.detail = "axis " + axis.name + " at " + format_double(user_value(axis, q)) + " " + user_unit(axis) +

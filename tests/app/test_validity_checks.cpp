@@ -92,6 +92,21 @@ TEST(ValidityChecks, TravelMarginAndExcessNameTheAxis) {
   EXPECT_NE(check.detail.find("part.nc:11 N20"), std::string::npos) << check.detail;
 }
 
+TEST(ValidityChecks, RoundingAtAnEndOfTheTravelIsNoExcess) {
+  // A G28 return to Z0, the end of Z's travel, lands 2e-13 m beyond it after the planner's sums.
+  StraightMove move;
+  move.setpoints.q(2, 40) = 2e-13;
+  EXPECT_EQ(app::check_setpoints_within_travel(move.machine, move.path, move.path_s_m, move.setpoints,
+                                               move.block_names, "production")
+                .status,
+            app::CheckStatus::passed);
+  move.setpoints.q(2, 40) = 1e-6;  // a micrometre is an excess
+  EXPECT_EQ(app::check_setpoints_within_travel(move.machine, move.path, move.path_s_m, move.setpoints,
+                                               move.block_names, "production")
+                .status,
+            app::CheckStatus::failed);
+}
+
 TEST(ValidityChecks, AnOvershootingDriveIsAWarning) {
   const StraightMove move;
   Eigen::MatrixXd actual = move.setpoints.q;
