@@ -104,6 +104,7 @@
 #include <cstddef>
 #include <limits>
 #include <functional>
+#include <map>
 #include <optional>
 #include <string>
 #include <utility>
@@ -185,6 +186,45 @@ using RotaryWordsToToolAxis =
 struct ReaderOptions {
   /// Largest distance between a G2/G3 arc and the chords it is tessellated into [m].
   double arc_chord_tolerance_m = 0.1e-6;
+  /// G2/G3: the largest difference between the start and the end radius accepted, as on the
+  /// control: the larger of an absolute tolerance (in the program's unit: mm under G21, inch
+  /// under G20) and a relative one (times the radius). The defaults are LinuxCNC's: 0.02 sqrt 2
+  /// mm / 0.002 sqrt 2 inch (an arc whose end points and centre were rounded to 0.01 mm or
+  /// 0.001 inch) and 0.1 %. Within it the centre is moved onto the perpendicular bisector of
+  /// start and end (as Fanuc and Beckhoff controls correct it); beyond it, an error.
+  double arc_radius_tolerance_mm = 0.02 * 1.4142135623730951;
+  double arc_radius_tolerance_inch = 0.002 * 1.4142135623730951;
+  double arc_radius_relative_tolerance = 1e-3;
+
+  /// Work offsets (G54-G59, G54.1 P1-P48): for each, the machine axis positions X Y Z [mm] at
+  /// which the spindle gauge point (tool length 0) is at the work zero with the rotary axes at
+  /// 0 (what the control's offset table holds). Keys "G54" ... "G59", "G54.1 P1" ...
+  /// "G54.1 P48". Empty: G54 is the identity (X Y Z outside tool-centre-point mode are machine
+  /// axis positions, under it W coordinates: the meaning before work offsets existed) and every
+  /// other offset is an error.
+  std::map<std::string, Eigen::Vector3d> work_offsets_mm;
+  /// The offset in force at the start of the program (a key of work_offsets_mm, or "G54").
+  std::string initial_work_offset = "G54";
+  /// Machine axis positions to W with the rotary axes at 0, for the spindle gauge point:
+  /// p_W_mm = machine_axes_W * axes_mm + machine_zero_W_mm (identity without a machine). Gives
+  /// where a work zero lies in W, the origin of tool-centre-point programs.
+  Eigen::Matrix3d machine_axes_W = Eigen::Matrix3d::Identity();
+  Eigen::Vector3d machine_zero_W_mm = Eigen::Vector3d::Zero();
+  /// G28 / G30 reference points in machine axis positions X Y Z [mm].
+  Eigen::Vector3d g28_reference_mm = Eigen::Vector3d::Zero();
+  Eigen::Vector3d g30_reference_mm = Eigen::Vector3d::Zero();
+  /// Tool lengths by H (and T) number [mm], for G43 H<n>; a number not in the table takes
+  /// default_tool_length_mm where given, else is an error.
+  std::map<int, double> tool_length_mm;
+  std::optional<double> default_tool_length_mm;
+  /// Canned cycles: G83 stops this far [mm] above the previous peck's depth before feeding on;
+  /// G73 backs off this far [mm] after each peck (Fanuc parameters 5115 and 5114, machine
+  /// dependent).
+  double peck_clearance_mm = 0.1;
+  double peck_retract_mm = 0.1;
+  /// The corner tolerance [m] of high-precision contouring where the program gives none
+  /// (G5.1 Q1, G05 P10000, G187 without E): an assumption, 10 um.
+  double contouring_tolerance_m = 0.01e-3;
   /// Needed only for files that program machine axes with rotary words outside tool-centre-point
   /// mode; without it such a file is an error that says so.
   AxisWordsToPose axis_words_to_pose;
