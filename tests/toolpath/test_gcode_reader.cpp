@@ -381,7 +381,7 @@ TEST(GcodeReader, ArcErrorsNameTheBlock) {
       // 0.05 mm is beyond the default tolerance max(0.02 sqrt 2 mm, 0.1 % of 10 mm).
       {"G0 X10 Y0\nG2 X0 Y10.05 I-10 F100\n", "part.nc:2:1:", "end radius 10.05"},
       {"G0 X10 Y0\nG2 X0 Y10.05 I-10 F100\n", "part.nc:2:1:", "differ by 0.05"},
-      {"G0 X10 Y0\nG2 X0 Y10.05 I-10 F100\n", "part.nc:2:1:", "tolerance of 0.028284"},
+      {"G0 X10 Y0\nG2 X0 Y10.05 I-10 F100\n", "part.nc:2:1:", "tolerance of 0.028284 mm"},
       {"G0 X10 Y0\nN7 G3 X-20 Y0 R10 F100\n", "part.nc:2:15: 'R10'", "smaller than half"},
       {"G0 X10 Y0\nG3 R10 F100\n", "part.nc:2:4: 'R10'", "full circle"},
       {"G0 X10 Y0\nG3 X0 Y10 F100\n", "part.nc:2:1: 'G3'", "centre (I J K) or a radius"},

@@ -1285,8 +1285,8 @@ class GcodeReader {
   }
   std::string arc_tolerance_source() const {
     const std::string absolute =
-        mm_per_unit_ == 1.0 ? detail::format_number(options_.arc_radius_tolerance_mm) + " mm"
-                            : detail::format_number(options_.arc_radius_tolerance_inch) + " inch";
+        mm_per_unit_ == 1.0 ? format_mm(options_.arc_radius_tolerance_mm) + " mm"
+                            : format_mm(options_.arc_radius_tolerance_inch) + " inch";
     return " (the larger of " + absolute + " and " +
            detail::format_number(options_.arc_radius_relative_tolerance * 100.0) +
            " % of the radius: ReaderOptions::arc_radius_tolerance_mm / _inch / "
@@ -1343,8 +1343,8 @@ class GcodeReader {
         if (0.5 * d - r > tolerance_mm) {
           fail(*r_word, "the radius is smaller than half the distance from start to end (" +
                             format_mm(0.5 * d) + " mm) by " + format_mm(0.5 * d - r) +
-                            " mm, more than the tolerance of " +
-                            detail::format_number(tolerance_mm) + " mm" +
+                            " mm, more than the tolerance of " + format_mm(tolerance_mm) +
+                            " mm" +
                             arc_tolerance_source());
         }
         h2 = 0.0;
@@ -1365,8 +1365,8 @@ class GcodeReader {
                      "the radii differ by " + format_mm(std::abs(r_start - r_end)) +
                          " mm (start radius " + format_mm(r_start) +
                          " mm, end radius " + format_mm(r_end) +
-                         " mm), more than the tolerance of " +
-                         detail::format_number(radius_tolerance) + " mm" +
+                         " mm), more than the tolerance of " + format_mm(radius_tolerance) +
+                         " mm" +
                          arc_tolerance_source());
     }
     if (!full_circle && r_start != r_end) {
