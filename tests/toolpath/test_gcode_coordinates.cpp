@@ -141,6 +141,20 @@ TEST(GcodeCoordinates, ReferenceReturnAndMachineCoordinates) {
                      {100, 50, -100}});
 }
 
+TEST(GcodeCoordinates, G53BeforeTheOtherAxesAreKnownAndG10ToolLengths) {
+  ReaderOptions options;
+  options.work_offsets_mm["G54"] = {100.0, 50.0, -200.0};
+  // A Haas-style start: Z up in machine coordinates first, then X Y in the work system.
+  const Toolpath path = gcode(
+      "G53 G0 Z-5\n"
+      "G54 X1 Y2\n"           // (101, 52) at machine Z -5
+      "G10 L10 P7 R40\n"      // tool length 40 for H7
+      "G43 H7 Z10\n",         // machine Z 10 - 200 + 40 = -150; tip -190
+      options);
+  EXPECT_TRUE(path.warnings.empty());
+  expect_tips(path, {{101, 52, -5}, {101, 52, -190}});
+}
+
 TEST(GcodeCoordinates, LocalShiftsAndProgrammedOffsets) {
   const Toolpath path = gcode(
       "G0 X0 Y0 Z0\n"

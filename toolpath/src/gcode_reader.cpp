@@ -542,6 +542,17 @@ class GcodeReader {
       fail(*g53_word, "G53 (machine coordinates) in tool-centre-point mode is not supported");
     }
 
+    if (g53_word && ((!position_[0] && !xyz[0]) || (!position_[1] && !xyz[1]) ||
+                     (!position_[2] && !xyz[2]))) {
+      // As for G28: the named machine axes are known from here on, the pose once all are.
+      for (std::size_t k = 0; k < 3; ++k) {
+        if (xyz[k]) position_[k] = xyz[k]->value * mm_per_unit_;
+      }
+      if (const Word* rotary = first_of({abc[0], abc[1], abc[2]})) {
+        fail(*rotary, "rotary words in a G53 block before the linear axes are known");
+      }
+      return;
+    }
     if (any_ijk && !arc && tcp_ != Tcp::g43_5) {
       fail(*first_of({ijk[0], ijk[1], ijk[2]}),
            "I J K need G2/G3 (arc centre) or G43.5 (tool vector)");
