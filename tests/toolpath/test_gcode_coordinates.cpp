@@ -262,6 +262,12 @@ TEST(GcodeCycles, G81DrillsEachHoleAndReturnsToTheInitialLevelUnderG98) {
   EXPECT_DOUBLE_EQ(path.points[3].feed_m_per_s, 120e-3 / 60.0);
   EXPECT_EQ(path.points[2].kind, MotionKind::rapid);
   EXPECT_EQ(path.points[3].corner_tolerance_m, 0.0);
+  // G80 ends the cycle and its hole data: a new cycle needs its R again.
+  const std::string message =
+      gcode_error("G0 X0 Y0 Z50\nG81 X10 Z-5 R2 F120\nG80\nG81 X20 Z-5\n");
+  EXPECT_NE(message.find("part.nc:4:1: 'G81': canned cycle without its R level"),
+            std::string::npos)
+      << message;
 }
 
 TEST(GcodeCycles, PeckCyclesG83AndG73) {

@@ -474,11 +474,12 @@ class GcodeReader {
 
     if (offset_word) select_offset(*offset_word, offset_name, p_word);
     if (path_word) set_path_mode(*path_word, path_code, p_word, q_word, r_word, e_word);
-    if (cancel_cycle_word && !motion) {
-      if (motion_ && *motion_ >= 70) motion_.reset();
+    if (cancel_cycle_word) {
+      if (!motion && motion_ && *motion_ >= 70) motion_.reset();
+      end_cycle();
     }
     if (motion) {
-      if (*motion >= 70 && !(motion_ && *motion_ >= 70)) cycle_initial_known_ = false;
+      if (*motion >= 70 && !(motion_ && *motion_ >= 70)) end_cycle();
       motion_ = motion;
     }
 
@@ -531,6 +532,9 @@ class GcodeReader {
     if (!first_motion_word) return;
     if (!motion_) fail(*first_motion_word, "axis word before any motion mode G0/G1/G2/G3");
     if (cycle) {
+      if (const Word* extra = first_of({abc[0], abc[1], abc[2], vec[0], vec[1], vec[2]})) {
+        fail(*extra, "rotary and tool vector words in a canned cycle block are not supported");
+      }
       canned_cycle(xyz, ijk, r_word, q_word, l_word, block_number,
                    motion_word ? *motion_word : *first_motion_word);
       return;
@@ -1010,6 +1014,14 @@ class GcodeReader {
     rapid_to_frame(f, block, block_number);
     finish_block_points(first_point, exact_stop_here);
     position_ = f;
+  }
+
+  /// G80, or a cycle started anew: the hole data (R, bottom, Q) and the initial level go.
+  void end_cycle() {
+    cycle_initial_known_ = false;
+    cycle_r_mm_.reset();
+    cycle_bottom_mm_.reset();
+    cycle_q_mm_.reset();
   }
 
   void canned_cycle(const std::array<const Word*, 3>& xyz, const std::array<const Word*, 3>& ijk,
