@@ -434,6 +434,8 @@ TEST(GcodeReader, EachKindOfBadInputIsAnError) {
       {"G0 X0 Y0 Z0\nM6\n", "part.nc:2:1: 'M6'", "without a tool selected"},
       {"G0 X0 Y0 Z0\nG10 L3 P1 X0\n", "part.nc:2:5: 'L3'", "not supported"},
       {"G0 X0 Y0 Z0\nG64 P0\n", "part.nc:2:5: 'P0'", "positive"},
+      {"G0 X0 Y0 Z0\nG52 X1 G68 R30\n", "part.nc:2:8: 'G68'", "separate blocks"},
+      {"G0 X0 Y0 Z0\nG53 G28 Z0\n", "part.nc:2:1: 'G53'", "in one block"},
       {"G0 X0 Y0 Z0\nG7.5\n", "part.nc:2:1: 'G7.5'", "unsupported G-code"},
       {"G0 X0 Y0 Z0\nG1 U5 F100\n", "part.nc:2:4: 'U5'", "unsupported word"},
       {"G0 X0 Y0 Z0\nG1 X1 P5 F100\n", "part.nc:2:7: 'P5'", "no meaning"},

@@ -499,6 +499,13 @@ class GcodeReader {
     }
     if (e_word && path_code != 1870) fail(*e_word, "E has no meaning here (G187 E)");
 
+    if (rotation_word && (nonmodal_word || g53_word)) {
+      fail(*rotation_word, "G68 / G69 with " + (nonmodal_word ? nonmodal_word : g53_word)->text +
+                               " in one block: give them in separate blocks");
+    }
+    if (g53_word && nonmodal_word) {
+      fail(*g53_word, "G53 with " + nonmodal_word->text + " in one block");
+    }
     if (rotation_word) {
       const Word* angle_word = r_word;
       set_rotation(*rotation_word, xyz, angle_word);
