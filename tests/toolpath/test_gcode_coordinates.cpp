@@ -305,7 +305,8 @@ TEST(GcodeModes, CornerTolerancesAndToolNumbers) {
       "T1 M6\n"
       "G0 X0 Y0 Z0\n"
       "G61 G1 X1 F100\n"
-      "G64 P0.02 X2\n"
+      "G64 P0.02 Q0.01 X2\n"  // LinuxCNC Q: no geometry
+
       "G64 X3\n"
       "G9 X4\n"
       "G5.1 Q1 R5 X5\n"
@@ -343,6 +344,7 @@ constexpr const char* kPostedProgram = R"(%
 O1001 (POCKET)
 (T1 D=6. CR=0. - ZMIN=-2. - FLAT END MILL)
 N10 G90 G94 G17 G49 G40 G80
+N12 G08 P1
 N15 G21
 N20 G28 G91 Z0.
 N25 G90

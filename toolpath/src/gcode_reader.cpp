@@ -254,6 +254,7 @@ class GcodeReader {
     std::optional<Tcp> tcp;
     bool g43 = false;
     const Word* g43_word = nullptr;
+    const Word* lookahead_word = nullptr;
     const Word* offset_word = nullptr;
     std::string offset_name;
     const Word* rotation_word = nullptr;  // G68 / G69
@@ -346,6 +347,7 @@ class GcodeReader {
             case 990: to_initial = false; break;
             // Harmless: cutter compensation off, polar and scaling cancels.
             case 400: case 150: case 500: break;
+            case 80: lookahead_word = &word; break;  // G8 P1 / P0: look-ahead, no geometry
             case 410: case 420:
               fail(word, "cutter radius compensation is not supported: program the tool tip");
             case 681: fail(word, "3-D coordinate rotation is not supported");
@@ -485,14 +487,17 @@ class GcodeReader {
 
     // Words that belong to something other than a motion in this block.
     const bool cycle = motion_ && *motion_ >= 70 && !nonmodal_word && !g53_word;
-    const bool p_used = dwell || (path_word && (path_code == 640 || path_code == 50 ||
-                                                path_code == 1870)) ||
+    const bool p_used = dwell || lookahead_word ||
+                        (path_word && (path_code == 640 || path_code == 50 ||
+                                       path_code == 1870)) ||
                         nonmodal == 100 || (offset_word && offset_name == "G54.1") ||
                         (cycle && (*motion_ == 82 || *motion_ == 89 || *motion_ == 74 ||
                                    *motion_ == 84));
     if (p_word && !p_used) fail(*p_word, "P has no meaning in this block");
-    if (q_word && !(path_code == 51 || (cycle && (*motion_ == 73 || *motion_ == 83)))) {
-      fail(*q_word, "Q has no meaning in this block (G5.1 Q, G73 / G83 Q)");
+    // G64 P.. Q..: LinuxCNC's Q (collinear points folded) changes no geometry beyond P.
+    if (q_word && !(path_code == 51 || path_code == 640 ||
+                    (cycle && (*motion_ == 73 || *motion_ == 83)))) {
+      fail(*q_word, "Q has no meaning in this block (G5.1 Q, G64 Q, G73 / G83 Q)");
     }
     if (l_word && !(nonmodal == 100 || cycle)) {
       fail(*l_word, "L has no meaning in this block (G10 L, canned cycle repeats)");

@@ -154,7 +154,8 @@
 //    block that turns a word by 180 deg or more is split into equal steps of at most 90 deg in
 //    axis space (as the NC interpolates the axes), since the chain follows poses and the inverse
 //    kinematics takes the nearest solution from one pose to the next.
-//  - Accepted and ignored: G4 dwell (with X or P), G40 G15 G50, G80 (ends a cycle).
+//  - Accepted and ignored: G4 dwell (with X or P), G40 G15 G50, G80 (ends a cycle), G8 P1/P0
+//    (look-ahead), the Q of G64 (LinuxCNC's folding of collinear points).
 //    Errors naming the word: G41/G42 cutter compensation, G68.1 3-D rotation, G51 scaling, G16
 //    polar, G76 G87 G88, any other G-code, and words outside this list (U V W, Siemens keywords
 //    other than TRAORI/TRAFOOF); P Q L E where their G-code does not use them.
