@@ -306,7 +306,6 @@ TEST(GcodeModes, CornerTolerancesAndToolNumbers) {
       "G0 X0 Y0 Z0\n"
       "G61 G1 X1 F100\n"
       "G64 P0.02 Q0.01 X2\n"  // LinuxCNC Q: no geometry
-
       "G64 X3\n"
       "G9 X4\n"
       "G5.1 Q1 R5 X5\n"
