@@ -298,6 +298,18 @@ TEST(GcodeCycles, IncrementalRepeatsAndBoring) {
   EXPECT_EQ(path.points[4].kind, MotionKind::rapid);
 }
 
+TEST(GcodeCycles, G76FineBoringShiftsOffTheWallAtTheBottom) {
+  // Fanuc G76: feed to the bottom, shift by Q (here along -Y, the machine's setting), rapid
+  // out, shift back onto the hole's axis.
+  ReaderOptions options;
+  options.fine_boring_shift_direction = {0.0, -2.0};
+  const Toolpath path = gcode("G0 X0 Y0 Z10\nG76 X5 Y5 Z-5 R2 Q0.5 P100 F100\n", options);
+  expect_tips(path, {{0, 0, 10}, {5, 5, 10}, {5, 5, 2}, {5, 5, -5}, {5, 4.5, -5},
+                     {5, 4.5, 10}, {5, 5, 10}});
+  EXPECT_EQ(path.points[3].kind, MotionKind::linear);
+  EXPECT_EQ(path.points[4].kind, MotionKind::rapid);
+}
+
 TEST(GcodeModes, CornerTolerancesAndToolNumbers) {
   ReaderOptions options;
   options.contouring_tolerance_m = 7e-6;

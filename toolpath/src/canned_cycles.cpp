@@ -46,6 +46,22 @@ std::vector<CycleMove> expand_cycle(const Eigen::Vector3d& start_mm, const Cycle
       move(false, hole.bottom_mm);
       move(false, hole.r_mm);
       break;
+    case 76: {
+      // Fine boring (Fanuc): at the bottom the spindle stops oriented and the tool moves off
+      // the wall, so that it leaves without a mark; back on the hole's axis once out.
+      move(false, hole.bottom_mm);
+      const Eigen::Vector2d shift = hole.shift_mm * hole.shift_direction;
+      p[hole.u] += shift.x();
+      p[hole.v] += shift.y();
+      moves.push_back({true, p});
+      const double out_mm =
+          hole.return_to_initial ? std::max(hole.initial_mm, hole.r_mm) : hole.r_mm;
+      move(true, out_mm);
+      p[hole.u] = hole.hole_mm[hole.u];
+      p[hole.v] = hole.hole_mm[hole.v];
+      moves.push_back({true, p});
+      return moves;
+    }
     default:  // 81 82 86
       move(false, hole.bottom_mm);
       break;

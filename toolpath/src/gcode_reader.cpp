@@ -311,8 +311,8 @@ class GcodeReader {
           };
           switch (code) {
             case 0: case 10: case 20: case 30: set_motion(static_cast<int>(code / 10)); break;
-            case 730: case 740: case 810: case 820: case 830: case 840: case 850: case 860:
-            case 890:
+            case 730: case 740: case 760: case 810: case 820: case 830: case 840: case 850:
+            case 860: case 890:
               set_motion(static_cast<int>(code / 10));
               break;
             case 800: cancel_cycle_word = &word; break;
@@ -353,9 +353,6 @@ class GcodeReader {
             case 681: fail(word, "3-D coordinate rotation is not supported");
             case 510: case 511: fail(word, "scaling / mirroring is not supported");
             case 160: fail(word, "polar coordinates are not supported");
-            case 760:
-              fail(word, "the fine boring cycle G76 is not supported (its shift direction is a "
-                         "machine parameter): output the cycle as G0/G1 moves");
             case 870: case 880:
               fail(word, "back boring (G87) and manual-retract boring (G88) are not supported: "
                          "output the cycle as G0/G1 moves");
@@ -492,12 +489,12 @@ class GcodeReader {
                                        path_code == 1870)) ||
                         nonmodal == 100 || (offset_word && offset_name == "G54.1") ||
                         (cycle && (*motion_ == 82 || *motion_ == 89 || *motion_ == 74 ||
-                                   *motion_ == 84));
+                                   *motion_ == 84 || *motion_ == 76));
     if (p_word && !p_used) fail(*p_word, "P has no meaning in this block");
     // G64 P.. Q..: LinuxCNC's Q (collinear points folded) changes no geometry beyond P.
     if (q_word && !(path_code == 51 || path_code == 640 ||
-                    (cycle && (*motion_ == 73 || *motion_ == 83)))) {
-      fail(*q_word, "Q has no meaning in this block (G5.1 Q, G64 Q, G73 / G83 Q)");
+                    (cycle && (*motion_ == 73 || *motion_ == 76 || *motion_ == 83)))) {
+      fail(*q_word, "Q has no meaning in this block (G5.1 Q, G64 Q, G73 / G76 / G83 Q)");
     }
     if (l_word && !(nonmodal == 100 || cycle)) {
       fail(*l_word, "L has no meaning in this block (G10 L, canned cycle repeats)");
@@ -1090,6 +1087,12 @@ class GcodeReader {
     hole.peck_mm = cycle_q_mm_.value_or(0.0);
     hole.peck_clearance_mm = options_.peck_clearance_mm;
     hole.peck_retract_mm = options_.peck_retract_mm;
+    hole.shift_mm = code == 76 ? cycle_q_mm_.value_or(0.0) : 0.0;
+    if (!(options_.fine_boring_shift_direction.norm() > 0.0) ||
+        !options_.fine_boring_shift_direction.allFinite()) {
+      throw InputError("ReaderOptions::fine_boring_shift_direction must be a non-zero direction");
+    }
+    hole.shift_direction = options_.fine_boring_shift_direction.normalized();
     if (!(hole.bottom_mm < hole.r_mm)) {
       fail(bottom_word ? *bottom_word : reported,
            "the hole bottom " + axis_name + detail::format_number(hole.bottom_mm) +

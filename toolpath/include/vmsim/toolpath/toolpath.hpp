@@ -118,7 +118,7 @@
 //       the program numbers (the reader cannot invert the machine).
 //  - Before the first motion, an axis not yet programmed is taken at the program's 0, with a
 //    warning.
-//  - Canned cycles G73 G74 G81 G82 G83 G84 G85 G86 G89 (modal until G80 or another motion
+//  - Canned cycles G73 G74 G76 G81 G82 G83 G84 G85 G86 G89 (modal until G80 or another motion
 //    G-code; X Y the hole, Z the bottom, R the R level, Q the peck, P the dwell (no motion), K or
 //    L repeats, G98 return to the initial level (the drilling axis when the cycle started, or R
 //    if higher) / G99 to R). Incremental: R from the initial level, Z from R, X Y per repeat.
@@ -126,9 +126,10 @@
 //    G82 G86 feed to the bottom; G85 G89 G84 G74 feed to the bottom and back to R; G83 pecks of
 //    Q, each followed by a rapid to R and a rapid back to ReaderOptions::peck_clearance_mm
 //    above the last depth; G73 pecks of Q, each followed by a rapid back-off of
-//    peck_retract_mm; then the rapid out. Drilling axis: the plane normal. Every point of a
-//    cycle is an exact stop (corner_tolerance_m 0). G76 (shift direction a machine parameter),
-//    G87 and G88 are errors.
+//    peck_retract_mm; G76 (Fanuc fine boring) feeds to the bottom, shifts by Q along
+//    ReaderOptions::fine_boring_shift_direction, leaves in rapid and shifts back; then the
+//    rapid out. Drilling axis: the plane normal. Every point of a cycle is an exact stop
+//    (corner_tolerance_m 0). G87 (back boring) and G88 (manual retract) are errors.
 //  - Path control into PathPoint::corner_tolerance_m (modal): G61 / G61.1 exact stop 0; G9 exact
 //    stop at the end of its block; G64 P<tol> (program units) its tolerance; G64 without P NaN
 //    (the control's own blending: the part file or command line decides); G5.1 Q1 (R is a
@@ -157,7 +158,7 @@
 //  - Accepted and ignored: G4 dwell (with X or P), G40 G15 G50, G80 (ends a cycle), G8 P1/P0
 //    (look-ahead), the Q of G64 (LinuxCNC's folding of collinear points).
 //    Errors naming the word: G41/G42 cutter compensation, G68.1 3-D rotation, G51 scaling, G16
-//    polar, G76 G87 G88, any other G-code, and words outside this list (U V W, Siemens keywords
+//    polar, G87 G88, any other G-code, and words outside this list (U V W, Siemens keywords
 //    other than TRAORI/TRAFOOF); P Q L E where their G-code does not use them.
 #include <Eigen/Core>
 #include <array>
@@ -282,6 +283,9 @@ struct ReaderOptions {
   /// dependent).
   double peck_clearance_mm = 0.1;
   double peck_retract_mm = 0.1;
+  /// G76 fine boring: the direction of the shift Q at the bottom, in the plane's axes (u, v) =
+  /// (X, Y) under G17 (Fanuc parameter 5101 RD1/RD2, set on the machine); made unit.
+  Eigen::Vector2d fine_boring_shift_direction = Eigen::Vector2d::UnitX();
   /// The corner tolerance [m] of high-precision contouring where the program gives none
   /// (G5.1 Q1, G05 P10000, G187 without E): an assumption, 10 um.
   double contouring_tolerance_m = 0.01e-3;
