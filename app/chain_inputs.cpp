@@ -1,8 +1,10 @@
 #include "chain_inputs.hpp"
 
+#include <array>
 #include <filesystem>
 #include <cmath>
 #include <numbers>
+#include <optional>
 
 #include "part_file.hpp"
 #include "vmsim/common/errors.hpp"
@@ -77,13 +79,69 @@ bool same_rotary_words(const toolpath::PathPoint& a, const toolpath::PathPoint& 
 
 }  // namespace
 
+void apply_machine_setup(const kinematics::MachineModel& machine,
+                         const std::optional<MachineSetup>& setup, double tool_length_m,
+                         toolpath::ReaderOptions& reader, const std::string& part_path) {
+  // One tool per part file for now: every H is the part's tool.
+  reader.default_tool_length_mm = tool_length_m * 1e3;
+  std::array<int, 3> linear{};
+  bool has_linear_axes = true;
+  for (std::size_t k = 0; k < 3; ++k) {
+    linear[k] = machine.axis_index(std::string(1, "XYZ"[k]));
+    has_linear_axes = has_linear_axes && linear[k] >= 0 &&
+                      machine.axes[static_cast<std::size_t>(linear[k])].type ==
+                          kinematics::AxisType::linear;
+  }
+  Eigen::Matrix3d axes_W = Eigen::Matrix3d::Identity();
+  Eigen::Vector3d zero_W_mm = Eigen::Vector3d::Zero();
+  if (has_linear_axes) {
+    // The gauge point is affine in the linear axes: its place at machine zero (rotary axes at
+    // 0) and its motion per mm of each axis.
+    Eigen::VectorXd q0 = machine.home_positions();
+    for (std::size_t i = 0; i < machine.axes.size(); ++i) {
+      q0[static_cast<Eigen::Index>(i)] = 0.0;
+    }
+    const auto gauge_W_mm = [&](const Eigen::VectorXd& q) -> Eigen::Vector3d {
+      return kinematics::forward_kinematics(machine, q, 0.0).tip_W_m * 1e3;
+    };
+    zero_W_mm = gauge_W_mm(q0);
+    const Eigen::VectorXd home = machine.home_positions();
+    for (std::size_t k = 0; k < 3; ++k) {
+      Eigen::VectorXd q = q0;
+      q[linear[k]] += 1e-3;  // 1 mm
+      axes_W.col(static_cast<Eigen::Index>(k)) = gauge_W_mm(q) - zero_W_mm;
+      reader.g28_reference_mm[static_cast<Eigen::Index>(k)] = home[linear[k]] * 1e3;
+    }
+    reader.g30_reference_mm = reader.g28_reference_mm;
+    reader.machine_axes_W = axes_W;
+    reader.machine_zero_W_mm = zero_W_mm;
+  }
+  if (!setup) return;
+  if (setup->g28_reference_mm) reader.g28_reference_mm = *setup->g28_reference_mm;
+  if (setup->g30_reference_mm) reader.g30_reference_mm = *setup->g30_reference_mm;
+  reader.initial_work_offset = setup->active_offset;
+  if (setup->work_zero_W_mm.empty()) return;
+  if (!has_linear_axes || std::abs(axes_W.determinant()) < 1e-9) {
+    throw InputError(part_path + ": setup.work_offsets_mm needs a machine whose linear axes X Y Z "
+                     "move the tool in three directions (" + machine.name + ", " +
+                     machine.source_file + ")");
+  }
+  // The control's offset: the machine axes that put the gauge point at the work zero.
+  const Eigen::Matrix3d to_axes = axes_W.inverse();
+  for (const auto& [name, zero_mm] : setup->work_zero_W_mm) {
+    reader.work_offsets_mm[name] = to_axes * (zero_mm - zero_W_mm);
+  }
+}
+
 ChainInputs load_chain_inputs(const ChainInputOptions& options) {
   ChainInputs inputs;
   std::string machine_path = options.machine_path;
   std::string toolpath_path = options.toolpath_path;
   double tool_length_m = options.tool_length_mm >= 0.0 ? options.tool_length_mm * 1e-3 : -1.0;
+  std::optional<MachineSetup> setup;
   if (!options.part_path.empty()) {
     const PartDescription part = load_part(options.part_path);
+    setup = part.setup;
     inputs.warnings.insert(inputs.warnings.end(), part.warnings.begin(), part.warnings.end());
     if (machine_path.empty()) machine_path = part.machine_path;
     if (toolpath_path.empty()) toolpath_path = part.toolpath_path;
@@ -108,6 +166,7 @@ ChainInputs load_chain_inputs(const ChainInputOptions& options) {
         kinematics::forward_kinematics(machine, axes_from_words(machine, words), tool_length_m);
     return toolpath::AxisWordPose{pose.tip_W_m, pose.axis_W};
   };
+  apply_machine_setup(machine, setup, tool_length_m, reader, options.part_path);
   inputs.toolpath = toolpath::read_toolpath(toolpath_path, reader);
   if (inputs.toolpath.points.empty()) {
     throw InputError(toolpath_path + ": the tool path has no motion");

@@ -2,9 +2,11 @@
 // What several commands share: the machine, the tool path and the tool, from either a part file
 // (--part) or from --machine, --toolpath and --tool-length-mm.
 #include <CLI/CLI.hpp>
+#include <optional>
 #include <string>
 #include <vector>
 
+#include "part_file.hpp"
 #include "vmsim/kinematics/machine_model.hpp"
 #include "vmsim/kinematics/path_kinematics.hpp"
 #include "vmsim/planner/corner_blend.hpp"
@@ -51,6 +53,16 @@ struct ChainInputs {
 
 /// Loads and checks everything; throws vmsim::InputError with file, line and value.
 ChainInputs load_chain_inputs(const ChainInputOptions& options);
+
+/// The reader options that place a G-code program on the machine (README, "Part files",
+/// setup): the part's tool length for every H, the machine's gauge point map (machine axes to
+/// W at rotary 0, from the direct kinematics), the G28 / G30 references (the machine's home
+/// unless the setup gives them), the work offsets (each work zero in W turned into the machine
+/// axis positions that put the gauge point there) and the offset active at the start. Throws
+/// InputError when work offsets are given for a machine without linear axes X Y Z.
+void apply_machine_setup(const kinematics::MachineModel& machine,
+                         const std::optional<MachineSetup>& setup, double tool_length_m,
+                         toolpath::ReaderOptions& reader, const std::string& part_path);
 
 /// Joint value to the trace unit: mm for linear axes, deg for rotary axes.
 double to_trace_unit(const kinematics::Axis& axis, double joint_value_si);

@@ -318,6 +318,67 @@ double read_feed_m_per_s(PartReader& reader, const YAML::Node& feeds, const std:
   return feed_mm_per_min * 1e-3 / 60.0;
 }
 
+// A position [mm] within the plausible coordinates (1 km).
+Eigen::Vector3d plausible_position(const PartReader& reader, const YAML::Node& node,
+                                   const std::string& field, const std::vector<double>& v) {
+  for (std::size_t k = 0; k < 3; ++k) {
+    if (std::abs(v[k]) > kCoordinateLimit_mm) {
+      reader.fail(node[k], field + ": " + node[k].Scalar() +
+                               " mm is not a plausible length (more than 1 km)");
+    }
+  }
+  return Eigen::Vector3d(v[0], v[1], v[2]);
+}
+
+// `setup:` (samples/parts/README.md, "setup").
+MachineSetup read_setup(const PartReader& reader, const YAML::Node& node) {
+  reader.require_map(node, "setup", {"work_offsets_mm", "active_offset", "reference_points_mm"});
+  MachineSetup setup;
+  if (node["work_offsets_mm"]) {
+    const YAML::Node offsets = node["work_offsets_mm"];
+    if (!offsets.IsMap()) {
+      reader.fail(offsets, "setup.work_offsets_mm: expected a map {G54: [x, y, z], ...}, got " +
+                               PartReader::what(offsets));
+    }
+    for (const auto& entry : offsets) {
+      const std::string name = entry.first.Scalar();
+      bool known = false;
+      for (int n = 54; n <= 59; ++n) known = known || name == "G" + std::to_string(n);
+      for (int p = 1; p <= 48; ++p) known = known || name == "G54.1 P" + std::to_string(p);
+      if (!known) {
+        reader.fail(entry.first, "setup.work_offsets_mm: '" + name +
+                                     "' is not a work offset (G54 .. G59, 'G54.1 P1' .. "
+                                     "'G54.1 P48')");
+      }
+      const std::string field = "setup.work_offsets_mm." + name;
+      const std::vector<double> v = reader.numbers(entry.second, field, 3);
+      setup.work_zero_W_mm[name] = plausible_position(reader, entry.second, field, v);
+    }
+  }
+  if (node["active_offset"]) {
+    setup.active_offset = reader.text(node, "active_offset", "setup");
+    if (!setup.work_zero_W_mm.count(setup.active_offset)) {
+      reader.fail(node["active_offset"], "setup.active_offset: '" + setup.active_offset +
+                                             "' is not one of setup.work_offsets_mm");
+    }
+  } else if (!setup.work_zero_W_mm.empty() && !setup.work_zero_W_mm.count("G54")) {
+    reader.fail(node, "setup: G54 (the offset in force at the start) is not in work_offsets_mm: "
+                      "give it, or active_offset");
+  }
+  if (node["reference_points_mm"]) {
+    const YAML::Node points = node["reference_points_mm"];
+    reader.require_map(points, "setup.reference_points_mm", {"G28", "G30"});
+    for (const char* key : {"G28", "G30"}) {
+      if (!points[key]) continue;
+      const std::string field = std::string("setup.reference_points_mm.") + key;
+      const Eigen::Vector3d p = plausible_position(
+          reader, points[key], field, reader.numbers(points[key], field, 3));
+      (std::string(key) == "G28" ? setup.g28_reference_mm : setup.g30_reference_mm) = p;
+    }
+  }
+  return setup;
+}
+
 }  // namespace
 
 PartDescription load_part(const std::string& path) {
@@ -325,7 +386,7 @@ PartDescription load_part(const std::string& path) {
   PartReader reader(path);
   if (!root.IsMap()) throw InputError(located_message(path, 0, 0, "a part file is a YAML map"));
   reader.require_map(root, "", {"name", "description", "machine", "toolpath", "tool", "stock",
-                                "design", "strategy", "feeds", "tolerance_um"});
+                                "design", "strategy", "feeds", "setup", "tolerance_um"});
   const std::filesystem::path folder = std::filesystem::path(path).parent_path();
   PartDescription part;
   part.file = path;
@@ -336,6 +397,7 @@ PartDescription load_part(const std::string& path) {
   read_tool(reader, reader.required(root, "tool", ""), part.tool);
   if (root["stock"]) read_stock(reader, root["stock"], folder, part);
   read_design(reader, root["design"], part);
+  if (root["setup"]) part.setup = read_setup(reader, root["setup"]);
   // How the path was made: informative (samples/parts/README.md), only its shape is checked.
   if (root["strategy"] && !root["strategy"].IsMap()) {
     reader.fail(root["strategy"], "strategy: expected a map, got " + PartReader::what(root["strategy"]));

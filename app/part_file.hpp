@@ -3,6 +3,7 @@
 // Documented in samples/parts/README.md. Paths inside are relative to the part file.
 #include <Eigen/Core>
 #include <limits>
+#include <map>
 #include <optional>
 #include <vector>
 #include <string>
@@ -62,6 +63,21 @@ struct DesignCylinder {
   Eigen::Vector3d max_W_m = Eigen::Vector3d::Constant(std::numeric_limits<double>::infinity());
 };
 
+/// `setup:` how the workpiece sits on the machine, for G-code programs (samples/parts/README.md,
+/// "setup"). Without it G54 is the identity: X Y Z outside tool-centre-point mode are machine
+/// axis positions, under it W coordinates.
+struct MachineSetup {
+  /// Where each work zero lies in W [mm] (on the table for a table-table machine, so it turns
+  /// with the table), by name: "G54" .. "G59", "G54.1 P1" .. "G54.1 P48".
+  std::map<std::string, Eigen::Vector3d> work_zero_W_mm;
+  /// The work offset in force at the program start (`active_offset`, default G54).
+  std::string active_offset = "G54";
+  /// G28 / G30 reference points as machine axis positions X Y Z [mm]; not given: the machine's
+  /// home positions.
+  std::optional<Eigen::Vector3d> g28_reference_mm;
+  std::optional<Eigen::Vector3d> g30_reference_mm;
+};
+
 struct PartDescription {
   std::string file;
   std::string name;
@@ -78,6 +94,7 @@ struct PartDescription {
   std::vector<DesignPlane> design_planes;  ///< the plane patches of `design.surfaces`
   std::vector<DesignSphere> design_spheres;  ///< the sphere patches of `design.surfaces`
   std::vector<DesignCylinder> design_cylinders;  ///< the cylinder patches of `design.surfaces`
+  std::optional<MachineSetup> setup;  ///< `setup:` where given
   double production_feed_m_per_s = 0.0;
   double reference_feed_m_per_s = 0.0;
   /// `tolerance_um`: the deepest mark the part can take [m] (the report's verdict); 0 = not given.

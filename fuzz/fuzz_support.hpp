@@ -102,6 +102,10 @@ inline void check_toolpath(const toolpath::Toolpath& path) {
             "inverse-time feed finite, >= 0");
     require(point.block >= 0 && static_cast<std::size_t>(point.block) < path.blocks.size(),
             "point.block indexes Toolpath::blocks");
+    require(std::isnan(point.corner_tolerance_m) ||
+                (std::isfinite(point.corner_tolerance_m) && point.corner_tolerance_m >= 0.0),
+            "corner tolerance NaN or finite, >= 0");
+    require(point.tool_number >= -1, "tool number -1 (none) or a T number");
   }
   if (path.cutter_diameter_m) {
     require(std::isfinite(*path.cutter_diameter_m), "cutter diameter finite");
@@ -147,6 +151,12 @@ class SampleMachineReaderOptions {
           kinematics::forward_kinematics(machine_, axes_from_words(words), kToolLength_m);
       return toolpath::AxisWordPose{pose.tip_W_m, pose.axis_W};
     };
+    // As a part file's setup would (app/chain_inputs.cpp, apply_machine_setup): one tool length
+    // for every H, and a few work offsets for the coordinate-system words to reach.
+    options_.default_tool_length_mm = kToolLength_m * 1e3;
+    options_.work_offsets_mm["G54"] = Eigen::Vector3d(0.0, 0.0, -400.0);
+    options_.work_offsets_mm["G55"] = Eigen::Vector3d(-50.0, 20.0, -400.0);
+    options_.work_offsets_mm["G54.1 P1"] = Eigen::Vector3d(10.0, 0.0, -450.0);
   }
   SampleMachineReaderOptions(const SampleMachineReaderOptions&) = delete;
   SampleMachineReaderOptions& operator=(const SampleMachineReaderOptions&) = delete;

@@ -378,7 +378,10 @@ TEST(GcodeReader, ArcErrorsNameTheBlock) {
   };
   const Case cases[] = {
       {"G0 X10 Y0\nG2 X0 Y11 I-10 F100\n", "part.nc:2:1:", "same distance"},
-      {"G0 X10 Y0\nG2 X0 Y10.002 I-10 F100\n", "part.nc:2:1:", "end radius 10.002"},
+      // 0.05 mm is beyond the default tolerance max(0.02 sqrt 2 mm, 0.1 % of 10 mm).
+      {"G0 X10 Y0\nG2 X0 Y10.05 I-10 F100\n", "part.nc:2:1:", "end radius 10.05"},
+      {"G0 X10 Y0\nG2 X0 Y10.05 I-10 F100\n", "part.nc:2:1:", "differ by 0.05"},
+      {"G0 X10 Y0\nG2 X0 Y10.05 I-10 F100\n", "part.nc:2:1:", "tolerance of 0.028284 mm"},
       {"G0 X10 Y0\nN7 G3 X-20 Y0 R10 F100\n", "part.nc:2:15: 'R10'", "smaller than half"},
       {"G0 X10 Y0\nG3 R10 F100\n", "part.nc:2:4: 'R10'", "full circle"},
       {"G0 X10 Y0\nG3 X0 Y10 F100\n", "part.nc:2:1: 'G3'", "centre (I J K) or a radius"},
@@ -393,7 +396,7 @@ TEST(GcodeReader, ArcErrorsNameTheBlock) {
     EXPECT_NE(message.find(c.where), std::string::npos) << c.text << " -> " << message;
     EXPECT_NE(message.find(c.what), std::string::npos) << c.text << " -> " << message;
   }
-  // Within the radius tolerance (1e-3 mm) the arc is accepted and ends exactly where programmed.
+  // Within the radius tolerance the arc is accepted and ends exactly where programmed.
   const Toolpath path = gcode("G0 X10 Y0\nG3 X0 Y10.0005 I-10 F100\n");
   expect_vector(path.points.back().tip_W_m, {0.0, 0.0100005, 0.0}, 1e-17);
 }
@@ -416,16 +419,26 @@ TEST(GcodeReader, EachKindOfBadInputIsAnError) {
       {"G0 X0 Y0 Z0\nG0 G1 X2\n", "part.nc:2:4: 'G1'", "second motion"},
       {"G0 X0 Y0 Z0\nG41 D1 G1 X2 F100\n", "part.nc:2:1: 'G41'", "cutter radius compensation"},
       {"G0 X0 Y0 Z0\nG42 G1 X2 F100\n", "part.nc:2:1: 'G42'", "cutter radius compensation"},
-      {"G0 X0 Y0 Z0\nG68 X0 Y0 R30\n", "part.nc:2:1: 'G68'", "rotation"},
+      {"G0 X0 Y0 Z0\nG68 X0 Y0\n", "part.nc:2:1: 'G68'", "needs R"},
       {"G0 X0 Y0 Z0\nG51 P2\n", "part.nc:2:1: 'G51'", "scaling"},
-      {"G0 X0 Y0 Z0\nG54.1 P1\n", "part.nc:2:1: 'G54.1'", "coordinate system"},
-      {"G0 X0 Y0 Z0\nG52 X10\n", "part.nc:2:1: 'G52'", "coordinate system"},
-      {"G0 X0 Y0 Z0\nG92 X10\n", "part.nc:2:1: 'G92'", "coordinate system"},
-      {"G0 X0 Y0 Z0\nG81 Z-5 R1 F100\n", "part.nc:2:1: 'G81'", "canned cycle"},
-      {"G0 X0 Y0 Z0\nG28 Z0\n", "part.nc:2:1: 'G28'", "reference"},
+      {"G0 X0 Y0 Z0\nG54.1 P1\n", "part.nc:2:1: 'G54.1'", "G54.1 P1 is not set up"},
+      {"G0 X0 Y0 Z0\nG55\n", "part.nc:2:1: 'G55'", "work offset G55 is not set up"},
+      {"G0 X0 Y0 Z0\nG52\n", "part.nc:2:1: 'G52'", "at least one of X Y Z"},
+      {"G0 X0 Y0 Z0\nG81 Z-5 F100\n", "part.nc:2:1: 'G81'", "R level"},
+      {"G0 X0 Y0 Z0\nG81 Z5 R1 F100\n", "part.nc:2:5: 'Z5'", "not below the R level"},
+      {"G0 X0 Y0 Z0\nG83 Z-5 R1 F100\n", "part.nc:2:1: 'G83'", "peck depth Q"},
+      {"G0 X0 Y0 Z0\nG87 Z-5 R1 Q1 F100\n", "part.nc:2:1: 'G87'", "back boring"},
+      {"G43.4 G0 X0 Y0 Z0\nG28 Z0\n", "part.nc:2:1: 'G28'", "tool-centre-point"},
+      {"G0 X0 Y0 Z0\nG43 H2 Z5\n", "part.nc:2:5: 'H2'", "no tool length for H2"},
+      {"G0 X0 Y0 Z0\nG43 Z5\n", "part.nc:2:1: 'G43'", "tool length is unknown"},
+      {"G0 X0 Y0 Z0\nM6\n", "part.nc:2:1: 'M6'", "without a tool selected"},
+      {"G0 X0 Y0 Z0\nG10 L3 P1 X0\n", "part.nc:2:5: 'L3'", "not supported"},
+      {"G0 X0 Y0 Z0\nG64 P0\n", "part.nc:2:5: 'P0'", "positive"},
+      {"G0 X0 Y0 Z0\nG52 X1 G68 R30\n", "part.nc:2:8: 'G68'", "separate blocks"},
+      {"G0 X0 Y0 Z0\nG53 G28 Z0\n", "part.nc:2:1: 'G53'", "in one block"},
       {"G0 X0 Y0 Z0\nG7.5\n", "part.nc:2:1: 'G7.5'", "unsupported G-code"},
       {"G0 X0 Y0 Z0\nG1 U5 F100\n", "part.nc:2:4: 'U5'", "unsupported word"},
-      {"G0 X0 Y0 Z0\nG1 X1 P5 F100\n", "part.nc:2:7: 'P5'", "G4"},
+      {"G0 X0 Y0 Z0\nG1 X1 P5 F100\n", "part.nc:2:7: 'P5'", "no meaning"},
       {"G0 X0 Y0 Z0\nM98 P1000\n", "part.nc:2:1: 'M98'", "subprogram"},
       {"G0 X0 Y0 Z0\nCYCLE81(10)\n", "part.nc:2:1: 'CYCLE81'", "unsupported word"},
       {"", "part.nc: ", "no motion"},

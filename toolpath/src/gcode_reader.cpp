@@ -2,6 +2,7 @@
 // ("G-code subset").
 #include <array>
 #include <cctype>
+#include <map>
 #include <algorithm>
 #include <cmath>
 #include <exception>
@@ -13,6 +14,7 @@
 #include <utility>
 #include <vector>
 
+#include "canned_cycles.hpp"
 #include "toolpath_detail.hpp"
 #include "vmsim/common/errors.hpp"
 #include "vmsim/toolpath/toolpath.hpp"
@@ -35,10 +37,6 @@ struct Word {
   char letter() const { return address.size() == 1 ? address[0] : '\0'; }
 };
 
-/// Largest start/end radius difference of an arc [mm]: the larger of this and
-/// kArcRadiusRelativeTolerance times the radius.
-constexpr double kArcRadiusToleranceMm = 1e-3;
-constexpr double kArcRadiusRelativeTolerance = 1e-6;
 /// End points closer than this [mm] in the arc plane make a full circle (I J K form).
 constexpr double kFullCircleDistanceMm = 1e-9;
 /// A motion that turns a rotary axis word by this much or more [deg] is split into steps of at
@@ -92,6 +90,15 @@ class GcodeReader {
       throw InputError("ReaderOptions::arc_chord_tolerance_m must be at least 1e-12 m and "
                        "finite, got " + detail::format_number(options_.arc_chord_tolerance_m));
     }
+    offsets_mm_ = options_.work_offsets_mm;
+    implicit_g54_ = offsets_mm_.empty();
+    tool_length_mm_ = options_.tool_length_mm;
+    const auto initial = offset_named(options_.initial_work_offset);
+    if (!initial) {
+      throw InputError("ReaderOptions::initial_work_offset " + options_.initial_work_offset +
+                       " is not in the work offset table (" + offset_list() + ")");
+    }
+    offset_ = *initial;
     text = detail::without_byte_order_mark(text);
     detail::require_utf8_text(text, file_);
     std::size_t begin = 0;
@@ -236,15 +243,32 @@ class GcodeReader {
     if (words.empty()) return;
 
     const Word* motion_word = nullptr;
-    std::optional<int> motion;
-    bool dwell = false;
-    bool path_mode = false;
+    std::optional<int> motion;  // 0 1 2 3, or a canned cycle 73 74 81 .. 89
+    const Word* cancel_cycle_word = nullptr;  // G80
+    const Word* nonmodal_word = nullptr;      // G4 G10 G28 G30 G52 G92 G92.1
+    long nonmodal = -1;                       // its code in tenths
+    const Word* g53_word = nullptr;
+    bool exact_stop_here = false;             // G9
     std::optional<Plane> plane;
-    std::optional<bool> inch, incremental, inverse_time;
+    std::optional<bool> inch, incremental, inverse_time, arc_centre_incremental, to_initial;
     std::optional<Tcp> tcp;
+    bool g43 = false;
+    const Word* g43_word = nullptr;
+    const Word* lookahead_word = nullptr;
+    const Word* offset_word = nullptr;
+    std::string offset_name;
+    const Word* rotation_word = nullptr;  // G68 / G69
+    const Word* path_word = nullptr;      // G61 G61.1 G64 G5.1 G05 G187
+    long path_code = 0;
     const Word* f_word = nullptr;
     const Word* p_word = nullptr;
     const Word* r_word = nullptr;
+    const Word* h_word = nullptr;
+    const Word* t_word = nullptr;
+    const Word* q_word = nullptr;
+    const Word* l_word = nullptr;
+    const Word* e_word = nullptr;
+    const Word* m6_word = nullptr;
     std::array<const Word*, 3> xyz{}, abc{}, ijk{}, vec{};
     long block_number = -1;
 
@@ -270,13 +294,33 @@ class GcodeReader {
           const double tenths = word.value * 10.0;
           if (std::abs(tenths - std::round(tenths)) > 1e-9) fail(word, "unknown G-code");
           const long code = std::lround(tenths);
+          const auto set_motion = [&](int m) {
+            if (motion) fail(word, "a second motion G-code in one block");
+            motion = m;
+            motion_word = &word;
+          };
+          const auto set_nonmodal = [&] {
+            if (nonmodal_word) fail(word, "a second one of G4 G10 G28 G30 G52 G92 in one block");
+            nonmodal_word = &word;
+            nonmodal = code;
+          };
+          const auto set_path = [&] {
+            if (path_word) fail(word, "a second path control mode in one block");
+            path_word = &word;
+            path_code = code;
+          };
           switch (code) {
-            case 0: case 10: case 20: case 30:
-              if (motion) fail(word, "a second motion G-code in one block");
-              motion = static_cast<int>(code / 10);
-              motion_word = &word;
+            case 0: case 10: case 20: case 30: set_motion(static_cast<int>(code / 10)); break;
+            case 730: case 740: case 760: case 810: case 820: case 830: case 840: case 850:
+            case 860: case 890:
+              set_motion(static_cast<int>(code / 10));
               break;
-            case 40: dwell = true; break;
+            case 800: cancel_cycle_word = &word; break;
+            case 40: case 100: case 280: case 300: case 520: case 920: case 921:
+              set_nonmodal();
+              break;
+            case 530: g53_word = &word; break;
+            case 90: exact_stop_here = true; break;
             case 170: plane = Plane::xy; break;
             case 180: plane = Plane::zx; break;
             case 190: plane = Plane::yz; break;
@@ -284,31 +328,34 @@ class GcodeReader {
             case 210: inch = false; break;
             case 900: incremental = false; break;
             case 910: incremental = true; break;
+            case 901: arc_centre_incremental = false; break;
+            case 911: arc_centre_incremental = true; break;
             case 930: inverse_time = true; break;
             case 940: inverse_time = false; break;
+            case 430: tcp = Tcp::off; g43 = true; g43_word = &word; break;
             case 434: tcp = Tcp::g43_4; break;
             case 435: tcp = Tcp::g43_5; break;
-            case 490: tcp = Tcp::off; break;  // also cancels tool length compensation
-            // Harmless: tool length compensation (the program gives the tool tip), cancels,
-            // work offsets (taken as placing the workpiece frame W), exact stop / path modes,
-            // canned-cycle return levels.
-            case 430: case 400: case 800: case 150: case 500: case 690: case 90: case 610:
-            case 611: case 980: case 990: case 540: case 550: case 560: case 570: case 580:
-            case 590:
+            case 490: tcp = Tcp::off; g43 = false; break;  // cancels tool length compensation too
+            case 540: case 550: case 560: case 570: case 580: case 590: case 541:
+              if (offset_word) fail(word, "a second work offset in one block");
+              offset_word = &word;
+              offset_name = code == 541 ? "G54.1" : "G" + std::to_string(code / 10);
               break;
-            case 640: path_mode = true; break;
+            case 680: case 690: rotation_word = &word; break;
+            case 610: case 611: case 640: case 51: case 50: case 1870: set_path(); break;
+            case 980: to_initial = true; break;
+            case 990: to_initial = false; break;
+            // Harmless: cutter compensation off, polar and scaling cancels.
+            case 400: case 150: case 500: break;
+            case 80: lookahead_word = &word; break;  // G8 P1 / P0: look-ahead, no geometry
             case 410: case 420:
               fail(word, "cutter radius compensation is not supported: program the tool tip");
-            case 680: case 681: fail(word, "coordinate rotation is not supported");
+            case 681: fail(word, "3-D coordinate rotation is not supported");
             case 510: case 511: fail(word, "scaling / mirroring is not supported");
-            case 541: case 520: case 920: case 530:
-              fail(word, "this coordinate system change is not supported");
-            case 280: case 290: case 300:
-              fail(word, "reference point return is not supported");
             case 160: fail(word, "polar coordinates are not supported");
-            case 730: case 740: case 760: case 810: case 820: case 830: case 840: case 850:
-            case 860: case 870: case 880: case 890:
-              fail(word, "canned cycles are not supported: output the cycle as G0/G1 moves");
+            case 870: case 880:
+              fail(word, "back boring (G87) and manual-retract boring (G88) are not supported: "
+                         "output the cycle as G0/G1 moves");
             default:
               fail(word, "unsupported G-code (it may change the geometry)");
           }
@@ -319,6 +366,7 @@ class GcodeReader {
           const long code = std::lround(word.value);
           if (code == 98 || code == 99) fail(word, "subprogram calls are not supported");
           if (code == 2 || code == 30) ended_ = true;
+          if (code == 6) m6_word = &word;
           break;
         }
         case 'N':
@@ -329,9 +377,20 @@ class GcodeReader {
           require_within(word, word.value, 0.0, detail::kMaxSpindleRevPerMin, "spindle speed",
                          "rev/min");
           break;
-        case 'O': case 'T': case 'H': case 'D':
+        case 'O': case 'D':
           require_within(word, word.value, 0.0, detail::kMaxIgnoredWordValue, "value", "");
           break;
+        case 'T': set_once(t_word, word);
+          require_within(word, word.value, 0.0, detail::kMaxIgnoredWordValue, "value", "");
+          break;
+        case 'H': set_once(h_word, word);
+          require_within(word, word.value, 0.0, detail::kMaxIgnoredWordValue, "value", "");
+          break;
+        case 'L': set_once(l_word, word);
+          require_within(word, word.value, 0.0, detail::kMaxIgnoredWordValue, "value", "");
+          break;
+        case 'Q': set_once(q_word, word); break;
+        case 'E': set_once(e_word, word); break;
         case 'F': set_once(f_word, word); break;
         case 'P': set_once(p_word, word); break;
         case 'R': set_once(r_word, word); break;
@@ -346,12 +405,10 @@ class GcodeReader {
     if (plane) plane_ = *plane;
     if (inch) mm_per_unit_ = *inch ? kMillimetresPerInch : 1.0;
     if (incremental) incremental_ = *incremental;
+    if (arc_centre_incremental) arc_centre_incremental_ = *arc_centre_incremental;
     if (inverse_time) inverse_time_ = *inverse_time;
-    if (tcp) tcp_ = *tcp;
-    if (p_word && !dwell && !path_mode) fail(*p_word, "P is supported only with G4 or G64");
-    if (p_word) {
-      require_within(*p_word, p_word->value, 0.0, detail::kMaxIgnoredWordValue, "P value", "");
-    }
+    if (to_initial) return_to_initial_ = *to_initial;
+    const bool dwell = nonmodal == 40;
 
     std::optional<double> block_inverse_time_per_s;
     if (f_word) {
@@ -369,7 +426,7 @@ class GcodeReader {
     }
     // Lengths and angles within the readers' limits, so that sums, squares and tessellations
     // stay finite (toolpath.hpp, "Limits").
-    for (const Word* word : {xyz[0], xyz[1], xyz[2], ijk[0], ijk[1], ijk[2], r_word}) {
+    for (const Word* word : {xyz[0], xyz[1], xyz[2], ijk[0], ijk[1], ijk[2], r_word, q_word}) {
       if (word && !dwell) {
         require_within(*word, word->value * mm_per_unit_, -detail::kMaxCoordinateMm,
                        detail::kMaxCoordinateMm, "length", "mm");
@@ -378,13 +435,101 @@ class GcodeReader {
     if (dwell && xyz[0]) {
       require_within(*xyz[0], xyz[0]->value, 0.0, detail::kMaxIgnoredWordValue, "dwell", "");
     }
+    if (p_word) {
+      require_within(*p_word, p_word->value, 0.0, detail::kMaxIgnoredWordValue, "P value", "");
+    }
+    if (e_word) {
+      require_within(*e_word, e_word->value * mm_per_unit_, 0.0, detail::kMaxToleranceMm,
+                     "tolerance", "mm");
+    }
     for (const Word* word : abc) {
       if (word) {
         require_within(*word, word->value, -detail::kMaxRotaryDeg, detail::kMaxRotaryDeg,
                        "rotary axis word", "deg");
       }
     }
-    if (motion) motion_ = motion;
+
+    // Tool change: T preselects, M6 puts the preselected tool in the spindle.
+    if (t_word) next_tool_ = static_cast<int>(std::lround(t_word->value));
+    if (m6_word) {
+      if (!next_tool_) fail(*m6_word, "tool change M6 without a tool selected by a T word");
+      tool_number_ = *next_tool_;
+    }
+
+    // Tool length compensation and tool-centre-point modes (one modal group on the control).
+    if (tcp) {
+      const Tcp old_tcp = tcp_;
+      // Across a switch into or out of tool-centre-point mode the program numbers are kept: the
+      // two modes' coordinates differ by the machine's kinematics, which the reader cannot invert.
+      const auto program = program_position();
+      tcp_ = *tcp;
+      g43_ = g43;
+      h_mm_ = 0.0;
+      if (g43) h_mm_ = tool_length_of(h_word, *g43_word);
+      if ((old_tcp == Tcp::off) != (tcp_ == Tcp::off)) set_program_position(program);
+    } else if (h_word && tcp_ == Tcp::off && g43_) {
+      h_mm_ = tool_length_of(h_word, *h_word);
+    }
+
+    if (offset_word) select_offset(*offset_word, offset_name, p_word);
+    if (path_word) set_path_mode(*path_word, path_code, p_word, q_word, r_word, e_word);
+    if (cancel_cycle_word) {
+      if (!motion && motion_ && *motion_ >= 70) motion_.reset();
+      end_cycle();
+    }
+    if (motion) {
+      if (*motion >= 70 && !(motion_ && *motion_ >= 70)) end_cycle();
+      motion_ = motion;
+    }
+
+    // Words that belong to something other than a motion in this block.
+    const bool cycle = motion_ && *motion_ >= 70 && !nonmodal_word && !g53_word;
+    const bool p_used = dwell || lookahead_word ||
+                        (path_word && (path_code == 640 || path_code == 50 ||
+                                       path_code == 1870)) ||
+                        nonmodal == 100 || (offset_word && offset_name == "G54.1") ||
+                        (cycle && (*motion_ == 82 || *motion_ == 89 || *motion_ == 74 ||
+                                   *motion_ == 84 || *motion_ == 76));
+    if (p_word && !p_used) fail(*p_word, "P has no meaning in this block");
+    // G64 P.. Q..: LinuxCNC's Q (collinear points folded) changes no geometry beyond P.
+    if (q_word && !(path_code == 51 || path_code == 640 ||
+                    (cycle && (*motion_ == 73 || *motion_ == 76 || *motion_ == 83)))) {
+      fail(*q_word, "Q has no meaning in this block (G5.1 Q, G64 Q, G73 / G76 / G83 Q)");
+    }
+    if (l_word && !(nonmodal == 100 || cycle)) {
+      fail(*l_word, "L has no meaning in this block (G10 L, canned cycle repeats)");
+    }
+    if (e_word && path_code != 1870) fail(*e_word, "E has no meaning here (G187 E)");
+
+    if (rotation_word && (nonmodal_word || g53_word)) {
+      fail(*rotation_word, "G68 / G69 with " + (nonmodal_word ? nonmodal_word : g53_word)->text +
+                               " in one block: give them in separate blocks");
+    }
+    if (g53_word && nonmodal_word) {
+      fail(*g53_word, "G53 with " + nonmodal_word->text + " in one block");
+    }
+    if (rotation_word) {
+      const Word* angle_word = r_word;
+      set_rotation(*rotation_word, xyz, angle_word);
+      return;
+    }
+    if (nonmodal_word) {
+      switch (nonmodal) {
+        case 40: {
+          // G4 X.. / G4 P..: the X is a time, not a position.
+          const Word* other = first_of({abc[0], abc[1], abc[2], ijk[0], ijk[1], ijk[2], vec[0],
+                                        vec[1], vec[2], r_word, xyz[1], xyz[2]});
+          if (other) fail(*other, "motion word in a G4 dwell block");
+          return;
+        }
+        case 100: set_offset_from_program(*nonmodal_word, l_word, p_word, r_word, xyz); return;
+        case 520: case 920: case 921: set_local_shift(*nonmodal_word, nonmodal, xyz); return;
+        default:
+          reference_return(*nonmodal_word, nonmodal == 280, xyz, abc, block_number,
+                           exact_stop_here);
+          return;
+      }
+    }
 
     const bool any_abc = abc[0] || abc[1] || abc[2];
     const bool any_ijk = ijk[0] || ijk[1] || ijk[2];
@@ -392,18 +537,35 @@ class GcodeReader {
     const Word* first_motion_word = first_of({xyz[0], xyz[1], xyz[2], abc[0], abc[1], abc[2],
                                               ijk[0], ijk[1], ijk[2], vec[0], vec[1], vec[2],
                                               r_word});
-    if (dwell) {
-      // G4 X.. / G4 P..: the X is a time, not a position.
-      if (any_abc || any_ijk || any_vec || r_word || xyz[1] || xyz[2]) {
-        fail(*first_motion_word, "motion word in a G4 dwell block");
+    if (g53_word && !first_motion_word) fail(*g53_word, "G53 without an axis word");
+    if (!first_motion_word) return;
+    if (!motion_) fail(*first_motion_word, "axis word before any motion mode G0/G1/G2/G3");
+    if (cycle) {
+      if (const Word* extra = first_of({abc[0], abc[1], abc[2], vec[0], vec[1], vec[2]})) {
+        fail(*extra, "rotary and tool vector words in a canned cycle block are not supported");
+      }
+      canned_cycle(xyz, ijk, r_word, q_word, l_word, block_number,
+                   motion_word ? *motion_word : *first_motion_word);
+      return;
+    }
+    const bool arc = *motion_ >= 2;
+    const Word& reported = motion_word ? *motion_word : *first_motion_word;
+    if (g53_word && (arc || *motion_ >= 70)) fail(*g53_word, "G53 needs G0 or G1");
+    if (g53_word && tcp_ != Tcp::off) {
+      fail(*g53_word, "G53 (machine coordinates) in tool-centre-point mode is not supported");
+    }
+
+    if (g53_word && ((!position_[0] && !xyz[0]) || (!position_[1] && !xyz[1]) ||
+                     (!position_[2] && !xyz[2]))) {
+      // As for G28: the named machine axes are known from here on, the pose once all are.
+      for (std::size_t k = 0; k < 3; ++k) {
+        if (xyz[k]) position_[k] = xyz[k]->value * mm_per_unit_;
+      }
+      if (const Word* rotary = first_of({abc[0], abc[1], abc[2]})) {
+        fail(*rotary, "rotary words in a G53 block before the linear axes are known");
       }
       return;
     }
-    if (!first_motion_word) return;
-    if (!motion_) fail(*first_motion_word, "axis word before any motion mode G0/G1/G2/G3");
-    const bool arc = *motion_ >= 2;
-    const Word& reported = motion_word ? *motion_word : *first_motion_word;
-
     if (any_ijk && !arc && tcp_ != Tcp::g43_5) {
       fail(*first_of({ijk[0], ijk[1], ijk[2]}),
            "I J K need G2/G3 (arc centre) or G43.5 (tool vector)");
@@ -423,8 +585,8 @@ class GcodeReader {
     }
 
     // Feed of this motion.
-    PathPoint point;
-    point.kind = *motion_ == 0 ? MotionKind::rapid : (arc ? MotionKind::arc : MotionKind::linear);
+    PathPoint point = new_point(*motion_ == 0 ? MotionKind::rapid
+                                              : (arc ? MotionKind::arc : MotionKind::linear));
     if (*motion_ != 0) {
       if (inverse_time_) {
         if (!block_inverse_time_per_s) {
@@ -437,17 +599,24 @@ class GcodeReader {
       }
     }
 
-    // Target in program coordinates [mm, deg].
-    const Eigen::Vector3d start_mm = known_position(xyz);
+    // Target: in program coordinates [mm], and in the frame the pose is made from.
+    const Eigen::Vector3d start_f = known_frame_position(xyz, g53_word || !incremental_);
+    const Eigen::Vector3d start_mm = from_frame(start_f);
     Eigen::Vector3d target_mm = start_mm;
+    Eigen::Vector3d target_f = start_f;
     for (std::size_t k = 0; k < 3; ++k) {
       if (!xyz[k]) continue;
+      const auto i = static_cast<Eigen::Index>(k);
       const double value = xyz[k]->value * mm_per_unit_;
-      target_mm[static_cast<Eigen::Index>(k)] =
-          incremental_ ? start_mm[static_cast<Eigen::Index>(k)] + value : value;
-      require_within(*xyz[k], target_mm[static_cast<Eigen::Index>(k)], -detail::kMaxCoordinateMm,
-                     detail::kMaxCoordinateMm, "position", "mm");
+      if (g53_word) {
+        target_f[i] = value;  // machine coordinates, always absolute
+      } else {
+        target_mm[i] = incremental_ ? start_mm[i] + value : value;
+        require_within(*xyz[k], target_mm[i], -detail::kMaxCoordinateMm,
+                       detail::kMaxCoordinateMm, "position", "mm");
+      }
     }
+    if (!g53_word) target_f = to_frame(target_mm);
     if (!started_ && arc) {
       fail(reported, "an arc as the first motion: its start point is unknown");
     }
@@ -482,21 +651,492 @@ class GcodeReader {
            "(ReaderOptions::axis_words_to_pose)");
     }
 
+    point.block = add_source_block(block_number);
+    point.rotary_words_deg = rotary_words_deg(rotary_deg_);
+    const std::size_t first_point = path_.points.size();
+    if (!arc) {
+      linear_points(point, start_f, target_f, start_rotary_deg, any_abc, reported);
+    } else {
+      arc_points(point, start_mm, target_mm, ijk, r_word, reported);
+    }
+    finish_block_points(first_point, exact_stop_here);
+    for (std::size_t k = 0; k < 3; ++k) position_[k] = target_f[static_cast<Eigen::Index>(k)];
+  }
+
+  // --- Coordinate systems ---------------------------------------------------------------------
+  //
+  // The reader keeps the position in the "frame": outside tool-centre-point mode the machine
+  // axis positions X Y Z [mm] (what axis_words_to_pose receives), under it the tool tip in W
+  // [mm]. Program coordinates p map to it as the control does:
+  //   frame = base + rotation_G68(p),
+  //   base = work offset + G52 + G92 (+ the G43 tool length along Z outside TCP),
+  // where the work offset is in machine axes outside TCP and its zero in W under TCP.
+
+  static std::array<const Word*, 3> no_words() { return {}; }
+
+  Eigen::Vector3d rotated(const Eigen::Vector3d& p, double sign) const {
+    if (!rotation_) return p;
+    const auto [u, v, w] = plane_axes(rotation_plane_);
+    const double c = std::cos(sign * rotation_rad_);
+    const double s = std::sin(sign * rotation_rad_);
+    const double du = p[u] - rotation_centre_mm_.x();
+    const double dv = p[v] - rotation_centre_mm_.y();
+    Eigen::Vector3d q = p;
+    q[u] = rotation_centre_mm_.x() + c * du - s * dv;
+    q[v] = rotation_centre_mm_.y() + s * du + c * dv;
+    return q;
+  }
+  Eigen::Vector3d frame_base() const {
+    const Eigen::Vector3d offset = tcp_ == Tcp::off
+                                       ? Eigen::Vector3d(offset_.machine_mm + Eigen::Vector3d(0.0, 0.0, h_mm_))
+                                       : offset_.zero_W_mm;
+    return offset + g52_mm_ + g92_mm_;
+  }
+  Eigen::Vector3d to_frame(const Eigen::Vector3d& p_mm) const {
+    return frame_base() + rotated(p_mm, 1.0);
+  }
+  Eigen::Vector3d from_frame(const Eigen::Vector3d& f_mm) const {
+    return rotated(f_mm - frame_base(), -1.0);
+  }
+  /// The frame position, an axis never programmed taken at the program's 0.
+  Eigen::Vector3d filled_frame_position() const {
+    const Eigen::Vector3d zero = to_frame(Eigen::Vector3d::Zero());
+    Eigen::Vector3d f;
+    for (std::size_t k = 0; k < 3; ++k) {
+      f[static_cast<Eigen::Index>(k)] = position_[k].value_or(zero[static_cast<Eigen::Index>(k)]);
+    }
+    return f;
+  }
+  std::array<std::optional<double>, 3> program_position() const {
+    const Eigen::Vector3d p = from_frame(filled_frame_position());
+    std::array<std::optional<double>, 3> result;
+    for (std::size_t k = 0; k < 3; ++k) {
+      if (position_[k]) result[k] = p[static_cast<Eigen::Index>(k)];
+    }
+    return result;
+  }
+  void set_program_position(const std::array<std::optional<double>, 3>& p) {
+    Eigen::Vector3d v;
+    for (std::size_t k = 0; k < 3; ++k) v[static_cast<Eigen::Index>(k)] = p[k].value_or(0.0);
+    const Eigen::Vector3d f = to_frame(v);
+    for (std::size_t k = 0; k < 3; ++k) {
+      position_[k].reset();
+      if (p[k]) position_[k] = f[static_cast<Eigen::Index>(k)];
+    }
+  }
+
+  struct ActiveOffset {
+    std::string name;
+    Eigen::Vector3d machine_mm = Eigen::Vector3d::Zero();
+    Eigen::Vector3d zero_W_mm = Eigen::Vector3d::Zero();
+  };
+
+  std::string offset_list() const {
+    std::string list;
+    for (const auto& [name, value] : offsets_mm_) list += (list.empty() ? "" : ", ") + name;
+    return list.empty() ? "none" : list;
+  }
+
+  /// The work offset `name`; nullopt when it is not set up.
+  std::optional<ActiveOffset> offset_named(const std::string& name) const {
+    const auto it = offsets_mm_.find(name);
+    if (it != offsets_mm_.end()) {
+      return ActiveOffset{name, it->second,
+                          options_.machine_axes_W * it->second + options_.machine_zero_W_mm};
+    }
+    if (name == "G54" && implicit_g54_) {
+      return ActiveOffset{name, Eigen::Vector3d::Zero(), Eigen::Vector3d::Zero()};
+    }
+    return std::nullopt;
+  }
+
+  void select_offset(const Word& word, const std::string& name, const Word* p_word) {
+    std::string key = name;
+    if (name == "G54.1") {
+      if (!p_word) fail(word, "G54.1 needs the number of the additional offset, P1 .. P48");
+      if (!(p_word->value >= 1.0 && p_word->value <= 48.0 &&
+            p_word->value == std::round(p_word->value))) {
+        fail(*p_word, "G54.1 P must be a whole number 1 .. 48");
+      }
+      key = "G54.1 P" + std::to_string(std::lround(p_word->value));
+    }
+    const auto offset = offset_named(key);
+    if (!offset) {
+      fail(word, "work offset " + key + " is not set up (set up: " + offset_list() +
+                     "; the part file's setup: work_offsets, or G10 in the program)");
+    }
+    offset_ = *offset;  // the machine does not move: the next motion is in the new system
+  }
+
+  void set_offset_from_program(const Word& word, const Word* l_word, const Word* p_word,
+                               const Word* r_word, const std::array<const Word*, 3>& xyz) {
+    if (!l_word || !p_word) fail(word, "G10 needs L (2, 20: work offsets; 1, 10: tool lengths) and P");
+    const long l = std::lround(l_word->value);
+    const double p = p_word->value;
+    if (p != std::round(p)) fail(*p_word, "G10 P must be a whole number");
+    const long n = std::lround(p);
+    if (l == 1 || l == 10) {
+      if (!r_word) fail(word, "G10 L" + std::to_string(l) + " needs R (the tool length)");
+      if (const Word* extra = first_of({xyz[0], xyz[1], xyz[2]})) {
+        fail(*extra, "G10 L" + std::to_string(l) + " sets a tool length: no axis words");
+      }
+      const double value = r_word->value * mm_per_unit_;
+      double& length = tool_length_mm_[static_cast<int>(n)];
+      length = incremental_ ? length + value : value;
+      return;
+    }
+    if (r_word) fail(*r_word, "R has no meaning in G10 L2 / L20");
+    std::string key;
+    if (l == 2 && n >= 1 && n <= 6) {
+      key = "G" + std::to_string(53 + n);
+    } else if (l == 20 && n >= 1 && n <= 48) {
+      key = "G54.1 P" + std::to_string(n);
+    } else if (l == 2 || l == 20) {
+      fail(*p_word, l == 2 ? "G10 L2 P must be 1 .. 6 (G54 .. G59; P0, the external offset, "
+                             "is not supported)"
+                           : "G10 L20 P must be 1 .. 48 (G54.1 P1 .. P48)");
+    } else {
+      fail(*l_word, "G10 L" + std::to_string(l) +
+                        " is not supported (L2 / L20 work offsets, L1 / L10 tool lengths)");
+    }
+    Eigen::Vector3d value = Eigen::Vector3d::Zero();
+    if (const auto it = offsets_mm_.find(key); it != offsets_mm_.end()) value = it->second;
+    for (std::size_t k = 0; k < 3; ++k) {
+      if (!xyz[k]) continue;
+      const double v = xyz[k]->value * mm_per_unit_;
+      auto& component = value[static_cast<Eigen::Index>(k)];
+      component = incremental_ ? component + v : v;
+    }
+    offsets_mm_[key] = value;
+    if (offset_.name == key) offset_ = *offset_named(key);
+  }
+
+  void set_local_shift(const Word& word, long code, const std::array<const Word*, 3>& xyz) {
+    if (code == 921) {
+      if (const Word* extra = first_of({xyz[0], xyz[1], xyz[2]})) {
+        fail(*extra, "G92.1 cancels the G92 shift: no axis words");
+      }
+      g92_mm_.setZero();
+      return;
+    }
+    if (!xyz[0] && !xyz[1] && !xyz[2]) fail(word, "needs at least one of X Y Z");
+    if (code == 520) {
+      // G52: the local zero in work coordinates (G52 X0 Y0 Z0 cancels); the machine stays.
+      for (std::size_t k = 0; k < 3; ++k) {
+        if (xyz[k]) g52_mm_[static_cast<Eigen::Index>(k)] = xyz[k]->value * mm_per_unit_;
+      }
+      return;
+    }
+    // G92: the current position becomes the given coordinates.
+    const Eigen::Vector3d now = from_frame(filled_frame_position());
+    Eigen::Vector3d wanted = now;
+    for (std::size_t k = 0; k < 3; ++k) {
+      if (xyz[k]) wanted[static_cast<Eigen::Index>(k)] = xyz[k]->value * mm_per_unit_;
+    }
+    g92_mm_ += rotated(now, 1.0) - rotated(wanted, 1.0);
+  }
+
+  void set_rotation(const Word& word, const std::array<const Word*, 3>& xyz, const Word*& r_word) {
+    if (std::lround(word.value * 10.0) == 690) {
+      if (const Word* extra = first_of({xyz[0], xyz[1], xyz[2], r_word})) {
+        fail(*extra, "G69 cancels the rotation: no other words");
+      }
+      rotation_ = false;
+      return;
+    }
+    const auto [u, v, w] = plane_axes(plane_);
+    if (xyz[static_cast<std::size_t>(w)]) {
+      fail(*xyz[static_cast<std::size_t>(w)],
+           std::string("not a rotation centre word in the ") + plane_name(plane_) + " plane");
+    }
+    if (!r_word) fail(word, "G68 needs R (the rotation angle in deg)");
+    require_within(*r_word, r_word->value, -detail::kMaxRotaryDeg, detail::kMaxRotaryDeg,
+                   "rotation angle", "deg");
+    // The centre in the current program coordinates; an axis not given: the current position.
+    rotation_ = false;
+    const Eigen::Vector3d now = from_frame(filled_frame_position());
+    Eigen::Vector2d centre(now[u], now[v]);
+    if (xyz[static_cast<std::size_t>(u)]) centre.x() = xyz[static_cast<std::size_t>(u)]->value * mm_per_unit_;
+    if (xyz[static_cast<std::size_t>(v)]) centre.y() = xyz[static_cast<std::size_t>(v)]->value * mm_per_unit_;
+    rotation_ = true;
+    rotation_plane_ = plane_;
+    rotation_centre_mm_ = centre;
+    rotation_rad_ = r_word->value * std::numbers::pi / 180.0;
+    r_word = nullptr;
+  }
+
+  /// The tool length [mm] of G43 (H, else the tool in the spindle).
+  double tool_length_of(const Word* h_word, const Word& g43_word) const {
+    int number = -1;
+    if (h_word) {
+      require_within(*h_word, h_word->value, 0.0, detail::kMaxIgnoredWordValue, "H number", "");
+      number = static_cast<int>(std::lround(h_word->value));
+    } else if (tool_number_ >= 0) {
+      number = tool_number_;
+    } else {
+      fail(g43_word, "G43 without H and without a tool in the spindle (T.. M6): the tool "
+                     "length is unknown");
+    }
+    if (number == 0) return 0.0;  // H0: no length (Fanuc)
+    if (const auto it = tool_length_mm_.find(number); it != tool_length_mm_.end()) {
+      return it->second;
+    }
+    if (options_.default_tool_length_mm) return *options_.default_tool_length_mm;
+    std::string known;
+    for (const auto& [n, length] : tool_length_mm_) {
+      known += (known.empty() ? "H" : ", H") + std::to_string(n);
+    }
+    fail(h_word ? *h_word : g43_word,
+         "no tool length for H" + std::to_string(number) + " (the tool table has " +
+             (known.empty() ? std::string("none") : known) + "; the part file's tools)");
+  }
+
+  void set_path_mode(const Word& word, long code, const Word* p_word, const Word* q_word,
+                     const Word*& r_word, const Word* e_word) {
+    switch (code) {
+      case 610: case 611: corner_tolerance_m_ = 0.0; return;
+      case 640:
+        if (p_word && !(p_word->value > 0.0)) {
+          fail(*p_word, "G64 P must be positive (G61 asks for exact stops)");
+        }
+        // G64 without P: the control's own blending, which the part file or the command line
+        // models.
+        corner_tolerance_m_ = p_word ? p_word->value * mm_per_unit_ * kMetresPerMillimetre
+                                     : PathPoint::kNotProgrammed;
+        return;
+      case 51:
+        if (!q_word || (q_word->value != 0.0 && q_word->value != 1.0)) {
+          fail(q_word ? *q_word : word, "G5.1 needs Q1 (AI contour control on) or Q0 (off)");
+        }
+        // R is a smoothing level (1 .. 10), not a length.
+        r_word = nullptr;
+        corner_tolerance_m_ = q_word->value == 1.0 ? options_.contouring_tolerance_m
+                                                   : PathPoint::kNotProgrammed;
+        return;
+      case 50:
+        if (!p_word || (p_word->value != 0.0 && p_word->value != 10000.0)) {
+          fail(p_word ? *p_word : word,
+               "G05 is supported as G05 P10000 (high-precision contour control) and G05 P0");
+        }
+        corner_tolerance_m_ = p_word->value == 10000.0 ? options_.contouring_tolerance_m
+                                                       : PathPoint::kNotProgrammed;
+        return;
+      default:  // G187 [P1 .. P3] [E tolerance]
+        if (p_word && !(p_word->value >= 1.0 && p_word->value <= 3.0)) {
+          fail(*p_word, "G187 P must be 1, 2 or 3");
+        }
+        if (e_word) {
+          if (!(e_word->value > 0.0)) fail(*e_word, "G187 E (the corner tolerance) must be positive");
+          corner_tolerance_m_ = e_word->value * mm_per_unit_ * kMetresPerMillimetre;
+        } else {
+          corner_tolerance_m_ =
+              p_word ? options_.contouring_tolerance_m : PathPoint::kNotProgrammed;
+        }
+        return;
+    }
+  }
+
+  PathPoint new_point(MotionKind kind) const {
+    PathPoint point;
+    point.kind = kind;
+    point.tool_number = tool_number_;
+    point.corner_tolerance_m = corner_tolerance_m_;
+    return point;
+  }
+
+  int add_source_block(long block_number) {
     SourceBlock source;
     source.file = file_;
     source.line = line_;
     source.block_number = block_number;
     source.text = line_text_;
     path_.blocks.push_back(std::move(source));
-    point.block = static_cast<int>(path_.blocks.size()) - 1;
+    return static_cast<int>(path_.blocks.size()) - 1;
+  }
 
-    point.rotary_words_deg = rotary_words_deg(rotary_deg_);
-    if (!arc) {
-      linear_points(point, start_mm, target_mm, start_rotary_deg, any_abc, reported);
-    } else {
-      arc_points(point, start_mm, target_mm, ijk, r_word, reported);
+  /// Points inside a block (arc chords, rotary steps) are no corners of the program: an exact
+  /// stop is not asked there (NaN); the block's last point carries the mode, 0 under G9.
+  void finish_block_points(std::size_t first, bool exact_stop_here) {
+    if (first >= path_.points.size()) return;
+    for (std::size_t i = first; i + 1 < path_.points.size(); ++i) {
+      if (path_.points[i].corner_tolerance_m == 0.0) {
+        path_.points[i].corner_tolerance_m = PathPoint::kNotProgrammed;
+      }
     }
-    for (std::size_t k = 0; k < 3; ++k) position_mm_[k] = target_mm[static_cast<Eigen::Index>(k)];
+    if (exact_stop_here) path_.points.back().corner_tolerance_m = 0.0;
+  }
+
+  /// A rapid to frame position f where all three axes are known.
+  void rapid_to_frame(const std::array<std::optional<double>, 3>& f, int& block,
+                      long block_number) {
+    if (!f[0] || !f[1] || !f[2]) return;
+    if (block < 0) block = add_source_block(block_number);
+    PathPoint point = new_point(MotionKind::rapid);
+    point.block = block;
+    point.rotary_words_deg = rotary_words_deg(rotary_deg_);
+    set_pose(point, Eigen::Vector3d(*f[0], *f[1], *f[2]), rotary_deg_);
+    detail::append_point(path_, point, options_, file_, line_);
+    started_ = true;
+  }
+
+  /// G28 / G30: a rapid to the intermediate point (the axes named, in program coordinates), then
+  /// the named axes (all three when none is named) to the reference point in machine
+  /// coordinates. An axis whose position is not known yet skips the intermediate point; points
+  /// are made once all three axes are known.
+  void reference_return(const Word& word, bool g28, const std::array<const Word*, 3>& xyz,
+                        const std::array<const Word*, 3>& abc, long block_number,
+                        bool exact_stop_here) {
+    if (tcp_ != Tcp::off) {
+      fail(word, "reference point return in tool-centre-point mode: cancel it first (G49)");
+    }
+    if (const Word* rotary = first_of({abc[0], abc[1], abc[2]})) {
+      fail(*rotary, "rotary axis words in G28 / G30 are not supported");
+    }
+    const bool all = !xyz[0] && !xyz[1] && !xyz[2];
+    const Eigen::Vector3d& reference = g28 ? options_.g28_reference_mm : options_.g30_reference_mm;
+    int block = -1;
+    const std::size_t first_point = path_.points.size();
+    std::array<std::optional<double>, 3> f = position_;
+    Eigen::Vector3d p = from_frame(filled_frame_position());
+    std::array<bool, 3> via{};
+    for (std::size_t k = 0; k < 3; ++k) {
+      if (!xyz[k]) continue;
+      const double v = xyz[k]->value * mm_per_unit_;
+      auto& component = p[static_cast<Eigen::Index>(k)];
+      if (!incremental_) {
+        component = v;
+      } else if (position_[k]) {
+        component += v;
+      } else {
+        continue;
+      }
+      via[k] = true;
+    }
+    const Eigen::Vector3d f_via = to_frame(p);
+    for (std::size_t k = 0; k < 3; ++k) {
+      if (via[k]) f[k] = f_via[static_cast<Eigen::Index>(k)];
+    }
+    rapid_to_frame(f, block, block_number);
+    for (std::size_t k = 0; k < 3; ++k) {
+      if (all || xyz[k]) f[k] = reference[static_cast<Eigen::Index>(k)];
+    }
+    rapid_to_frame(f, block, block_number);
+    finish_block_points(first_point, exact_stop_here);
+    position_ = f;
+  }
+
+  /// G80, or a cycle started anew: the hole data (R, bottom, Q) and the initial level go.
+  void end_cycle() {
+    cycle_initial_known_ = false;
+    cycle_r_mm_.reset();
+    cycle_bottom_mm_.reset();
+    cycle_q_mm_.reset();
+  }
+
+  void canned_cycle(const std::array<const Word*, 3>& xyz, const std::array<const Word*, 3>& ijk,
+                    const Word* r_word, const Word* q_word, const Word* l_word,
+                    long block_number, const Word& reported) {
+    const auto [u, v, w] = plane_axes(plane_);
+    const int code = *motion_;
+    if (const Word* extra = first_of({ijk[0], ijk[1]})) {
+      fail(*extra, "I J have no meaning in a canned cycle");
+    }
+    const Word* k_word = ijk[2];
+    if (k_word && l_word) fail(*l_word, "both K and L (repeats) in one block");
+    const Word* repeat_word = k_word ? k_word : l_word;
+    long repeats = 1;
+    if (repeat_word) {
+      require_within(*repeat_word, repeat_word->value, 0.0, 1e6, "repeat count", "");
+      if (repeat_word->value != std::round(repeat_word->value)) {
+        fail(*repeat_word, "the repeat count must be a whole number");
+      }
+      repeats = std::lround(repeat_word->value);
+    }
+    if (inverse_time_) fail(reported, "canned cycles under G93 (inverse time) are not supported");
+    if (!feed_m_per_s_) fail(reported, "canned cycle before any F word: the feed is unknown");
+    if (tcp_ != Tcp::off && axis_W_ != Eigen::Vector3d::UnitZ()) {
+      fail(reported, "canned cycles with a tilted tool axis are not supported");
+    }
+    // Hole data are modal while the cycle is: R, the bottom and Q stay for the next holes.
+    const Word* bottom_word = xyz[static_cast<std::size_t>(w)];
+    if (r_word) cycle_r_mm_ = r_word->value * mm_per_unit_;
+    if (bottom_word) cycle_bottom_mm_ = bottom_word->value * mm_per_unit_;
+    if (q_word) cycle_q_mm_ = std::abs(q_word->value) * mm_per_unit_;
+    const std::string axis_name(1, "XYZ"[w]);
+    if (!cycle_r_mm_) fail(reported, "canned cycle without its R level");
+    if (!cycle_bottom_mm_) fail(reported, "canned cycle without its hole bottom (" + axis_name + ")");
+    if ((code == 73 || code == 83) && !(cycle_q_mm_ && *cycle_q_mm_ > 0.0)) {
+      fail(q_word ? *q_word : reported, "G" + std::to_string(code) + " needs a peck depth Q > 0");
+    }
+    if (!started_) fail(reported, "a canned cycle as the first motion: its start point is unknown");
+
+    Eigen::Vector3d p = from_frame(known_frame_position(no_words(), true));
+    if (!cycle_initial_known_) {
+      cycle_initial_mm_ = p[w];
+      cycle_initial_known_ = true;
+    }
+    detail::CycleHole hole;
+    hole.code = code;
+    hole.u = u;
+    hole.v = v;
+    hole.w = w;
+    hole.initial_mm = cycle_initial_mm_;
+    hole.r_mm = incremental_ ? cycle_initial_mm_ + *cycle_r_mm_ : *cycle_r_mm_;
+    hole.bottom_mm = incremental_ ? hole.r_mm + *cycle_bottom_mm_ : *cycle_bottom_mm_;
+    hole.return_to_initial = return_to_initial_;
+    hole.peck_mm = cycle_q_mm_.value_or(0.0);
+    hole.peck_clearance_mm = options_.peck_clearance_mm;
+    hole.peck_retract_mm = options_.peck_retract_mm;
+    hole.shift_mm = code == 76 ? cycle_q_mm_.value_or(0.0) : 0.0;
+    if (!(options_.fine_boring_shift_direction.norm() > 0.0) ||
+        !options_.fine_boring_shift_direction.allFinite()) {
+      throw InputError("ReaderOptions::fine_boring_shift_direction must be a non-zero direction");
+    }
+    hole.shift_direction = options_.fine_boring_shift_direction.normalized();
+    if (!(hole.bottom_mm < hole.r_mm)) {
+      fail(bottom_word ? *bottom_word : reported,
+           "the hole bottom " + axis_name + detail::format_number(hole.bottom_mm) +
+               " mm is not below the R level " + detail::format_number(hole.r_mm) + " mm");
+    }
+    // Points before they are made: a tiny Q would peck millions of times.
+    const double pecks = (code == 73 || code == 83)
+                             ? std::ceil((hole.r_mm - hole.bottom_mm) / hole.peck_mm)
+                             : 1.0;
+    const double estimate = static_cast<double>(repeats) * (3.0 * pecks + 6.0);
+    const std::string what = "the canned cycle G" + std::to_string(code) + " (" +
+                             detail::format_number(static_cast<double>(repeats)) + " holes)";
+    if (!(estimate <= static_cast<double>(options_.max_points_per_block))) {
+      fail(reported, what + " expands to about " + detail::format_number(estimate) +
+                         " points, more than the limit of " +
+                         std::to_string(options_.max_points_per_block) +
+                         " points per block (ReaderOptions::max_points_per_block)");
+    }
+    detail::require_room_for_points(path_, static_cast<std::size_t>(estimate), options_, file_,
+                                    line_, reported.column, what);
+    const int block = add_source_block(block_number);
+    for (long repeat = 0; repeat < repeats; ++repeat) {
+      hole.hole_mm = p;
+      for (const int k : {u, v}) {
+        const Word* word = xyz[static_cast<std::size_t>(k)];
+        if (!word) continue;
+        const double value = word->value * mm_per_unit_;
+        hole.hole_mm[k] = incremental_ ? p[k] + value : value;
+        require_within(*word, hole.hole_mm[k], -detail::kMaxCoordinateMm,
+                       detail::kMaxCoordinateMm, "position", "mm");
+      }
+      for (const detail::CycleMove& move : detail::expand_cycle(p, hole)) {
+        PathPoint point = new_point(move.rapid ? MotionKind::rapid : MotionKind::linear);
+        if (!move.rapid) point.feed_m_per_s = *feed_m_per_s_;
+        point.corner_tolerance_m = 0.0;  // the control stops at each level of a cycle
+        point.block = block;
+        point.rotary_words_deg = rotary_words_deg(rotary_deg_);
+        set_pose(point, to_frame(move.p_mm), rotary_deg_);
+        detail::append_point(path_, point, options_, file_, line_);
+        p = move.p_mm;
+      }
+    }
+    const Eigen::Vector3d f = to_frame(p);
+    for (std::size_t k = 0; k < 3; ++k) position_[k] = f[static_cast<Eigen::Index>(k)];
   }
 
   void set_once(const Word*& slot, const Word& word) const {
@@ -534,20 +1174,22 @@ class GcodeReader {
     }
   }
 
-  /// The current position [mm]; an axis not programmed yet is taken as 0, with a warning
-  /// unless this block gives its absolute position.
-  Eigen::Vector3d known_position(const std::array<const Word*, 3>& xyz) {
-    Eigen::Vector3d p;
+  /// The current frame position [mm]; an axis not programmed yet is taken at the program's 0,
+  /// with a warning unless this block gives its absolute position.
+  Eigen::Vector3d known_frame_position(const std::array<const Word*, 3>& xyz, bool absolute) {
+    const Eigen::Vector3d zero = to_frame(Eigen::Vector3d::Zero());
+    Eigen::Vector3d f;
     for (std::size_t k = 0; k < 3; ++k) {
-      if (!position_mm_[k] && xyz[k] && !incremental_) position_mm_[k] = 0.0;
-      if (!position_mm_[k]) {
-        warn(std::string("axis ") + "XYZ"[k] +
-             " has no programmed position before this motion: taken as 0");
-        position_mm_[k] = 0.0;
+      if (!position_[k]) {
+        if (!(xyz[k] && absolute)) {
+          warn(std::string("axis ") + "XYZ"[k] +
+               " has no programmed position before this motion: taken as 0");
+        }
+        position_[k] = zero[static_cast<Eigen::Index>(k)];
       }
-      p[static_cast<Eigen::Index>(k)] = *position_mm_[k];
+      f[static_cast<Eigen::Index>(k)] = *position_[k];
     }
-    return p;
+    return f;
   }
 
   using RotaryDeg = std::array<std::optional<double>, 3>;
@@ -591,18 +1233,13 @@ class GcodeReader {
                                   line_text_ + " (through rotary_words_to_tool_axis)");
   }
 
-  /// The tool pose of program position p_mm under the current mode.
-  void set_pose(PathPoint& point, const Eigen::Vector3d& p_mm) const {
-    set_pose(point, p_mm, rotary_deg_);
-  }
-
-  /// The tool pose of program position p_mm and rotary words `rotary_deg` (which give the tool
-  /// axis under G43.4 / TRAORI only when `axis_from_rotary`).
-  void set_pose(PathPoint& point, const Eigen::Vector3d& p_mm, const RotaryDeg& rotary_deg,
+  /// The tool pose of frame position f_mm (see "Coordinate systems") and rotary words
+  /// `rotary_deg` (which give the tool axis under G43.4 / TRAORI only when `axis_from_rotary`).
+  void set_pose(PathPoint& point, const Eigen::Vector3d& f_mm, const RotaryDeg& rotary_deg,
                 bool axis_from_rotary = false) const {
     if (tcp_ == Tcp::off && options_.axis_words_to_pose) {
-      std::vector<std::pair<char, double>> words = {{'X', p_mm.x()}, {'Y', p_mm.y()},
-                                                    {'Z', p_mm.z()}};
+      std::vector<std::pair<char, double>> words = {{'X', f_mm.x()}, {'Y', f_mm.y()},
+                                                    {'Z', f_mm.z()}};
       for (const auto& w : rotary_words(rotary_deg)) words.push_back(w);
       const AxisWordPose pose =
           located_call("axis_words_to_pose", [&] { return options_.axis_words_to_pose(words); });
@@ -614,7 +1251,16 @@ class GcodeReader {
                                             line_text_ + " (through axis_words_to_pose)");
       return;
     }
-    point.tip_W_m = p_mm * kMetresPerMillimetre;
+    if (tcp_ == Tcp::off) {
+      // No machine: the machine axes move the spindle gauge point; the tool under G43 is as long
+      // as its H says, so the tip is the gauge point less that length along +Z.
+      const Eigen::Vector3d gauge_mm = f_mm - Eigen::Vector3d(0.0, 0.0, h_mm_);
+      point.tip_W_m = (options_.machine_axes_W * gauge_mm + options_.machine_zero_W_mm) *
+                      kMetresPerMillimetre;
+      point.axis_W = axis_W_;
+      return;
+    }
+    point.tip_W_m = f_mm * kMetresPerMillimetre;
     point.axis_W = axis_from_rotary ? tool_axis_of(rotary_words(rotary_deg), 0) : axis_W_;
   }
 
@@ -634,7 +1280,7 @@ class GcodeReader {
       }
     }
     if (largest_turn_deg < kSplitRotaryTurnDeg) {
-      set_pose(point, end_mm);
+      set_pose(point, end_mm, rotary_deg_);
       detail::append_point(path_, point, options_, file_, line_);
       return;
     }
@@ -647,7 +1293,7 @@ class GcodeReader {
     // The programmed end first: a caller's check of the words (the axis travel) then names the
     // words as written; the steps between lie between the start and the end.
     PathPoint end_point = point;
-    set_pose(end_point, end_mm);
+    set_pose(end_point, end_mm, rotary_deg_);
     for (std::size_t k = 1; k < steps; ++k) {
       const double t = static_cast<double>(k) / static_cast<double>(steps);
       const Eigen::Vector3d p_mm = start_mm + t * (end_mm - start_mm);
@@ -661,6 +1307,28 @@ class GcodeReader {
       detail::append_point(path_, point, options_, file_, line_);
     }
     detail::append_point(path_, end_point, options_, file_, line_);
+  }
+
+  /// A length [mm] for a message, to the nanometre (0.02, not 0.019999999999999574).
+  static std::string format_mm(double value_mm) {
+    return detail::format_number(std::round(value_mm * 1e6) / 1e6);
+  }
+
+  /// The largest start/end radius difference accepted for an arc of radius r_mm [mm].
+  double arc_radius_tolerance_mm(double r_mm) const {
+    const double absolute_mm = mm_per_unit_ == 1.0
+                                   ? options_.arc_radius_tolerance_mm
+                                   : options_.arc_radius_tolerance_inch * kMillimetresPerInch;
+    return std::max(absolute_mm, options_.arc_radius_relative_tolerance * r_mm);
+  }
+  std::string arc_tolerance_source() const {
+    const std::string absolute =
+        mm_per_unit_ == 1.0 ? format_mm(options_.arc_radius_tolerance_mm) + " mm"
+                            : format_mm(options_.arc_radius_tolerance_inch) + " inch";
+    return " (the larger of " + absolute + " and " +
+           detail::format_number(options_.arc_radius_relative_tolerance * 100.0) +
+           " % of the radius: ReaderOptions::arc_radius_tolerance_mm / _inch / "
+           "arc_radius_relative_tolerance)";
   }
 
   void arc_points(PathPoint point, const Eigen::Vector3d& start_mm, const Eigen::Vector3d& end_mm,
@@ -687,7 +1355,18 @@ class GcodeReader {
         const Word* word = ijk[static_cast<std::size_t>(axis)];
         return word ? word->value * mm_per_unit_ : 0.0;
       };
-      c = s + Eigen::Vector2d(offset(u), offset(v));
+      if (arc_centre_incremental_) {
+        c = s + Eigen::Vector2d(offset(u), offset(v));
+      } else {
+        // G90.1: I J K are the centre in program coordinates.
+        for (const int axis : {u, v}) {
+          if (!ijk[static_cast<std::size_t>(axis)]) {
+            fail(reported, std::string("under G90.1 (absolute arc centres) the arc needs both "
+                                       "centre words of the ") + plane_name(plane_) + " plane");
+          }
+        }
+        c = Eigen::Vector2d(offset(u), offset(v));
+      }
       full_circle = (e - s).norm() < kFullCircleDistanceMm;
     } else {
       const double r = std::abs(r_word->value) * mm_per_unit_;
@@ -698,9 +1377,13 @@ class GcodeReader {
       if (r == 0.0) fail(*r_word, "zero arc radius");
       double h2 = r * r - 0.25 * d * d;
       if (h2 < 0.0) {
-        if (0.5 * d - r > std::max(kArcRadiusToleranceMm, kArcRadiusRelativeTolerance * r)) {
+        const double tolerance_mm = arc_radius_tolerance_mm(0.5 * d);
+        if (0.5 * d - r > tolerance_mm) {
           fail(*r_word, "the radius is smaller than half the distance from start to end (" +
-                            std::to_string(0.5 * d) + " mm)");
+                            format_mm(0.5 * d) + " mm) by " + format_mm(0.5 * d - r) +
+                            " mm, more than the tolerance of " + format_mm(tolerance_mm) +
+                            " mm" +
+                            arc_tolerance_source());
         }
         h2 = 0.0;
       }
@@ -711,15 +1394,28 @@ class GcodeReader {
       const double side = (ccw ? 1.0 : -1.0) * (r_word->value > 0.0 ? 1.0 : -1.0);
       c = 0.5 * (s + e) + side * std::sqrt(h2) * left;
     }
-    const double r_start = (s - c).norm();
-    const double r_end = (e - c).norm();
+    double r_start = (s - c).norm();
+    double r_end = (e - c).norm();
     if (r_start == 0.0) fail(reported, "an arc of zero radius (the centre is the start point)");
-    const double radius_tolerance =
-        std::max(kArcRadiusToleranceMm, kArcRadiusRelativeTolerance * std::max(r_start, r_end));
+    const double radius_tolerance = arc_radius_tolerance_mm(std::max(r_start, r_end));
     if (std::abs(r_start - r_end) > radius_tolerance) {
-      fail(reported, "the arc's start and end are not at the same distance from its centre "
-                     "(start radius " + std::to_string(r_start) + " mm, end radius " +
-                         std::to_string(r_end) + " mm)");
+      fail(reported, "the arc's start and end are not at the same distance from its centre: "
+                     "the radii differ by " + format_mm(std::abs(r_start - r_end)) +
+                         " mm (start radius " + format_mm(r_start) +
+                         " mm, end radius " + format_mm(r_end) +
+                         " mm), more than the tolerance of " + format_mm(radius_tolerance) +
+                         " mm" +
+                         arc_tolerance_source());
+    }
+    if (!full_circle && r_start != r_end) {
+      // Within the tolerance the control moves the centre onto the perpendicular bisector of
+      // start and end (the nearest such point), so that the arc is a circle through both.
+      const Eigen::Vector2d chord = (e - s).normalized();
+      const Eigen::Vector2d normal(-chord.y(), chord.x());
+      const Eigen::Vector2d middle = 0.5 * (s + e);
+      c = middle + (c - middle).dot(normal) * normal;
+      r_start = (s - c).norm();
+      r_end = r_start;
     }
     const double a0 = std::atan2(s.y() - c.y(), s.x() - c.x());
     const double a1 = std::atan2(e.y() - c.y(), e.x() - c.x());
@@ -772,7 +1468,7 @@ class GcodeReader {
         p_mm[v] = c.y() + r * std::sin(angle);
         p_mm[w] = start_mm[w] + t * (end_mm[w] - start_mm[w]);
       }
-      set_pose(point, p_mm);
+      set_pose(point, to_frame(p_mm), rotary_deg_);
       detail::append_point(path_, point, options_, file_, line_);
     }
   }
@@ -787,14 +1483,36 @@ class GcodeReader {
   int warning_count_ = 0;
 
   // Modal state.
-  std::optional<int> motion_;
+  std::optional<int> motion_;  // 0 1 2 3, or a canned cycle 73 74 81 .. 89
+  bool arc_centre_incremental_ = true;  // G91.1 (else G90.1)
+  bool return_to_initial_ = true;       // G98 (else G99)
+  std::optional<double> cycle_r_mm_, cycle_bottom_mm_, cycle_q_mm_;
+  bool cycle_initial_known_ = false;
+  double cycle_initial_mm_ = 0.0;
+  // Coordinate systems.
+  std::map<std::string, Eigen::Vector3d> offsets_mm_;
+  bool implicit_g54_ = true;
+  ActiveOffset offset_;
+  Eigen::Vector3d g52_mm_ = Eigen::Vector3d::Zero();
+  Eigen::Vector3d g92_mm_ = Eigen::Vector3d::Zero();
+  bool rotation_ = false;
+  Plane rotation_plane_ = Plane::xy;
+  Eigen::Vector2d rotation_centre_mm_ = Eigen::Vector2d::Zero();
+  double rotation_rad_ = 0.0;
+  bool g43_ = false;
+  double h_mm_ = 0.0;  // G43 tool length in force (outside tool-centre-point mode)
+  std::map<int, double> tool_length_mm_;
+  // Tools and path control.
+  std::optional<int> next_tool_;
+  int tool_number_ = -1;
+  double corner_tolerance_m_ = PathPoint::kNotProgrammed;
   Plane plane_ = Plane::xy;
   double mm_per_unit_ = 1.0;
   bool incremental_ = false;
   bool inverse_time_ = false;
   Tcp tcp_ = Tcp::off;
   std::optional<double> feed_m_per_s_;
-  std::array<std::optional<double>, 3> position_mm_;
+  std::array<std::optional<double>, 3> position_;  // frame position [mm]
   std::array<std::optional<double>, 3> rotary_deg_;
   Eigen::Vector3d axis_W_ = Eigen::Vector3d::UnitZ();
 };

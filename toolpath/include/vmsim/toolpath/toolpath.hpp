@@ -22,7 +22,8 @@
 //    reached incrementally); rotary words |A B C| <= 1e6 deg; feed 1e-3 .. 1e6 mm/min; G93
 //    inverse time 1e-3 .. 1e4 1/min; CUTTER diameter 1e-3 .. 1e4 mm, corner radius 0 .. d/2;
 //    spindle speed (APT SPINDL, G-code S) |S| <= 1e6 rev/min; APT tolerances (INTOL OUTTOL TOLER
-//    LINTOL) |t| <= 1e3 mm; N O T H D M P and G4 dwell values 0 .. 1e9; G numbers 0 .. 1000.
+//    LINTOL) and G187 E |t| <= 1e3 mm; N O T H D L M P and G4 dwell values 0 .. 1e9; G numbers
+//    0 .. 1000; canned cycle repeats 0 .. 1e6.
 //  - Size: a file of at most 1 GiB, a G-code block of at most 64 words, an APT record of at
 //    most 4 MiB (continuations joined). Expansion: ReaderOptions::max_points_per_block (an arc's
 //    tessellation, a long rotary turn's steps) and max_path_points (the whole path), checked
@@ -60,50 +61,111 @@
 //  - Words: a letter and a decimal number (X10 is 10 mm: decimal-point programming), Siemens
 //    `X=10` and extended addresses `A3=0.5`; comments `( ... )` and after `;`; `%` lines and O
 //    program numbers skipped; N is kept as SourceBlock::block_number; a block starting with `/`
-//    (block delete) is skipped with a warning. S T H D words and M codes are accepted and
-//    ignored, except M2/M30 (end of program: the rest of the file is not read) and M98/M99
-//    (error). An address twice in one block is an error.
+//    (block delete) is skipped with a warning. S and D words are accepted and ignored; M2/M30
+//    end the program (the rest of the file is not read); M98/M99 are an error (subprograms are
+//    expanded before this reader); other M codes are ignored. An address twice in one block is
+//    an error.
 //  - G0 G1 G2 G3 (modal; an axis word before any of them is an error), G17/G18/G19 planes
 //    (arcs turn in (X,Y), (Z,X), (Y,Z); G3 is counter-clockwise seen from the plane normal +Z,
-//    +Y, +X), G20/G21 inch/mm (lengths and F), G90/G91 absolute/incremental (X Y Z A B C; arc
-//    centres I J K are always incremental from the start point), G93/G94 inverse-time (F in 1/min,
-//    needed in every G1/G2/G3 block, stored as inverse_time_feed_per_s; an arc tessellated into
-//    n segments gives each n*F) / per-minute feed, F modal under G94 and > 0.
-//  - Arcs: I J K (centre offset) or R (R < 0: the arc of more than 180 deg); I J K with the end
-//    point equal to the start: a full circle (R cannot program one); motion along the plane
-//    normal makes a helix. Tessellated into MotionKind::arc points with chord error (in the arc
-//    plane) <= ReaderOptions::arc_chord_tolerance_m; the last point is the programmed end point.
-//    Start and end radii differing by more than max(1e-3 mm, 1e-6 r) is an error naming the
-//    block. An arc as the very first motion (unknown start) is an error. G2/G3 cannot change the
-//    tool orientation.
-//  - Before the first motion, an axis not yet programmed is taken as 0, with a warning.
-//  - Tool-centre-point programming (X Y Z are the tool tip in W): Fanuc G43.4 (tool axis from
-//    rotary words A B C through ReaderOptions::rotary_words_to_tool_axis), G43.5 (tool vector
-//    I J K on G0/G1 blocks), G49 cancels; Siemens TRAORI (tool vector A3= B3= C3=, or rotary
-//    words through rotary_words_to_tool_axis), TRAFOOF cancels. In a tool vector, a component
-//    left out of a block that gives another is 0; a block giving none keeps the current axis.
-//    Rotary words without the callback are an error that says a machine is needed.
+//    +Y, +X), G20/G21 inch/mm (lengths and F), G90/G91 absolute/incremental (X Y Z A B C),
+//    G91.1 (default) / G90.1 arc centres I J K incremental from the start / absolute in program
+//    coordinates, G93/G94 inverse-time (F in 1/min, needed in every G1/G2/G3 block, stored as
+//    inverse_time_feed_per_s; an arc tessellated into n segments gives each n*F) / per-minute
+//    feed, F modal under G94 and > 0.
+//  - Arcs: I J K (centre) or R (R < 0: the arc of more than 180 deg); I J K with the end point
+//    equal to the start: a full circle (R cannot program one); motion along the plane normal
+//    makes a helix. Tessellated into MotionKind::arc points with chord error (in the arc plane)
+//    <= ReaderOptions::arc_chord_tolerance_m; the last point is the programmed end point. Start
+//    and end radii may differ by max(arc_radius_tolerance_mm (G21) or _inch (G20),
+//    arc_radius_relative_tolerance * r) (LinuxCNC's defaults: 0.02 sqrt 2 mm, 0.002 sqrt 2
+//    inch, 0.1 %): the centre is then moved to the nearest point of the perpendicular bisector
+//    of start and end (a circle through both, as the control corrects it); beyond, an error
+//    giving both radii, the difference and the tolerance. An R smaller than half the chord by
+//    at most the same tolerance makes a half circle. An arc as the very first motion (unknown
+//    start) is an error. G2/G3 cannot change the tool orientation.
+//  - Coordinate systems (as on a Fanuc control). Outside tool-centre-point mode X Y Z are work
+//    coordinates: the machine axis positions are
+//        machine = work offset + G52 + G92 + G68 rotation(program) + (0, 0, H length under G43),
+//    and the pose comes from them through ReaderOptions::axis_words_to_pose (the machine's
+//    direct kinematics: on a table machine the point turns with the table; the offset does not,
+//    as on a control without dynamic fixture offset). Without a machine the machine axes are W
+//    mapped through machine_axes_W / machine_zero_W_mm (identity) and the tip is the gauge point
+//    less the H length along +Z. Under tool-centre-point mode X Y Z are the tip in the work
+//    system fixed on the table: tip_W = work zero in W + G52 + G92 + rotation(program), where
+//    the work zero in W = machine_axes_W * offset + machine_zero_W_mm. The work offsets
+//    (ReaderOptions::work_offsets_mm) hold the machine axes X Y Z at which the spindle gauge
+//    point is at each work zero (rotary axes at 0); with none given, G54 is the identity (X Y Z
+//    are machine axes outside TCP and W coordinates under it, the meaning before offsets), so
+//    programs and parts without a setup read as before.
+//     - G54-G59, G54.1 P1-P48 select (initial: ReaderOptions::initial_work_offset); one not in
+//       the table is an error naming what is set up. G10 L2 P1-6 / L20 P1-48 X Y Z set an offset
+//       (machine axes, added under G91); G10 L1/L10 P<n> R<length> set a tool length.
+//     - G43 H<n> (H: ReaderOptions::tool_length_mm, else default_tool_length_mm, else an error
+//       naming the H; G43 without H: the tool in the spindle; H0: no length); an H alone changes
+//       the length under G43; G49 cancels G43 / G43.4 / G43.5.
+//     - G53 (one block, G0/G1): X Y Z are machine axis positions. G28 / G30: a rapid to the
+//       intermediate point (the named axes, in program coordinates, G90/G91), then the named
+//       axes (all without any) to ReaderOptions::g28_reference_mm / g30_reference_mm (machine
+//       axes). Before all three axes are known (the usual `G28 G91 Z0` first), G28 and G53 only
+//       record the named axes: the first point comes once all three are known. Both are errors
+//       under tool-centre-point mode; rotary words in G28/G30 are an error.
+//     - G52 X Y Z: local zero (named axes; G52 X0 Y0 Z0 cancels). G92 X Y Z: the current
+//       position becomes the given coordinates; G92.1 cancels. G68 X Y R: rotation by R deg about
+//       (X, Y) (the plane's two axes; omitted: the current position) in the current plane,
+//       applied to absolute and incremental targets and arcs; G69 cancels.
+//     - Changing offset, G52/G92, G43/G49 or G68 does not move the machine: an axis not named in
+//       the next motion stays where it is. Switching into or out of tool-centre-point mode keeps
+//       the program numbers (the reader cannot invert the machine).
+//  - Before the first motion, an axis not yet programmed is taken at the program's 0, with a
+//    warning.
+//  - Canned cycles G73 G74 G76 G81 G82 G83 G84 G85 G86 G89 (modal until G80 or another motion
+//    G-code; X Y the hole, Z the bottom, R the R level, Q the peck, P the dwell (no motion), K or
+//    L repeats, G98 return to the initial level (the drilling axis when the cycle started, or R
+//    if higher) / G99 to R). Incremental: R from the initial level, Z from R, X Y per repeat.
+//    Each hole: up to R first where below it, rapid in the plane to the hole, rapid to R; G81
+//    G82 G86 feed to the bottom; G85 G89 G84 G74 feed to the bottom and back to R; G83 pecks of
+//    Q, each followed by a rapid to R and a rapid back to ReaderOptions::peck_clearance_mm
+//    above the last depth; G73 pecks of Q, each followed by a rapid back-off of
+//    peck_retract_mm; G76 (Fanuc fine boring) feeds to the bottom, shifts by Q along
+//    ReaderOptions::fine_boring_shift_direction, leaves in rapid and shifts back; then the
+//    rapid out. Drilling axis: the plane normal. Every point of a cycle is an exact stop
+//    (corner_tolerance_m 0). G87 (back boring) and G88 (manual retract) are errors.
+//  - Path control into PathPoint::corner_tolerance_m (modal): G61 / G61.1 exact stop 0; G9 exact
+//    stop at the end of its block; G64 P<tol> (program units) its tolerance; G64 without P NaN
+//    (the control's own blending: the part file or command line decides); G5.1 Q1 (R is a
+//    smoothing level, not a length), G05 P10000 and G187 P1-3 without E:
+//    ReaderOptions::contouring_tolerance_m; G187 E<tol> that tolerance; G5.1 Q0, G05 P0, G187
+//    alone: NaN. Points inside a block (arc chords, rotary steps) carry NaN where the mode is an
+//    exact stop (they are no corners of the program).
+//  - Tools: T<n> preselects, M6 puts it in the spindle (in either order in one block; M6 with
+//    no T before is an error); PathPoint::tool_number from then on (-1 before).
+//  - Tool-centre-point programming (X Y Z are the tool tip in the work system): Fanuc G43.4
+//    (tool axis from rotary words A B C through ReaderOptions::rotary_words_to_tool_axis),
+//    G43.5 (tool vector I J K on G0/G1 blocks), G49 cancels; Siemens TRAORI (tool vector A3= B3=
+//    C3=, or rotary words through rotary_words_to_tool_axis), TRAFOOF cancels. In a tool vector,
+//    a component left out of a block that gives another is 0; a block giving none keeps the
+//    current axis. Rotary words without the callback are an error that says a machine is needed.
 //  - Outside tool-centre-point mode: with ReaderOptions::axis_words_to_pose every point (arc
-//    points too) is the pose of the modal machine axes X Y Z [A B C]; without it, X Y Z are the
-//    tool tip and the axis is +Z (a 3-axis program); a rotary word, or a motion after a tilted
-//    TCP axis, is then an error that says a machine is needed.
+//    points too) is the pose of the modal machine axes X Y Z [A B C] (above); without it, the
+//    axis is +Z (a 3-axis program); a rotary word, or a motion after a tilted TCP axis, is then
+//    an error that says a machine is needed.
 //  - Rotary words through a machine (axis words, or G43.4 / TRAORI A B C): each point carries the
 //    words in force (PathPoint::rotary_words_deg), and a point whose words differ from the
 //    previous one's is kept even where its pose is the same (C0 -> C360 is a real turn). A G0/G1
 //    block that turns a word by 180 deg or more is split into equal steps of at most 90 deg in
 //    axis space (as the NC interpolates the axes), since the chain follows poses and the inverse
 //    kinematics takes the nearest solution from one pose to the next.
-//  - Accepted and ignored: G4 dwell (with X or P), G40 G43 G49 G80 G15 G50 G69 G9 G61 G61.1
-//    G64 [P] G98 G99, G54-G59 (taken as placing the workpiece frame W; offsets not applied).
-//    Errors naming the word: G41/G42 cutter compensation, G68 rotation, G51 scaling, G52 G53
-//    G54.1 G92 coordinate changes, G28-G30 reference returns, G16 polar, canned cycles
-//    (G73 G74 G76 G81-G89), any other G-code, and words outside this list (U V W Q L E, P
-//    elsewhere, Siemens keywords other than TRAORI/TRAFOOF).
+//  - Accepted and ignored: G4 dwell (with X or P), G40 G15 G50, G80 (ends a cycle), G8 P1/P0
+//    (look-ahead), the Q of G64 (LinuxCNC's folding of collinear points).
+//    Errors naming the word: G41/G42 cutter compensation, G68.1 3-D rotation, G51 scaling, G16
+//    polar, G87 G88, any other G-code, and words outside this list (U V W, Siemens keywords
+//    other than TRAORI/TRAFOOF); P Q L E where their G-code does not use them.
 #include <Eigen/Core>
 #include <array>
 #include <cstddef>
 #include <limits>
 #include <functional>
+#include <map>
 #include <optional>
 #include <string>
 #include <utility>
@@ -185,6 +247,48 @@ using RotaryWordsToToolAxis =
 struct ReaderOptions {
   /// Largest distance between a G2/G3 arc and the chords it is tessellated into [m].
   double arc_chord_tolerance_m = 0.1e-6;
+  /// G2/G3: the largest difference between the start and the end radius accepted, as on the
+  /// control: the larger of an absolute tolerance (in the program's unit: mm under G21, inch
+  /// under G20) and a relative one (times the radius). The defaults are LinuxCNC's: 0.02 sqrt 2
+  /// mm / 0.002 sqrt 2 inch (an arc whose end points and centre were rounded to 0.01 mm or
+  /// 0.001 inch) and 0.1 %. Within it the centre is moved onto the perpendicular bisector of
+  /// start and end (as Fanuc and Beckhoff controls correct it); beyond it, an error.
+  double arc_radius_tolerance_mm = 0.02 * 1.4142135623730951;
+  double arc_radius_tolerance_inch = 0.002 * 1.4142135623730951;
+  double arc_radius_relative_tolerance = 1e-3;
+
+  /// Work offsets (G54-G59, G54.1 P1-P48): for each, the machine axis positions X Y Z [mm] at
+  /// which the spindle gauge point (tool length 0) is at the work zero with the rotary axes at
+  /// 0 (what the control's offset table holds). Keys "G54" ... "G59", "G54.1 P1" ...
+  /// "G54.1 P48". Empty: G54 is the identity (X Y Z outside tool-centre-point mode are machine
+  /// axis positions, under it W coordinates: the meaning before work offsets existed) and every
+  /// other offset is an error.
+  std::map<std::string, Eigen::Vector3d> work_offsets_mm;
+  /// The offset in force at the start of the program (a key of work_offsets_mm, or "G54").
+  std::string initial_work_offset = "G54";
+  /// Machine axis positions to W with the rotary axes at 0, for the spindle gauge point:
+  /// p_W_mm = machine_axes_W * axes_mm + machine_zero_W_mm (identity without a machine). Gives
+  /// where a work zero lies in W, the origin of tool-centre-point programs.
+  Eigen::Matrix3d machine_axes_W = Eigen::Matrix3d::Identity();
+  Eigen::Vector3d machine_zero_W_mm = Eigen::Vector3d::Zero();
+  /// G28 / G30 reference points in machine axis positions X Y Z [mm].
+  Eigen::Vector3d g28_reference_mm = Eigen::Vector3d::Zero();
+  Eigen::Vector3d g30_reference_mm = Eigen::Vector3d::Zero();
+  /// Tool lengths by H (and T) number [mm], for G43 H<n>; a number not in the table takes
+  /// default_tool_length_mm where given, else is an error.
+  std::map<int, double> tool_length_mm;
+  std::optional<double> default_tool_length_mm;
+  /// Canned cycles: G83 stops this far [mm] above the previous peck's depth before feeding on;
+  /// G73 backs off this far [mm] after each peck (Fanuc parameters 5115 and 5114, machine
+  /// dependent).
+  double peck_clearance_mm = 0.1;
+  double peck_retract_mm = 0.1;
+  /// G76 fine boring: the direction of the shift Q at the bottom, in the plane's axes (u, v) =
+  /// (X, Y) under G17 (Fanuc parameter 5101 RD1/RD2, set on the machine); made unit.
+  Eigen::Vector2d fine_boring_shift_direction = Eigen::Vector2d::UnitX();
+  /// The corner tolerance [m] of high-precision contouring where the program gives none
+  /// (G5.1 Q1, G05 P10000, G187 without E): an assumption, 10 um.
+  double contouring_tolerance_m = 0.01e-3;
   /// Needed only for files that program machine axes with rotary words outside tool-centre-point
   /// mode; without it such a file is an error that says so.
   AxisWordsToPose axis_words_to_pose;
