@@ -113,6 +113,12 @@ void apply_machine_setup(const kinematics::MachineModel& machine,
       reader.g28_reference_mm[static_cast<Eigen::Index>(k)] = home[linear[k]] * 1e3;
     }
     reader.g30_reference_mm = reader.g28_reference_mm;
+    for (std::size_t k = 0; k < 3; ++k) {  // rotary axes named in G28 / G30 go home
+      const int rotary = machine.axis_index(std::string(1, "ABC"[k]));
+      if (rotary >= 0 && machine.axes[static_cast<std::size_t>(rotary)].type == kinematics::AxisType::rotary) {
+        reader.rotary_reference_deg[k] = home[rotary] * 180.0 / std::numbers::pi;
+      }
+    }
     reader.machine_axes_W = axes_W;
     reader.machine_zero_W_mm = zero_W_mm;
   }

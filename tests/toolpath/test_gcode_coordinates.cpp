@@ -6,6 +6,8 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <filesystem>
+#include <fstream>
 #include <numbers>
 #include <string>
 #include <vector>
@@ -402,6 +404,65 @@ TEST(GcodePosted, AFusionStyleProgramGivesTheTipPositionsOfTheControl) {
   expect_vector(tips[arc_end + 2], {126.665, 210, -285}, 1e-9);
   expect_vector(tips.back(), {126.665, 210, 420}, 1e-9);  // N95: Z to the reference
   for (const PathPoint& point : path.points) EXPECT_EQ(point.tool_number, 1);
+}
+
+}  // namespace
+}  // namespace vmsim::toolpath
+
+namespace vmsim::toolpath {
+namespace {
+
+// Found by the posted corpus (tests/data/posted): Fusion 360 posts `G80` then `Z15.`, and
+// Mastercam ends 4- and 5-axis programs with `G28 X0. Y0. A0.`.
+TEST(GcodePostedForms, AfterG80TheMotionModeBeforeTheCycleIsBack) {
+  const Toolpath path = parse_gcode(
+      "G21 G90 G17\nG0 X0 Y0 Z10\nG98 G81 X5 Y0 Z-2 R2 F100\nX10\nG80\nZ15.\n", "drill.nc");
+  const PathPoint& last = path.points.back();
+  EXPECT_EQ(last.kind, MotionKind::rapid);  // the G0 before the cycle
+  EXPECT_NEAR(last.tip_W_m.x(), 10e-3, 1e-12);
+  EXPECT_NEAR(last.tip_W_m.z(), 15e-3, 1e-12);
+  // Without a motion mode before the cycle, an axis word after G80 is still an error.
+  EXPECT_THROW(parse_gcode("G21 G90 G17 G98 G81 X5 Y0 Z-2 R2 F100\nG80\nZ15.\n", "drill.nc"), InputError);
+}
+
+TEST(GcodePostedForms, RotaryWordsInG28GoToTheIntermediateThenTheReference) {
+  ReaderOptions options;
+  // Machine axes X Y Z A: the pose turns the tool axis about X by A (a hand-made table).
+  options.axis_words_to_pose = [](const std::vector<std::pair<char, double>>& words) {
+    Eigen::Vector3d tip = Eigen::Vector3d::Zero();
+    double a_deg = 0;
+    for (const auto& [letter, value] : words) {
+      if (letter == 'X') tip.x() = value * 1e-3;
+      if (letter == 'Y') tip.y() = value * 1e-3;
+      if (letter == 'Z') tip.z() = value * 1e-3;
+      if (letter == 'A') a_deg = value;
+    }
+    const double a = a_deg * 3.14159265358979323846 / 180;
+    return AxisWordPose{tip, Eigen::Vector3d(0, -std::sin(a), std::cos(a))};
+  };
+  options.g28_reference_mm = Eigen::Vector3d(0, 0, -1);
+  options.rotary_reference_deg = {5.0, 0.0, 0.0};
+  const Toolpath path =
+      parse_gcode("G21 G90\nG0 X10 Y20 Z30 A30\nG28 X0. Y0. A0.\n", "end.nc", options);
+  ASSERT_GE(path.points.size(), 3u);
+  const PathPoint& via = path.points[path.points.size() - 2];
+  const PathPoint& reference = path.points.back();
+  EXPECT_NEAR(via.rotary_words_deg[0], 0.0, 1e-12);  // the intermediate A0.
+  EXPECT_NEAR(via.tip_W_m.x(), 0.0, 1e-12);
+  EXPECT_NEAR(via.tip_W_m.z(), 30e-3, 1e-12);         // Z not named: stays
+  EXPECT_NEAR(reference.rotary_words_deg[0], 5.0, 1e-12);  // A's reference
+  EXPECT_NEAR(reference.tip_W_m.z(), 30e-3, 1e-12);
+}
+
+TEST(GcodePostedForms, NxAndOtherPostExtensionsAreGcode) {
+  for (const char* extension : {".ptp", ".eia", ".cnc"}) {
+    const auto folder = std::filesystem::temp_directory_path() / "vmsim_posted_extension";
+    std::filesystem::create_directories(folder);
+    const auto file = folder / (std::string("program") + extension);
+    std::ofstream(file) << "G21 G90\nG0 X1 Y2 Z3\nG1 X4 F100\n";
+    EXPECT_EQ(read_toolpath(file.string()).points.size(), 2u) << extension;
+    std::filesystem::remove_all(folder);
+  }
 }
 
 }  // namespace

@@ -474,11 +474,16 @@ class GcodeReader {
     if (offset_word) select_offset(*offset_word, offset_name, p_word);
     if (path_word) set_path_mode(*path_word, path_code, p_word, q_word, r_word, e_word);
     if (cancel_cycle_word) {
-      if (!motion && motion_ && *motion_ >= 70) motion_.reset();
+      // As on a Fanuc: the cycles are a modal group of their own, so G80 gives back the G0 / G1
+      // in force before the cycle (Fusion 360 posts `G80` then `Z15.`).
+      if (!motion && motion_ && *motion_ >= 70) motion_ = motion_before_cycle_;
       end_cycle();
     }
     if (motion) {
-      if (*motion >= 70 && !(motion_ && *motion_ >= 70)) end_cycle();
+      if (*motion >= 70 && !(motion_ && *motion_ >= 70)) {
+        end_cycle();
+        motion_before_cycle_ = motion_;
+      }
       motion_ = motion;
     }
 
@@ -989,10 +994,16 @@ class GcodeReader {
     if (tcp_ != Tcp::off) {
       fail(word, "reference point return in tool-centre-point mode: cancel it first (G49)");
     }
-    if (const Word* rotary = first_of({abc[0], abc[1], abc[2]})) {
-      fail(*rotary, "rotary axis words in G28 / G30 are not supported");
+    // Rotary words (Mastercam's `G28 X0. Y0. A0.`): the named rotary axes go to the word's
+    // value (the intermediate position) with the linear axes, then to their reference.
+    RotaryDeg rotary_reference = rotary_deg_;
+    for (std::size_t k = 0; k < 3; ++k) {
+      if (!abc[k]) continue;
+      const double previous = rotary_deg_[k].value_or(0.0);
+      rotary_deg_[k] = incremental_ ? previous + abc[k]->value : abc[k]->value;
+      rotary_reference[k] = options_.rotary_reference_deg[k];
     }
-    const bool all = !xyz[0] && !xyz[1] && !xyz[2];
+    const bool all = !xyz[0] && !xyz[1] && !xyz[2] && !abc[0] && !abc[1] && !abc[2];
     const Eigen::Vector3d& reference = g28 ? options_.g28_reference_mm : options_.g30_reference_mm;
     int block = -1;
     const std::size_t first_point = path_.points.size();
@@ -1020,6 +1031,7 @@ class GcodeReader {
     for (std::size_t k = 0; k < 3; ++k) {
       if (all || xyz[k]) f[k] = reference[static_cast<Eigen::Index>(k)];
     }
+    rotary_deg_ = rotary_reference;
     rapid_to_frame(f, block, block_number);
     finish_block_points(first_point, exact_stop_here);
     position_ = f;
@@ -1484,6 +1496,7 @@ class GcodeReader {
 
   // Modal state.
   std::optional<int> motion_;  // 0 1 2 3, or a canned cycle 73 74 81 .. 89
+  std::optional<int> motion_before_cycle_;  // the G0 .. G3 a cycle interrupted (back after G80)
   bool arc_centre_incremental_ = true;  // G91.1 (else G90.1)
   bool return_to_initial_ = true;       // G98 (else G99)
   std::optional<double> cycle_r_mm_, cycle_bottom_mm_, cycle_q_mm_;

@@ -14,14 +14,16 @@ Toolpath read_toolpath(const std::string& path, const ReaderOptions& options) {
   if (extension == ".apt" || extension == ".cl" || extension == ".cls") {
     return read_apt(path, options);
   }
+  // .ptp: NX Post Builder's default; .eia .cnc: other posts' names for ISO programs.
   if (extension == ".nc" || extension == ".ngc" || extension == ".gcode" || extension == ".mpf" ||
-      extension == ".tap" || extension == ".iso") {
+      extension == ".tap" || extension == ".iso" || extension == ".ptp" || extension == ".eia" ||
+      extension == ".cnc") {
     return read_gcode(path, options);
   }
   throw InputError(located_message(
       path, 0, 0,
       "unknown tool path extension '" + extension +
-          "': use .apt/.cl/.cls for APT/CL or .nc/.ngc/.gcode/.mpf/.tap/.iso for G-code"));
+          "': use .apt/.cl/.cls for APT/CL or .nc/.ngc/.gcode/.mpf/.tap/.iso/.ptp/.eia/.cnc for G-code"));
 }
 
 }  // namespace vmsim::toolpath

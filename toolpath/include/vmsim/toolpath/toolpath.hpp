@@ -108,7 +108,8 @@
 //       axes (all without any) to ReaderOptions::g28_reference_mm / g30_reference_mm (machine
 //       axes). Before all three axes are known (the usual `G28 G91 Z0` first), G28 and G53 only
 //       record the named axes: the first point comes once all three are known. Both are errors
-//       under tool-centre-point mode; rotary words in G28/G30 are an error.
+//       under tool-centre-point mode. Rotary words in G28/G30 (`G28 X0. Y0. A0.`) move those
+//       axes to the word (the intermediate position), then to ReaderOptions::rotary_reference_deg.
 //     - G52 X Y Z: local zero (named axes; G52 X0 Y0 Z0 cancels). G92 X Y Z: the current
 //       position becomes the given coordinates; G92.1 cancels. G68 X Y R: rotation by R deg about
 //       (X, Y) (the plane's two axes; omitted: the current position) in the current plane,
@@ -119,7 +120,8 @@
 //  - Before the first motion, an axis not yet programmed is taken at the program's 0, with a
 //    warning.
 //  - Canned cycles G73 G74 G76 G81 G82 G83 G84 G85 G86 G89 (modal until G80 or another motion
-//    G-code; X Y the hole, Z the bottom, R the R level, Q the peck, P the dwell (no motion), K or
+//    G-code; after G80 the G0 .. G3 in force before the cycle is back, as on a Fanuc, where the
+//    cycles are a modal group of their own; X Y the hole, Z the bottom, R the R level, Q the peck, P the dwell (no motion), K or
 //    L repeats, G98 return to the initial level (the drilling axis when the cycle started, or R
 //    if higher) / G99 to R). Incremental: R from the initial level, Z from R, X Y per repeat.
 //    Each hole: up to R first where below it, rapid in the plane to the hole, rapid to R; G81
@@ -274,6 +276,9 @@ struct ReaderOptions {
   /// G28 / G30 reference points in machine axis positions X Y Z [mm].
   Eigen::Vector3d g28_reference_mm = Eigen::Vector3d::Zero();
   Eigen::Vector3d g30_reference_mm = Eigen::Vector3d::Zero();
+  /// Where G28 / G30 send the rotary axes A B C named in the block [deg] (the machine's home;
+  /// Mastercam's `G28 X0. Y0. A0.` on a 4- and 5-axis machine).
+  std::array<double, 3> rotary_reference_deg = {0.0, 0.0, 0.0};
   /// Tool lengths by H (and T) number [mm], for G43 H<n>; a number not in the table takes
   /// default_tool_length_mm where given, else is an error.
   std::map<int, double> tool_length_mm;
@@ -315,7 +320,8 @@ Toolpath read_gcode(const std::string& path, const ReaderOptions& options = {});
 Toolpath parse_gcode(const std::string& text, const std::string& file_name_for_messages,
                      const ReaderOptions& options = {});
 
-/// Picks the reader by extension: .apt .cl .cls -> APT; .nc .ngc .gcode .mpf .tap .iso -> G-code.
+/// Picks the reader by extension: .apt .cl .cls -> APT; .nc .ngc .gcode .mpf .tap .iso .ptp .eia
+/// .cnc -> G-code.
 Toolpath read_toolpath(const std::string& path, const ReaderOptions& options = {});
 
 }  // namespace vmsim::toolpath
