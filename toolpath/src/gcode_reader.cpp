@@ -13,6 +13,7 @@
 #include <utility>
 #include <vector>
 
+#include "gcode_program.hpp"
 #include "toolpath_detail.hpp"
 #include "vmsim/common/errors.hpp"
 #include "vmsim/toolpath/toolpath.hpp"
@@ -94,17 +95,17 @@ class GcodeReader {
     }
     text = detail::without_byte_order_mark(text);
     detail::require_utf8_text(text, file_);
-    std::size_t begin = 0;
-    while (begin < text.size() && !ended_) {
-      std::size_t end = text.find('\n', begin);
-      if (end == std::string_view::npos) end = text.size();
-      std::string_view line = text.substr(begin, end - begin);
-      if (!line.empty() && line.back() == '\r') line.remove_suffix(1);
-      ++line_;
-      begin = end + 1;
-      line_text_ = detail::trim(line);
-      block(line);
-    }
+    // The program pre-pass (gcode_program.hpp) runs parameters, expressions, loops and
+    // subprograms and gives the blocks in the order the control runs them; a block keeps its
+    // source line (SourceBlock::text is the line as written) and the source columns of its words.
+    detail::run_gcode_program(text, file_, options_, [&](const detail::ExpandedBlock& expanded) {
+      line_ = expanded.line;
+      line_text_ = detail::trim(expanded.source);
+      expanded_ = &expanded;
+      block(expanded.text);
+      expanded_ = nullptr;
+      return !ended_;
+    });
     detail::require_motion(path_, file_);
     return std::move(path_);
   }
@@ -154,7 +155,8 @@ class GcodeReader {
       skip_blanks();
       if (i >= n || line[i] == ';') break;
       const char c = line[i];
-      const int column = static_cast<int>(i) + 1;
+      const int column = expanded_ ? expanded_->source_column(static_cast<int>(i) + 1)
+                                   : static_cast<int>(i) + 1;
       if (c == '(') {
         const std::size_t close = line.find(')', i);
         if (close == std::string_view::npos) fail(column, "comment '(' is not closed on its line");
@@ -782,6 +784,7 @@ class GcodeReader {
   Toolpath path_;
   int line_ = 0;
   std::string line_text_;
+  const detail::ExpandedBlock* expanded_ = nullptr;  ///< the block being read (its columns)
   bool ended_ = false;
   bool started_ = false;
   int warning_count_ = 0;

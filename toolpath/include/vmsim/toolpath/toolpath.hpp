@@ -197,6 +197,11 @@ struct ReaderOptions {
   /// 2 GB, as much as a simulation on an ordinary workstation should take.
   std::size_t max_points_per_block = 1'000'000;
   std::size_t max_path_points = 2'000'000;
+  /// G-code programs (parameters, loops, subprograms): the blocks the program may run, each run
+  /// of a block in a loop or a subprogram counted (a loop that never ends stops here with an
+  /// error naming the block), and the depth of nested calls (M98, G65, o-word call).
+  std::size_t max_executed_blocks = 10'000'000;
+  std::size_t max_call_depth = 64;
 };
 
 /// Reads an APT/CL file (subset above). Throws vmsim::InputError naming the file, line, column
