@@ -268,14 +268,12 @@ bool is_plain(std::string_view line) {
 
 /// What a line holds for the control flow (found once, the first time a jump needs it).
 struct LineInfo {
-  long n_number = -1;        ///< N at the start of the block
   long program_number = -1;  ///< Fanuc O number starting a program
   int do_id = 0;             ///< Fanuc WHILE [..] DO m / DO m
   int end_id = 0;            ///< Fanuc END m
   bool m99 = false;          ///< M99 (end of a Fanuc subprogram)
   bool m_end = false;        ///< M2 / M30 (end of the main program)
-  std::string o_label;       ///< LinuxCNC o-word label ("100", "<name>") and its keyword
-  std::string o_keyword;
+  int o_word = -1;           ///< LinuxCNC o-word: index into Program::o_words_
 };
 
 /// A LinuxCNC o-word label: numbers compare by value (o0100 is o100).
@@ -952,6 +950,7 @@ class Program {
   /// program's start (as the control does).
   void jump_to_n(long n, int column) {
     ensure_index();
+    ensure_block_numbers();
     const auto found = n_lines_.find(n);
     std::optional<std::size_t> before, after;
     if (found != n_lines_.end()) {
@@ -1141,7 +1140,7 @@ class Program {
     if (found == o_lines_.end()) return std::nullopt;
     const std::vector<std::size_t>& lines = found->second;
     const auto matches = [&](std::size_t i) {
-      return std::find(keywords.begin(), keywords.end(), info_[i].o_keyword) != keywords.end();
+      return std::find(keywords.begin(), keywords.end(), o_keyword(i)) != keywords.end();
     };
     if (forward) {
       for (auto it = std::upper_bound(lines.begin(), lines.end(), line_); it != lines.end(); ++it) {
@@ -1239,7 +1238,7 @@ class Program {
         line_ = saved_line;
         if (!next) fail(o, "o" + label + " if without its endif", raw_);
         at = *next;
-        if (info_[at].o_keyword != "elseif") break;
+        if (o_keyword(at) != "elseif") break;
         taken = condition_of_line(at);
       }
       jump_ = at + 1;
@@ -1258,7 +1257,7 @@ class Program {
       const bool condition = o_condition();
       o_end_of_line();
       const auto next = find_o(label, {"endwhile", "do", "while", "sub", "endsub"}, true);
-      if (next && info_[*next].o_keyword == "endwhile") {
+      if (next && o_keyword(*next) == "endwhile") {
         if (!condition) jump_ = *next + 1;
         return true;
       }
@@ -1297,7 +1296,7 @@ class Program {
       // endrepeat.
       const std::size_t opening =
           need_o(o, label, {"while", "do", "repeat"}, false, keyword + " outside its loop");
-      const std::string& kind = info_[opening].o_keyword;
+      const std::string& kind = o_keyword(opening);
       const std::size_t closing = need_o(
           o, label, {kind == "while" ? "endwhile" : kind == "do" ? "while" : "endrepeat"}, true,
           keyword + " outside its loop");
@@ -1372,6 +1371,10 @@ class Program {
     std::size_t first = 0;
     while (first < line.size() && std::isspace(static_cast<unsigned char>(line[first]))) ++first;
     if (first == line.size() || line[first] == '/' || line[first] == '%') return;
+    if (is_plain(line)) {
+      index_plain_line(i, line.substr(first));
+      return;
+    }
     std::vector<Token> tokens;
     try {
       tokens = lex(line, Site{file_, static_cast<int>(i) + 1});
@@ -1383,17 +1386,14 @@ class Program {
     const auto is_letter = [&](std::size_t j, const char* w) {
       return tokens[j].kind == Tok::letter && tokens[j].word == w;
     };
-    if (is_letter(k, "N") && tokens[k + 1].kind == Tok::number) {
-      info.n_number = std::lround(tokens[k + 1].number);
-      n_lines_[info.n_number].push_back(i);
-      k += 2;
-    }
+    if (is_letter(k, "N") && tokens[k + 1].kind == Tok::number) k += 2;
     if (is_letter(k, "O") && (tokens[k + 1].kind == Tok::number || tokens[k + 1].kind == Tok::name)) {
       if (tokens[k + 2].kind == Tok::keyword) {
-        info.o_label = label_of(tokens[k + 1]);
-        info.o_keyword = to_lower(tokens[k + 2].word);
-        o_lines_[info.o_label].push_back(i);
-        if (info.o_keyword == "sub") subs_.emplace(info.o_label, i);
+        info.o_word = static_cast<int>(o_words_.size());
+        o_words_.push_back(OWord{label_of(tokens[k + 1]), to_lower(tokens[k + 2].word)});
+        const OWord& o_word = o_words_.back();
+        o_lines_[o_word.label].push_back(i);
+        if (o_word.keyword == "sub") subs_.emplace(o_word.label, i);
       } else if (tokens[k + 1].kind == Tok::number) {
         info.program_number = std::lround(tokens[k + 1].number);
         programs_.emplace(info.program_number, i);
@@ -1411,6 +1411,55 @@ class Program {
         if (m == 99.0) info.m99 = true;
         if (m == 2.0 || m == 30.0) info.m_end = true;
       }
+    }
+  }
+
+  const std::string& o_keyword(std::size_t i) const {
+    static const std::string none;
+    return info_[i].o_word < 0 ? none : o_words_[static_cast<std::size_t>(info_[i].o_word)].keyword;
+  }
+
+  /// A line without macro syntax matters to the index only by M2 / M30 (found without tokens:
+  /// an O program number at the top of a long plain program indexes every line).
+  void index_plain_line(std::size_t i, std::string_view line) {
+    for (std::size_t k = 0; k < line.size(); ++k) {
+      const char c = line[k];
+      if (c == '(') {
+        k = line.find(')', k);
+        if (k == std::string_view::npos) return;
+      } else if (c == ';') {
+        return;
+      } else if (c == 'M' || c == 'm') {
+        std::size_t j = k + 1;
+        while (j < line.size() && (line[j] == ' ' || line[j] == '\t')) ++j;
+        while (j < line.size() && line[j] == '0') ++j;
+        std::size_t digits = j;
+        while (digits < line.size() && std::isdigit(static_cast<unsigned char>(line[digits]))) ++digits;
+        const std::string_view code = line.substr(j, digits - j);
+        if ((code == "2" || code == "30") && (digits == line.size() || line[digits] != '.')) {
+          info_[i].m_end = true;
+        }
+      }
+    }
+  }
+
+  /// The lines of each block number N (at the start of a block), found at the first GOTO.
+  void ensure_block_numbers() {
+    if (numbered_) return;
+    numbered_ = true;
+    for (std::size_t i = 0; i < starts_.size(); ++i) {
+      const std::string_view line = line_text(i);
+      std::size_t k = 0;
+      while (k < line.size() && std::isspace(static_cast<unsigned char>(line[k]))) ++k;
+      if (k == line.size() || (line[k] != 'N' && line[k] != 'n')) continue;
+      ++k;
+      while (k < line.size() && (line[k] == ' ' || line[k] == '\t')) ++k;
+      const std::size_t begin = k;
+      while (k < line.size() && std::isdigit(static_cast<unsigned char>(line[k]))) ++k;
+      if (k == begin || k - begin > 9) continue;
+      long n = 0;
+      for (std::size_t j = begin; j < k; ++j) n = 10 * n + (line[j] - '0');
+      n_lines_[n].push_back(i);
     }
   }
 
@@ -1441,10 +1490,16 @@ class Program {
 
   // The index.
   bool indexed_ = false;
+  bool numbered_ = false;
   std::vector<std::size_t> starts_;
   std::vector<LineInfo> info_;
   std::unordered_map<long, std::vector<std::size_t>> n_lines_;
   std::unordered_map<long, std::size_t> programs_;
+  struct OWord {
+    std::string label;    ///< "100", "<name>"
+    std::string keyword;  ///< lower case: "sub", "if", ...
+  };
+  std::vector<OWord> o_words_;
   std::unordered_map<std::string, std::vector<std::size_t>> o_lines_;
   std::unordered_map<std::string, std::size_t> subs_;
 };
