@@ -388,20 +388,31 @@ class Program {
     if (first == raw.size() || raw[first] == '/' || raw[first] == '%' || is_plain(raw)) {
       return hand_on(raw, raw, nullptr);
     }
-    tokens_ = lex(raw, site());
+    tokens_ = &tokens_of(raw);
     raw_ = raw;
     k_ = 0;
     return statement();
   }
 
+  /// The tokens of the line running (`raw`, at line_).
+  const std::vector<Token>& tokens_of(std::string_view raw) {
+    if (!indexed_) {
+      line_tokens_ = lex(raw, site());
+      return line_tokens_;
+    }
+    const auto found = token_cache_.find(line_);
+    if (found != token_cache_.end()) return found->second;
+    return token_cache_.emplace(line_, lex(raw, site())).first->second;
+  }
+
   // --- Token access ---------------------------------------------------------------------------
 
   const Token& peek(std::size_t ahead = 0) const {
-    return tokens_[std::min(k_ + ahead, tokens_.size() - 1)];
+    return (*tokens_)[std::min(k_ + ahead, tokens_->size() - 1)];
   }
   const Token& take() {
-    const Token& t = tokens_[k_];
-    if (k_ + 1 < tokens_.size()) ++k_;
+    const Token& t = (*tokens_)[k_];
+    if (k_ + 1 < tokens_->size()) ++k_;
     return t;
   }
   bool at_keyword(std::string_view w) const {
@@ -412,12 +423,12 @@ class Program {
     return take();
   }
   std::string span(std::size_t from_token, std::size_t to_token) const {
-    const std::size_t b = tokens_[from_token].begin;
-    const std::size_t e = tokens_[to_token > from_token ? to_token - 1 : from_token].end;
+    const std::size_t b = (*tokens_)[from_token].begin;
+    const std::size_t e = (*tokens_)[to_token > from_token ? to_token - 1 : from_token].end;
     return std::string(raw_.substr(b, e - b));
   }
   [[noreturn]] void fail_span(std::size_t from_token, const std::string& what) const {
-    site().fail(tokens_[from_token].column(), "'" + span(from_token, k_) + "': " + what);
+    site().fail((*tokens_)[from_token].column(), "'" + span(from_token, k_) + "': " + what);
   }
 
   // --- Parameters -----------------------------------------------------------------------------
@@ -428,7 +439,7 @@ class Program {
   Target target() {
     const std::size_t start = k_ - 1;  // the '#'
     Target t;
-    t.column = tokens_[start].column();
+    t.column = (*tokens_)[start].column();
     const Token& next = peek();
     if (next.kind == Tok::name) {
       t.name = take().word;
@@ -441,7 +452,7 @@ class Program {
         if (v.vacant) fail_span(start, "the parameter number is vacant");
         number = v.number;
       } else {
-        fail(tokens_[start], "a parameter needs a number, [expression] or <name> after '#'",
+        fail((*tokens_)[start], "a parameter needs a number, [expression] or <name> after '#'",
              raw_);
       }
       if (std::abs(number - std::round(number)) > kIntegerTolerance || number < 0.0) {
@@ -804,7 +815,7 @@ class Program {
           const Value label = unary();
           if (condition.number != 0.0) {
             goto_n = integer(label, label_start, "the GOTO block number");
-            goto_column = tokens_[goto_token].column();
+            goto_column = (*tokens_)[goto_token].column();
           }
           if (peek().kind != Tok::end) fail(peek(), "nothing may follow IF [..] GOTO n", raw_);
           break;
@@ -812,7 +823,7 @@ class Program {
         if (at_keyword("THEN")) {
           take();
           if (condition.number == 0.0) {
-            k_ = tokens_.size() - 1;  // the rest of the block is not run
+            k_ = tokens_->size() - 1;  // the rest of the block is not run
             break;
           }
           continue;
@@ -824,7 +835,7 @@ class Program {
         take();
         const std::size_t label_start = k_;
         goto_n = integer(unary(), label_start, "the GOTO block number");
-        goto_column = tokens_[goto_token].column();
+        goto_column = (*tokens_)[goto_token].column();
         continue;
       }
       if (t.kind == Tok::keyword && (t.word == "WHILE" || t.word == "DO" || t.word == "END")) {
@@ -1314,13 +1325,13 @@ class Program {
   /// The condition of the elseif at line `at` (jumped to from a condition that was false).
   bool condition_of_line(std::size_t at) {
     const std::size_t saved_line = line_;
-    std::vector<Token> saved_tokens = std::move(tokens_);
+    const std::vector<Token>* saved_tokens = tokens_;
     const std::size_t saved_k = k_;
     const std::string_view saved_raw = raw_;
     line_ = at;
     ++executed_;
     raw_ = line_text(at);
-    tokens_ = lex(raw_, site());
+    tokens_ = &tokens_of(raw_);
     k_ = 0;
     if (peek().kind == Tok::letter && peek().word == "N") {
       take();
@@ -1332,7 +1343,7 @@ class Program {
     const bool result = o_condition();
     o_end_of_line();
     line_ = saved_line;
-    tokens_ = std::move(saved_tokens);
+    tokens_ = saved_tokens;
     k_ = saved_k;
     raw_ = saved_raw;
     return result;
@@ -1474,7 +1485,10 @@ class Program {
   std::size_t executed_ = 0;
 
   // The tokens of the line running.
-  std::vector<Token> tokens_;
+  const std::vector<Token>* tokens_ = nullptr;
+  std::vector<Token> line_tokens_;
+  /// The tokens of each line run so far, once the program jumps (a loop lexes its lines once).
+  std::unordered_map<std::size_t, std::vector<Token>> token_cache_;
   std::size_t k_ = 0;
   std::string_view raw_;
 
