@@ -5,6 +5,8 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <filesystem>
+#include <fstream>
 #include <string>
 #include <vector>
 
@@ -438,6 +440,74 @@ TEST(GcodeMacros, APlainProgramKeepsItsBlocksAsWritten) {
   EXPECT_EQ(path.blocks[1].text, "N20 G1 X1.000 F100 (MOVE) ; END");
   EXPECT_EQ(path.blocks[1].line, 4);
   EXPECT_EQ(path.blocks[1].block_number, 20);
+}
+
+}  // namespace
+}  // namespace vmsim::toolpath
+
+namespace vmsim::toolpath {
+namespace {
+
+/// A fresh folder for one test's files.
+std::filesystem::path fresh_folder(const std::string& name) {
+  const std::filesystem::path folder =
+      std::filesystem::path(::testing::TempDir()) / ("vmsim_gcode_macros_" + name);
+  std::filesystem::remove_all(folder);
+  std::filesystem::create_directories(folder);
+  return folder;
+}
+
+void write_file(const std::filesystem::path& path, const std::string& text) {
+  std::ofstream(path, std::ios::binary) << text;
+}
+
+TEST(GcodeMacros, SubprogramsInOtherFilesOfTheFolder) {
+  // M98 P1234 finds O1234.nc (with its O line), G65 P77 finds 77.nc (the body alone), o<side>
+  // call finds side.ngc (LinuxCNC).
+  const std::filesystem::path folder = fresh_folder("files");
+  write_file(folder / "main.nc", "G0 X0 Y0 Z0\nM98 P1234\nG65 P77 A3\no<side> call [2]\nM30\n");
+  write_file(folder / "O1234.nc", "%\nO1234 (STEP)\nG1 X1 F100\nM99\n%\n");
+  write_file(folder / "77.nc", "G1 Y#1\nM99\n");
+  write_file(folder / "side.ngc", "o<side> sub\nG1 Z-#1\no<side> endsub\n");
+  const Toolpath path = read_gcode((folder / "main.nc").string());
+  expect_same_points(path, gcode("G0 X0 Y0 Z0\nG1 X1 F100\nG1 Y3\nG1 Z-2\n"));
+  // Each block names its own file and line.
+  const SourceBlock& step = path.blocks[static_cast<std::size_t>(path.points[1].block)];
+  EXPECT_EQ(step.file, (folder / "O1234.nc").string());
+  EXPECT_EQ(step.line, 3);
+  const SourceBlock& side = path.blocks[static_cast<std::size_t>(path.points[3].block)];
+  EXPECT_EQ(side.file, (folder / "side.ngc").string());
+  EXPECT_EQ(side.line, 2);
+
+  // An error in a subprogram file names that file.
+  write_file(folder / "bad.nc", "G0 X0 Y0 Z0\nM98 P1235\nM30\n");
+  write_file(folder / "O1235.nc", "G1 X1 Q5 F100\nM99\n");
+  const std::string message =
+      test::input_error_of([&] { read_gcode((folder / "bad.nc").string()); });
+  EXPECT_NE(message.find((folder / "O1235.nc").string() + ":1:7: 'Q5'"), std::string::npos)
+      << message;
+  write_file(folder / "bad2.nc", "G0 X0 Y0 Z0\nM98 P1236\nM30\n");
+  write_file(folder / "O1236.nc", "#1 = [1 / 0]\nM99\n");
+  const std::string message2 =
+      test::input_error_of([&] { read_gcode((folder / "bad2.nc").string()); });
+  EXPECT_NE(message2.find((folder / "O1236.nc").string() + ":1:7: '1 / 0'"), std::string::npos)
+      << message2;
+
+  // parse_gcode (text, no folder) looks in no folder.
+  EXPECT_NE(gcode_error("G0 X0 Y0 Z0\nM98 P1234\n").find("no subprogram O1234"),
+            std::string::npos);
+}
+
+}  // namespace
+}  // namespace vmsim::toolpath
+
+namespace vmsim::toolpath {
+namespace {
+
+TEST(GcodeMacros, AProgramEndingWithM99IsTheMainProgramWhenNoneEndsWithM30) {
+  // A file of one program that ends with M99 (it would loop on the control): it runs once.
+  expect_same_points(gcode("O0001\nG0 X0 Y0 Z0\nG1 X1 F100\nM99\n"),
+                     gcode("G0 X0 Y0 Z0\nG1 X1 F100\n"));
 }
 
 }  // namespace

@@ -11,6 +11,8 @@
 #include <cmath>
 #include <cstddef>
 #include <numbers>
+#include <filesystem>
+#include <memory>
 #include <optional>
 #include <string>
 #include <string_view>
@@ -273,7 +275,7 @@ struct LineInfo {
   int end_id = 0;            ///< Fanuc END m
   bool m99 = false;          ///< M99 (end of a Fanuc subprogram)
   bool m_end = false;        ///< M2 / M30 (end of the main program)
-  int o_word = -1;           ///< LinuxCNC o-word: index into Program::o_words_
+  int o_word = -1;           ///< LinuxCNC o-word: index into Source::o_words
 };
 
 /// A LinuxCNC o-word label: numbers compare by value (o0100 is o100).
@@ -281,6 +283,30 @@ std::string label_of(const Token& t) {
   if (t.kind == Tok::name) return "<" + t.word + ">";
   return number_text(t.number);
 }
+
+/// A LinuxCNC o-word of the index.
+struct OWord {
+  std::string label;    ///< "100", "<name>"
+  std::string keyword;  ///< lower case: "sub", "if", ...
+};
+
+/// A file of the program and the index of its structure (made at the first jump).
+struct Source {
+  std::string file;          ///< for messages and SourceBlock::file
+  std::string text_storage;  ///< the text of a subprogram file read here
+  std::string_view text;
+  bool indexed = false;
+  bool numbered = false;
+  std::vector<std::size_t> starts;  ///< the offset of each line
+  std::vector<LineInfo> info;
+  std::unordered_map<long, std::vector<std::size_t>> n_lines;
+  std::unordered_map<long, std::size_t> programs;
+  std::vector<OWord> o_words;
+  std::unordered_map<std::string, std::vector<std::size_t>> o_lines;
+  std::unordered_map<std::string, std::size_t> subs;
+  /// The tokens of each line run so far, once the program jumps (a loop lexes its lines once).
+  std::unordered_map<std::size_t, std::vector<Token>> token_cache;
+};
 
 struct Locals {
   std::array<Value, kLocalCount + 1> numbered;  ///< [0] unused
@@ -295,7 +321,9 @@ struct Frame {
   FrameKind kind = FrameKind::main;
   std::size_t locals = 0;       ///< index into the locals (M98 shares its caller's)
   std::size_t body = 0;         ///< first line of the called body
+  std::size_t body_source = 0;  ///< its file (index into Program::sources_)
   std::size_t return_to = 0;    ///< line after the call
+  std::size_t return_source = 0;
   long repeats_left = 1;        ///< M98 L / G65 L
   std::string name;             ///< "O1000", "o<name>", for messages
   int call_line = 0;            ///< 1-based line of the call, for messages
@@ -323,7 +351,12 @@ class Program {
  public:
   Program(std::string_view text, const std::string& file, const ReaderOptions& options,
           const std::function<bool(const ExpandedBlock&)>& emit)
-      : text_(text), file_(file), options_(options), emit_(emit) {}
+      : options_(options), emit_(emit) {
+    auto main = std::make_unique<Source>();
+    main->file = file;
+    main->text = text;
+    sources_.push_back(std::move(main));
+  }
 
   void run() {
     locals_.emplace_back();
@@ -331,21 +364,22 @@ class Program {
     std::size_t line = 0;
     std::size_t offset = 0;
     while (true) {
-      if (offset >= text_.size() || (indexed_ && line >= starts_.size())) {
+      if (offset >= src().text.size() || (src().indexed && line >= src().starts.size())) {
         if (frames_.size() > 1) {
           const Frame& frame = frames_.back();
-          Site{file_, frame.call_line}.fail(
+          Site{sources_[frame.return_source]->file, frame.call_line}.fail(
               0, "the file ends inside subprogram " + frame.name + " called here (no " +
                      (frame.kind == FrameKind::o_sub ? "endsub" : "M99") + ")");
         }
         return;
       }
-      std::size_t end = text_.find('\n', offset);
-      if (end == std::string_view::npos) end = text_.size();
-      std::string_view raw = text_.substr(offset, end - offset);
+      std::size_t end = src().text.find('\n', offset);
+      if (end == std::string_view::npos) end = src().text.size();
+      std::string_view raw = src().text.substr(offset, end - offset);
       if (!raw.empty() && raw.back() == '\r') raw.remove_suffix(1);
       line_ = line;
       jump_.reset();
+      jump_source_ = source_;
       if (++executed_ > options_.max_executed_blocks) {
         site().fail(0, "more than " + std::to_string(options_.max_executed_blocks) +
                            " blocks run (ReaderOptions::max_executed_blocks): a loop that does "
@@ -353,8 +387,10 @@ class Program {
       }
       if (!execute(raw)) return;
       if (jump_) {
+        source_ = jump_source_;
+        ensure_index();
         line = *jump_;
-        offset = line < starts_.size() ? starts_[line] : text_.size();
+        offset = line < src().starts.size() ? src().starts[line] : src().text.size();
       } else {
         ++line;
         offset = end + 1;
@@ -363,7 +399,9 @@ class Program {
   }
 
  private:
-  Site site() const { return Site{file_, static_cast<int>(line_) + 1}; }
+  Source& src() { return *sources_[source_]; }
+  const Source& src() const { return *sources_[source_]; }
+  Site site() const { return Site{src().file, static_cast<int>(line_) + 1}; }
   [[noreturn]] void fail(const Token& t, const std::string& what, std::string_view raw) const {
     const std::string text(raw.substr(t.begin, t.end - t.begin));
     site().fail(t.column(), "'" + (t.kind == Tok::end ? std::string("end of block") : text) +
@@ -377,6 +415,7 @@ class Program {
     block.source = raw;
     block.text = text;
     block.columns = columns;
+    block.file = source_ == 0 ? nullptr : &src().file;
     return emit_(block);
   }
 
@@ -396,13 +435,13 @@ class Program {
 
   /// The tokens of the line running (`raw`, at line_).
   const std::vector<Token>& tokens_of(std::string_view raw) {
-    if (!indexed_) {
+    if (!src().indexed) {
       line_tokens_ = lex(raw, site());
       return line_tokens_;
     }
-    const auto found = token_cache_.find(line_);
-    if (found != token_cache_.end()) return found->second;
-    return token_cache_.emplace(line_, lex(raw, site())).first->second;
+    const auto found = src().token_cache.find(line_);
+    if (found != src().token_cache.end()) return found->second;
+    return src().token_cache.emplace(line_, lex(raw, site())).first->second;
   }
 
   // --- Token access ---------------------------------------------------------------------------
@@ -928,11 +967,11 @@ class Program {
     if (keyword.word == "END") {
       // Back to the WHILE (or DO) of the same number before this block, which tests again.
       for (std::size_t i = line_; i-- > frame_begin();) {
-        if (info_[i].do_id == id) {
+        if (src().info[i].do_id == id) {
           jump_ = i;
           return true;
         }
-        if (info_[i].end_id == id) break;
+        if (src().info[i].end_id == id) break;
       }
       fail(keyword, "END " + std::to_string(id) + " without its WHILE [..] DO " +
                         std::to_string(id) + " before it", raw_);
@@ -943,9 +982,9 @@ class Program {
   }
 
   std::size_t matching_end(long id, const Token& keyword) {
-    for (std::size_t i = line_ + 1; i < info_.size(); ++i) {
-      if (info_[i].end_id == id) return i;
-      if (info_[i].program_number >= 0 || info_[i].do_id == id) break;
+    for (std::size_t i = line_ + 1; i < src().info.size(); ++i) {
+      if (src().info[i].end_id == id) return i;
+      if (src().info[i].program_number >= 0 || src().info[i].do_id == id) break;
     }
     fail(keyword, "DO " + std::to_string(id) + " without its END " + std::to_string(id) +
                       " after it", raw_);
@@ -962,9 +1001,9 @@ class Program {
   void jump_to_n(long n, int column) {
     ensure_index();
     ensure_block_numbers();
-    const auto found = n_lines_.find(n);
+    const auto found = src().n_lines.find(n);
     std::optional<std::size_t> before, after;
-    if (found != n_lines_.end()) {
+    if (found != src().n_lines.end()) {
       for (const std::size_t i : found->second) {
         if (i < frame_begin() || !in_current_program(i)) continue;
         if (i > line_ && !after) after = i;
@@ -981,19 +1020,84 @@ class Program {
   bool in_current_program(std::size_t i) const {
     const std::size_t from = std::min(i, line_), to = std::max(i, line_);
     for (std::size_t j = from + 1; j <= to; ++j) {
-      if (info_[j].program_number >= 0) return false;
+      if (src().info[j].program_number >= 0) return false;
     }
     return true;
   }
 
   // --- Calls ----------------------------------------------------------------------------------
 
-  /// The first line of Fanuc program `number`.
-  std::optional<std::size_t> program_line(long number) {
+  /// A line of one of the files.
+  struct Place {
+    std::size_t source = 0;
+    std::size_t line = 0;
+  };
+
+  /// The first line of the body of Fanuc program `number`: in this file, in a subprogram file
+  /// read before, or in a file of the subprogram folder (O1234.nc, o1234.nc, 1234.nc,
+  /// O0012.nc for O12), which may hold the O line or the body alone.
+  std::optional<Place> program_body(long number) {
     ensure_index();
-    const auto found = programs_.find(number);
-    if (found == programs_.end()) return std::nullopt;
-    return found->second;
+    const auto in = [&](std::size_t k) -> std::optional<Place> {
+      const auto found = sources_[k]->programs.find(number);
+      if (found == sources_[k]->programs.end()) return std::nullopt;
+      return Place{k, found->second + 1};
+    };
+    if (auto place = in(source_)) return place;
+    for (std::size_t k = 0; k < sources_.size(); ++k) {
+      if (auto place = in(k)) return place;
+    }
+    const std::string n = std::to_string(number);
+    std::vector<std::string> names = {"O" + n + ".nc", "o" + n + ".nc", n + ".nc", "O" + n + ".NC"};
+    if (n.size() < 4) names.push_back("O" + std::string(4 - n.size(), '0') + n + ".nc");
+    for (const std::string& name : names) {
+      if (const auto k = subprogram_file(name)) {
+        if (auto place = in(*k)) return place;
+        return Place{*k, 0};
+      }
+    }
+    return std::nullopt;
+  }
+
+  /// The subroutine `label` (LinuxCNC o<name> sub): in this file, in one read before, or in
+  /// <name>.ngc of the subprogram folder.
+  std::optional<Place> subroutine_body(const std::string& label) {
+    const auto in = [&](std::size_t k) -> std::optional<Place> {
+      const auto found = sources_[k]->subs.find(label);
+      if (found == sources_[k]->subs.end()) return std::nullopt;
+      return Place{k, found->second + 1};
+    };
+    if (auto place = in(source_)) return place;
+    for (std::size_t k = 0; k < sources_.size(); ++k) {
+      if (auto place = in(k)) return place;
+    }
+    if (label.size() > 2 && label.front() == '<') {
+      if (const auto k = subprogram_file(label.substr(1, label.size() - 2) + ".ngc")) return in(*k);
+    }
+    return std::nullopt;
+  }
+
+  /// Reads and indexes the file `name` of ReaderOptions::subprogram_folder (once); nullopt where
+  /// there is no folder or no such file.
+  std::optional<std::size_t> subprogram_file(const std::string& name) {
+    if (options_.subprogram_folder.empty()) return std::nullopt;
+    const std::string path = (std::filesystem::path(options_.subprogram_folder) / name).string();
+    for (std::size_t k = 1; k < sources_.size(); ++k) {
+      if (sources_[k]->file == path) return k;
+    }
+    std::error_code error;
+    if (!std::filesystem::is_regular_file(path, error)) return std::nullopt;
+    auto source = std::make_unique<Source>();
+    source->file = path;
+    source->text_storage = read_text_file(path);
+    source->text = without_byte_order_mark(source->text_storage);
+    require_utf8_text(source->text, path);
+    sources_.push_back(std::move(source));
+    const std::size_t running = source_;
+    source_ = sources_.size() - 1;
+    ensure_index();
+    source_ = running;
+    return sources_.size() - 1;
   }
 
   void push_frame(Frame frame) {
@@ -1015,28 +1119,31 @@ class Program {
     };
     long number = whole(*p_word);
     long repeats = l_word ? whole(*l_word) : 1;
-    auto target = program_line(number);
+    auto target = program_body(number);
     if (!target && !l_word && number >= 10000) {
       // Fanuc's packed form: P kkkk nnnn = program nnnn, k times.
       repeats = number / 10000;
       number %= 10000;
-      target = program_line(number);
+      target = program_body(number);
     }
     if (!target) {
       site().fail(m98.column, "'" + m98.text + "': no subprogram O" + std::to_string(number) +
-                                  " in " + file_ + " (" + p_word->text + ")");
+                                  " in " + src().file + " (" + p_word->text + ")");
     }
     if (repeats == 0) return true;
     Frame frame;
     frame.kind = FrameKind::m98;
     frame.locals = frames_.back().locals;  // M98 runs on its caller's locals
-    frame.body = *target + 1;
+    frame.body = target->line;
+    frame.body_source = target->source;
     frame.return_to = line_ + 1;
+    frame.return_source = source_;
     frame.repeats_left = repeats;
     frame.name = "O" + std::to_string(number);
     frame.call_line = static_cast<int>(line_) + 1;
     push_frame(std::move(frame));
-    jump_ = *target + 1;
+    jump_ = target->line;
+    jump_source_ = target->source;
     return true;
   }
 
@@ -1068,16 +1175,18 @@ class Program {
     }
     if (!p_word) site().fail(g65.column, "'" + g65.text + "': G65 needs P (the program number)");
     const long number = std::lround(*p_word->value);
-    const auto target = program_line(number);
+    const auto target = program_body(number);
     if (!target) {
       site().fail(g65.column, "'" + g65.text + "': no macro program O" + std::to_string(number) +
-                                  " in " + file_ + " (" + p_word->text + ")");
+                                  " in " + src().file + " (" + p_word->text + ")");
     }
     if (repeats == 0) return true;
     Frame frame;
     frame.kind = FrameKind::g65;
-    frame.body = *target + 1;
+    frame.body = target->line;
+    frame.body_source = target->source;
     frame.return_to = line_ + 1;
+    frame.return_source = source_;
     frame.repeats_left = repeats;
     frame.name = "O" + std::to_string(number);
     frame.call_line = static_cast<int>(line_) + 1;
@@ -1085,7 +1194,8 @@ class Program {
     locals_.push_back(std::move(arguments));
     frame.locals = locals_.size() - 1;
     push_frame(std::move(frame));
-    jump_ = *target + 1;
+    jump_ = target->line;
+    jump_source_ = target->source;
     return true;
   }
 
@@ -1101,6 +1211,7 @@ class Program {
     if (--frame.repeats_left > 0) {
       if (frame.kind == FrameKind::g65) locals_[frame.locals] = frame.arguments;
       jump_ = frame.body;
+      jump_source_ = frame.body_source;
       return true;
     }
     pop_frame();
@@ -1110,6 +1221,7 @@ class Program {
   void pop_frame() {
     const Frame& frame = frames_.back();
     jump_ = frame.return_to;
+    jump_source_ = frame.return_source;
     if (frame.kind != FrameKind::m98) locals_.pop_back();
     frames_.pop_back();
   }
@@ -1125,16 +1237,20 @@ class Program {
     take();
     if (peek().kind == Tok::keyword) return o_word(o, label_of(label_token));
     if (label_token.kind == Tok::name) fail(peek(), "expected an o-word keyword (sub, call, if, ...)", raw_);
-    // A Fanuc program number. The main flow steps over a subprogram (one that ends with M99).
+    // A Fanuc program number. The main flow steps over a subprogram (one that ends with M99),
+    // unless no program of the file ends with M2 / M30: then this one is the main program (a
+    // program that loops with M99).
     if (peek().kind != Tok::end) fail(peek(), "an O (program number) block takes nothing else", raw_);
     ensure_index();
     if (frames_.back().kind != FrameKind::main) {
       site().fail(o.column(), "'O" + number_text(label_token.number) + "': subprogram " +
                                   frames_.back().name + " runs into the next program (no M99)");
     }
-    for (std::size_t i = line_ + 1; i < info_.size(); ++i) {
-      if (info_[i].program_number >= 0 || info_[i].m_end) break;
-      if (info_[i].m99) {
+    const bool a_main_program_ends = std::any_of(src().info.begin(), src().info.end(),
+                                                 [](const LineInfo& info) { return info.m_end; });
+    for (std::size_t i = line_ + 1; a_main_program_ends && i < src().info.size(); ++i) {
+      if (src().info[i].program_number >= 0 || src().info[i].m_end) break;
+      if (src().info[i].m99) {
         jump_ = i + 1;
         return true;
       }
@@ -1147,8 +1263,8 @@ class Program {
   std::optional<std::size_t> find_o(const std::string& label,
                                     std::initializer_list<std::string_view> keywords,
                                     bool forward) const {
-    const auto found = o_lines_.find(label);
-    if (found == o_lines_.end()) return std::nullopt;
+    const auto found = src().o_lines.find(label);
+    if (found == src().o_lines.end()) return std::nullopt;
     const std::vector<std::size_t>& lines = found->second;
     const auto matches = [&](std::size_t i) {
       return std::find(keywords.begin(), keywords.end(), o_keyword(i)) != keywords.end();
@@ -1221,20 +1337,21 @@ class Program {
         arguments.numbered[static_cast<std::size_t>(count)] = v;
       }
       o_end_of_line();
-      const auto found = subs_.find(label);
-      if (found == subs_.end()) {
-        fail(o, "no subroutine o" + label + " sub in " + file_, raw_);
-      }
+      const auto found = subroutine_body(label);
+      if (!found) fail(o, "no subroutine o" + label + " sub in " + src().file, raw_);
       Frame callee;
       callee.kind = FrameKind::o_sub;
-      callee.body = found->second + 1;
+      callee.body = found->line;
+      callee.body_source = found->source;
       callee.return_to = line_ + 1;
+      callee.return_source = source_;
       callee.name = "o" + label;
       callee.call_line = static_cast<int>(line_) + 1;
       locals_.push_back(std::move(arguments));
       callee.locals = locals_.size() - 1;
       push_frame(std::move(callee));
-      jump_ = found->second + 1;
+      jump_ = found->line;
+      jump_source_ = found->source;
       return true;
     }
     if (keyword == "if") {
@@ -1357,24 +1474,24 @@ class Program {
   // --- The index of the program's structure (once, at the first jump) -------------------------
 
   std::string_view line_text(std::size_t i) const {
-    const std::size_t begin = starts_[i];
-    std::size_t end = text_.find('\n', begin);
-    if (end == std::string_view::npos) end = text_.size();
-    std::string_view line = text_.substr(begin, end - begin);
+    const std::size_t begin = src().starts[i];
+    std::size_t end = src().text.find('\n', begin);
+    if (end == std::string_view::npos) end = src().text.size();
+    std::string_view line = src().text.substr(begin, end - begin);
     if (!line.empty() && line.back() == '\r') line.remove_suffix(1);
     return line;
   }
 
   void ensure_index() {
-    if (indexed_) return;
-    indexed_ = true;
-    starts_.push_back(0);
-    for (std::size_t p = text_.find('\n'); p != std::string_view::npos && p + 1 < text_.size();
-         p = text_.find('\n', p + 1)) {
-      starts_.push_back(p + 1);
+    if (src().indexed) return;
+    src().indexed = true;
+    src().starts.push_back(0);
+    for (std::size_t p = src().text.find('\n'); p != std::string_view::npos && p + 1 < src().text.size();
+         p = src().text.find('\n', p + 1)) {
+      src().starts.push_back(p + 1);
     }
-    info_.resize(starts_.size());
-    for (std::size_t i = 0; i < starts_.size(); ++i) index_line(i);
+    src().info.resize(src().starts.size());
+    for (std::size_t i = 0; i < src().starts.size(); ++i) index_line(i);
   }
 
   void index_line(std::size_t i) {
@@ -1388,11 +1505,11 @@ class Program {
     }
     std::vector<Token> tokens;
     try {
-      tokens = lex(line, Site{file_, static_cast<int>(i) + 1});
+      tokens = lex(line, Site{src().file, static_cast<int>(i) + 1});
     } catch (const InputError&) {
       return;  // reported if the line runs
     }
-    LineInfo& info = info_[i];
+    LineInfo& info = src().info[i];
     std::size_t k = 0;
     const auto is_letter = [&](std::size_t j, const char* w) {
       return tokens[j].kind == Tok::letter && tokens[j].word == w;
@@ -1400,14 +1517,14 @@ class Program {
     if (is_letter(k, "N") && tokens[k + 1].kind == Tok::number) k += 2;
     if (is_letter(k, "O") && (tokens[k + 1].kind == Tok::number || tokens[k + 1].kind == Tok::name)) {
       if (tokens[k + 2].kind == Tok::keyword) {
-        info.o_word = static_cast<int>(o_words_.size());
-        o_words_.push_back(OWord{label_of(tokens[k + 1]), to_lower(tokens[k + 2].word)});
-        const OWord& o_word = o_words_.back();
-        o_lines_[o_word.label].push_back(i);
-        if (o_word.keyword == "sub") subs_.emplace(o_word.label, i);
+        info.o_word = static_cast<int>(src().o_words.size());
+        src().o_words.push_back(OWord{label_of(tokens[k + 1]), to_lower(tokens[k + 2].word)});
+        const OWord& o_word = src().o_words.back();
+        src().o_lines[o_word.label].push_back(i);
+        if (o_word.keyword == "sub") src().subs.emplace(o_word.label, i);
       } else if (tokens[k + 1].kind == Tok::number) {
         info.program_number = std::lround(tokens[k + 1].number);
-        programs_.emplace(info.program_number, i);
+        src().programs.emplace(info.program_number, i);
       }
       return;
     }
@@ -1427,7 +1544,7 @@ class Program {
 
   const std::string& o_keyword(std::size_t i) const {
     static const std::string none;
-    return info_[i].o_word < 0 ? none : o_words_[static_cast<std::size_t>(info_[i].o_word)].keyword;
+    return src().info[i].o_word < 0 ? none : src().o_words[static_cast<std::size_t>(src().info[i].o_word)].keyword;
   }
 
   /// A line without macro syntax matters to the index only by M2 / M30 (found without tokens:
@@ -1448,7 +1565,7 @@ class Program {
         while (digits < line.size() && std::isdigit(static_cast<unsigned char>(line[digits]))) ++digits;
         const std::string_view code = line.substr(j, digits - j);
         if ((code == "2" || code == "30") && (digits == line.size() || line[digits] != '.')) {
-          info_[i].m_end = true;
+          src().info[i].m_end = true;
         }
       }
     }
@@ -1456,9 +1573,9 @@ class Program {
 
   /// The lines of each block number N (at the start of a block), found at the first GOTO.
   void ensure_block_numbers() {
-    if (numbered_) return;
-    numbered_ = true;
-    for (std::size_t i = 0; i < starts_.size(); ++i) {
+    if (src().numbered) return;
+    src().numbered = true;
+    for (std::size_t i = 0; i < src().starts.size(); ++i) {
       const std::string_view line = line_text(i);
       std::size_t k = 0;
       while (k < line.size() && std::isspace(static_cast<unsigned char>(line[k]))) ++k;
@@ -1470,12 +1587,10 @@ class Program {
       if (k == begin || k - begin > 9) continue;
       long n = 0;
       for (std::size_t j = begin; j < k; ++j) n = 10 * n + (line[j] - '0');
-      n_lines_[n].push_back(i);
+      src().n_lines[n].push_back(i);
     }
   }
 
-  std::string_view text_;
-  const std::string& file_;
   const ReaderOptions& options_;
   const std::function<bool(const ExpandedBlock&)>& emit_;
 
@@ -1487,8 +1602,6 @@ class Program {
   // The tokens of the line running.
   const std::vector<Token>* tokens_ = nullptr;
   std::vector<Token> line_tokens_;
-  /// The tokens of each line run so far, once the program jumps (a loop lexes its lines once).
-  std::unordered_map<std::size_t, std::vector<Token>> token_cache_;
   std::size_t k_ = 0;
   std::string_view raw_;
 
@@ -1502,20 +1615,10 @@ class Program {
   std::unordered_map<int, Value> globals_;
   std::unordered_map<std::string, Value> globals_named_;
 
-  // The index.
-  bool indexed_ = false;
-  bool numbered_ = false;
-  std::vector<std::size_t> starts_;
-  std::vector<LineInfo> info_;
-  std::unordered_map<long, std::vector<std::size_t>> n_lines_;
-  std::unordered_map<long, std::size_t> programs_;
-  struct OWord {
-    std::string label;    ///< "100", "<name>"
-    std::string keyword;  ///< lower case: "sub", "if", ...
-  };
-  std::vector<OWord> o_words_;
-  std::unordered_map<std::string, std::vector<std::size_t>> o_lines_;
-  std::unordered_map<std::string, std::size_t> subs_;
+  // The files: the program's, then those of subprograms found in the subprogram folder.
+  std::vector<std::unique_ptr<Source>> sources_;
+  std::size_t source_ = 0;  ///< the file running
+  std::size_t jump_source_ = 0;  ///< the file of jump_
 };
 
 }  // namespace

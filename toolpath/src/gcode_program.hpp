@@ -14,6 +14,7 @@
 #include <utility>
 #include <vector>
 
+#include "vmsim/common/errors.hpp"
 #include "vmsim/toolpath/toolpath.hpp"
 
 namespace vmsim::toolpath::detail {
@@ -26,11 +27,30 @@ struct ExpandedBlock {
   /// (column in text, column in source), both 1-based, ascending: a column of `text` maps to the
   /// source column of the last pair at or before it. Empty: `text` is `source`.
   const std::vector<std::pair<int, int>>* columns = nullptr;
+  /// The file of the block where it is not the program's own (a subprogram found in
+  /// ReaderOptions::subprogram_folder); nullptr for the program's file.
+  const std::string* file = nullptr;
 
   /// The source column of a 1-based column of `text` (a word keeps the column of the word or
   /// expression it was made from).
   int source_column(int text_column) const;
 };
+
+/// Runs `run()`, which reads a block of the file `other`: its errors, which name the program's
+/// `file`, name `other` instead.
+template <class Run>
+void with_messages_naming(const std::string& file, const std::string& other, Run run) {
+  const auto renamed = [&](const std::string& message) {
+    return message.rfind(file + ":", 0) == 0 ? other + message.substr(file.size()) : message;
+  };
+  try {
+    run();
+  } catch (const InputError& error) {
+    throw InputError(renamed(error.what()));
+  } catch (const InfeasibleError& error) {
+    throw InfeasibleError(renamed(error.what()));
+  }
+}
 
 /// Runs the G-code program `text` (UTF-8 already checked, byte-order mark removed) and calls
 /// `emit` with every block to interpret, in the order of execution, until the program ends (the

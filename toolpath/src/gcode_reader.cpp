@@ -5,6 +5,7 @@
 #include <algorithm>
 #include <cmath>
 #include <exception>
+#include <filesystem>
 #include <new>
 #include <numbers>
 #include <optional>
@@ -102,7 +103,17 @@ class GcodeReader {
       line_ = expanded.line;
       line_text_ = detail::trim(expanded.source);
       expanded_ = &expanded;
-      block(expanded.text);
+      if (!expanded.file) {
+        block(expanded.text);
+      } else {
+        // A block of a subprogram file: it and its messages name that file.
+        const std::size_t blocks = path_.blocks.size(), warnings = path_.warnings.size();
+        detail::with_messages_naming(file_, *expanded.file, [&] { block(expanded.text); });
+        for (std::size_t i = blocks; i < path_.blocks.size(); ++i) path_.blocks[i].file = *expanded.file;
+        for (std::size_t i = warnings; i < path_.warnings.size(); ++i) {
+          path_.warnings[i].file = *expanded.file;
+        }
+      }
       expanded_ = nullptr;
       return !ended_;
     });
@@ -811,7 +822,14 @@ Toolpath parse_gcode(const std::string& text, const std::string& file_name_for_m
 }
 
 Toolpath read_gcode(const std::string& path, const ReaderOptions& options) {
-  return parse_gcode(detail::read_text_file(path), path, options);
+  if (!options.subprogram_folder.empty()) {
+    return parse_gcode(detail::read_text_file(path), path, options);
+  }
+  // Subprograms in other files are looked for beside the program.
+  ReaderOptions with_folder = options;
+  const std::filesystem::path folder = std::filesystem::path(path).parent_path();
+  with_folder.subprogram_folder = folder.empty() ? "." : folder.string();
+  return parse_gcode(detail::read_text_file(path), path, with_folder);
 }
 
 }  // namespace vmsim::toolpath

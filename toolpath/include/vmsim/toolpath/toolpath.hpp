@@ -267,6 +267,10 @@ struct ReaderOptions {
   /// error naming the block), and the depth of nested calls (M98, G65, o-word call).
   std::size_t max_executed_blocks = 10'000'000;
   std::size_t max_call_depth = 64;
+  /// Where a G-code program's subprograms that are not in its own file are looked for (M98 /
+  /// G65 P1234: O1234.nc, o1234.nc, 1234.nc; o<name> call: name.ngc). Empty: nowhere;
+  /// read_gcode and read_toolpath give the program file's folder when this is empty.
+  std::string subprogram_folder;
 };
 
 /// Reads an APT/CL file (subset above). Throws vmsim::InputError naming the file, line, column
