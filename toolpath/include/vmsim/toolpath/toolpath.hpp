@@ -146,8 +146,14 @@
 //    numbered P exists; other words of an M98 block run before the call. `G65 P<n> [L<k>]`
 //    with arguments A B C I J K D E F H M Q R S T U V W X Y Z into #1 #2 #3 #4 #5 #6 #7 #8 #9 #11
 //    #13 #17-#26 (argument specification I); the other locals of the macro start vacant. M99
-//    in the main program ends it (the control would start it again). Not supported (errors):
-//    M99 P (return to a block number), G66/G67 modal calls, subprograms in other files.
+//    in the main program ends it (the control would start it again); a file whose only
+//    program ends with M99 (no M2/M30 anywhere) runs that program once. Not supported (errors):
+//    M99 P (return to a block number), G66/G67 modal calls.
+//  - Subprograms in other files: a program number or o-word subroutine not in the file is
+//    looked for in ReaderOptions::subprogram_folder (read_gcode: the program's folder): M98 /
+//    G65 P1234 in O1234.nc, o1234.nc, 1234.nc, O1234.NC (O0012.nc for P12), which may hold the
+//    O line or the body alone, up to its M99; o<name> call in name.ngc (LinuxCNC), which holds
+//    o<name> sub ... endsub. Their blocks (SourceBlock::file) and errors name that file.
 //  - LinuxCNC o-words (numbered o100 or named o<name>, any case): `sub` / `endsub [value]` /
 //    `return [value]` (the value goes to #<_value>), `call [a1] [a2] ...` (at most 30 arguments
 //    into #1..#30 of the callee), `if [c]` / `elseif [c]` / `else` / `endif`, `while [c]` /
