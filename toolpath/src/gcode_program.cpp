@@ -45,6 +45,9 @@ constexpr int kAlarmParameter = 3000;
 /// A parameter number, loop or call count written as an expression must be this close to an
 /// integer (LinuxCNC's own rule).
 constexpr double kIntegerTolerance = 1e-4;
+/// Largest program, block or loop number, call or repeat count (as the block interpreter's N O
+/// words).
+constexpr double kMaxLabel = 1e9;
 /// LinuxCNC o-call passes at most this many arguments.
 constexpr int kMaxCallArguments = 30;
 
@@ -498,7 +501,7 @@ class Program {
         fail_span(start, "a parameter number must be a non-negative integer, got " +
                              number_text(number));
       }
-      t.number = number > 1e9 ? INT_MAX : static_cast<int>(std::lround(number));
+      t.number = number > kMaxLabel ? INT_MAX : static_cast<int>(std::lround(number));
     }
     t.text = span(start, k_);
     return t;
@@ -735,8 +738,9 @@ class Program {
   long integer(const Value& v, std::size_t start, const char* what) const {
     if (v.vacant) fail_span(start, std::string(what) + " is vacant");
     if (std::abs(v.number - std::round(v.number)) > kIntegerTolerance ||
-        std::abs(v.number) > 1e9) {
-      fail_span(start, std::string(what) + " must be an integer, got " + number_text(v.number));
+        std::abs(v.number) > kMaxLabel) {
+      fail_span(start, std::string(what) + " must be an integer within +-1e9, got " +
+                           number_text(v.number));
     }
     return std::lround(v.number);
   }
@@ -1112,7 +1116,7 @@ class Program {
     if (!p_word) site().fail(m98.column, "'" + m98.text + "': M98 needs P (the program number)");
     const auto whole = [&](const OutWord& w) {
       const double v = *w.value;
-      if (v < 0.0 || v > 1e9 || v != std::round(v)) {
+      if (v < 0.0 || v > kMaxLabel || v != std::round(v)) {
         site().fail(w.column, "'" + w.text + "': must be a non-negative integer");
       }
       return static_cast<long>(v);
@@ -1161,10 +1165,10 @@ class Program {
       if (w.letter == 'P') {
         p_word = &w;
       } else if (w.letter == 'L') {
-        repeats = std::lround(*w.value);
-        if (*w.value < 0.0 || *w.value > 1e9 || *w.value != std::round(*w.value)) {
+        if (*w.value < 0.0 || *w.value > kMaxLabel || *w.value != std::round(*w.value)) {
           site().fail(w.column, "'" + w.text + "': the call count must be a non-negative integer");
         }
+        repeats = std::lround(*w.value);
       } else if (w.letter >= 'A' && w.letter <= 'Z' &&
                  kLocalOfLetter[static_cast<std::size_t>(w.letter - 'A')] != 0) {
         arguments.numbered[static_cast<std::size_t>(kLocalOfLetter[static_cast<std::size_t>(
@@ -1174,6 +1178,10 @@ class Program {
       }
     }
     if (!p_word) site().fail(g65.column, "'" + g65.text + "': G65 needs P (the program number)");
+    if (*p_word->value < 0.0 || *p_word->value > kMaxLabel ||
+        *p_word->value != std::round(*p_word->value)) {
+      site().fail(p_word->column, "'" + p_word->text + "': must be a non-negative integer");
+    }
     const long number = std::lround(*p_word->value);
     const auto target = program_body(number);
     if (!target) {
@@ -1522,7 +1530,7 @@ class Program {
         const OWord& o_word = src().o_words.back();
         src().o_lines[o_word.label].push_back(i);
         if (o_word.keyword == "sub") src().subs.emplace(o_word.label, i);
-      } else if (tokens[k + 1].kind == Tok::number) {
+      } else if (tokens[k + 1].kind == Tok::number && tokens[k + 1].number <= kMaxLabel) {
         info.program_number = std::lround(tokens[k + 1].number);
         src().programs.emplace(info.program_number, i);
       }
@@ -1530,9 +1538,10 @@ class Program {
     }
     for (std::size_t j = k; j + 1 < tokens.size(); ++j) {
       const Token& t = tokens[j];
-      if (t.kind == Tok::keyword && t.word == "DO" && tokens[j + 1].kind == Tok::number) {
+      const bool label = tokens[j + 1].kind == Tok::number && tokens[j + 1].number <= kMaxLabel;
+      if (t.kind == Tok::keyword && t.word == "DO" && label) {
         info.do_id = static_cast<int>(tokens[j + 1].number);
-      } else if (t.kind == Tok::keyword && t.word == "END" && tokens[j + 1].kind == Tok::number) {
+      } else if (t.kind == Tok::keyword && t.word == "END" && label) {
         info.end_id = static_cast<int>(tokens[j + 1].number);
       } else if (t.kind == Tok::letter && t.word == "M" && tokens[j + 1].kind == Tok::number) {
         const double m = tokens[j + 1].number;
