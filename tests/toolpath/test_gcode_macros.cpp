@@ -404,15 +404,25 @@ TEST(GcodeMacros, ARunawayLoopStopsAtTheLimitNamingTheBlock) {
   const std::string message = gcode_error(loop, options);
   EXPECT_NE(message.find("part.nc:"), std::string::npos) << message;
   EXPECT_NE(message.find("more than 1000 blocks run"), std::string::npos) << message;
-  // WHILE without a way out, and a loop just within the limit.
+  // The GOTO loop: the count starts at the first jump; the error names a block of the loop.
+  EXPECT_TRUE(message.find("part.nc:2:") != std::string::npos ||
+              message.find("part.nc:3:") != std::string::npos)
+      << message;
   EXPECT_NE(gcode_error("G0 X0 Y0 Z0\nWHILE [1 EQ 1] DO 1\nEND 1\n", options)
                 .find("max_executed_blocks"),
             std::string::npos);
-  // 200 rounds: 2 + 200 * 4 + 1 = 803 blocks run, within the limit.
-  const Toolpath within = gcode(
-      "G0 X0 Y0 Z0\n#1 = 0\nWHILE [#1 LT 200] DO 1\n#1 = #1 + 1\nG1 X#1 F100\nEND 1\n",
-      options);
-  EXPECT_EQ(within.points.size(), 201u);
+  // A loop of n rounds runs, after its first END jumps back, 4 (n - 1) + 1 blocks (WHILE, two
+  // blocks, END; the last WHILE): 997 for 250 rounds, within 1000; 1001 for 251, beyond.
+  const auto rounds = [](int n) {
+    return "G0 X0 Y0 Z0\n#1 = 0\nWHILE [#1 LT " + std::to_string(n) +
+           "] DO 1\n#1 = #1 + 1\nG1 X[#1 / 10] F100\nEND 1\n";
+  };
+  EXPECT_EQ(gcode(rounds(250), options).points.size(), 251u);
+  EXPECT_NE(gcode_error(rounds(251), options).find("more than 1000 blocks run"), std::string::npos);
+  // A program that never jumps is not limited: 2000 blocks straight through.
+  std::string straight = "G0 X0 Y0 Z0\n";
+  for (int i = 1; i < 2000; ++i) straight += "G1 X" + std::to_string(i) + " F100\n";
+  EXPECT_EQ(gcode(straight, options).points.size(), 2000u);
 }
 
 TEST(GcodeMacros, CallsNestedTooDeepAreAnError) {

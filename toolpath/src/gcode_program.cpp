@@ -383,13 +383,16 @@ class Program {
       line_ = line;
       jump_.reset();
       jump_source_ = source_;
-      if (++executed_ > options_.max_executed_blocks) {
+      // Counted from the first jump on: a program that runs straight through (however long)
+      // runs each block once, only a jump can run for ever.
+      if (jumped_ && ++executed_ > options_.max_executed_blocks) {
         site().fail(0, "more than " + std::to_string(options_.max_executed_blocks) +
                            " blocks run (ReaderOptions::max_executed_blocks): a loop that does "
                            "not end?");
       }
       if (!execute(raw)) return;
       if (jump_) {
+        jumped_ = true;
         source_ = jump_source_;
         ensure_index();
         line = *jump_;
@@ -1606,7 +1609,8 @@ class Program {
   // The line running and the line to go to next (when not the following one).
   std::size_t line_ = 0;
   std::optional<std::size_t> jump_;
-  std::size_t executed_ = 0;
+  std::size_t executed_ = 0;  ///< blocks run since the first jump
+  bool jumped_ = false;
 
   // The tokens of the line running.
   const std::vector<Token>* tokens_ = nullptr;

@@ -161,8 +161,9 @@
 //    flow steps over a sub ... endsub definition, wherever it is in the file.
 //  - Comments (...) and after ';' are never run (LinuxCNC (debug, ...) and (print, ...) are
 //    ignored). A block-delete line ('/') is skipped whole, its assignments too.
-//  - Limits and errors: every block run counts towards ReaderOptions::max_executed_blocks
-//    (default 10 million: a loop that never ends stops with an error naming the block) and
+//  - Limits and errors: from the program's first jump on, every block run counts towards
+//    ReaderOptions::max_executed_blocks (default 10 million: a loop that never ends stops with
+//    an error naming the block; a program that runs straight through is not limited) and
 //    calls nest at most ReaderOptions::max_call_depth deep (default 64). Every error names the
 //    file, line and column: an unknown parameter syntax, a named parameter not set, an undefined
 //    block number, program or subroutine, a WHILE without its END (or END without its WHILE),
@@ -268,9 +269,10 @@ struct ReaderOptions {
   /// 2 GB, as much as a simulation on an ordinary workstation should take.
   std::size_t max_points_per_block = 1'000'000;
   std::size_t max_path_points = 2'000'000;
-  /// G-code programs (parameters, loops, subprograms): the blocks the program may run, each run
-  /// of a block in a loop or a subprogram counted (a loop that never ends stops here with an
-  /// error naming the block), and the depth of nested calls (M98, G65, o-word call).
+  /// G-code programs (parameters, loops, subprograms): the blocks the program may run from its
+  /// first jump (GOTO, loop, call) on, each run of a block counted (a loop that never ends stops
+  /// here with an error naming the block; a program that never jumps is not limited), and the
+  /// depth of nested calls (M98, G65, o-word call).
   std::size_t max_executed_blocks = 10'000'000;
   std::size_t max_call_depth = 64;
   /// Where a G-code program's subprograms that are not in its own file are looked for (M98 /
