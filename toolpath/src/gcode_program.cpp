@@ -791,7 +791,9 @@ class Program {
     {
       const std::size_t open = raw_.find('(');
       const std::size_t close = open == std::string_view::npos ? open : raw_.find(')', open);
-      if (close != std::string_view::npos) comment = std::string(raw_.substr(open, close - open + 1));
+      if (close != std::string_view::npos) {
+        comment = std::string(raw_.substr(open, close - open + 1));
+      }
     }
     std::optional<long> goto_n;
     int goto_column = 0;
@@ -805,7 +807,8 @@ class Program {
                               std::string(raw_.substr(n.begin, number.end - n.begin)),
                               n.column()});
     }
-    if (peek().kind == Tok::letter && peek().word == "O") return o_line(words);
+    // An N before an O line numbers nothing that moves: not handed on.
+    if (peek().kind == Tok::letter && peek().word == "O") return o_line();
 
     while (peek().kind != Tok::end) {
       const Token& t = peek();
@@ -844,8 +847,8 @@ class Program {
       }
       if (t.kind == Tok::siemens) {
         take();
-        words.push_back(OutWord{'\0', std::nullopt, std::string(raw_.substr(t.begin, t.end - t.begin)),
-                                t.column()});
+        words.push_back(OutWord{'\0', std::nullopt,
+                                std::string(raw_.substr(t.begin, t.end - t.begin)), t.column()});
         continue;
       }
       if (t.kind == Tok::keyword && t.word == "IF") {
@@ -885,7 +888,7 @@ class Program {
         continue;
       }
       if (t.kind == Tok::keyword && (t.word == "WHILE" || t.word == "DO" || t.word == "END")) {
-        return fanuc_loop(words, sets, comment);
+        return fanuc_loop(words, sets);
       }
       fail(t, t.kind == Tok::keyword ? "not expected here" : "unexpected character", raw_);
     }
@@ -950,13 +953,12 @@ class Program {
   // --- Fanuc loops: WHILE [c] DO m / DO m / END m ---------------------------------------------
 
   bool fanuc_loop(const std::vector<OutWord>& words,
-                  const std::vector<std::pair<Target, Value>>& sets, const std::string& comment) {
+                  const std::vector<std::pair<Target, Value>>& sets) {
     if (!words.empty() && !(words.size() == 1 && words[0].letter == 'N')) {
       site().fail(words.back().column, "'" + words.back().text +
                                            "': a WHILE / DO / END block takes no other word");
     }
     if (!sets.empty()) fail(peek(), "a WHILE / DO / END block takes no assignment", raw_);
-    (void)comment;
     const Token& keyword = take();
     std::optional<double> condition;
     if (keyword.word == "WHILE") {
@@ -1239,7 +1241,7 @@ class Program {
 
   // --- O lines: Fanuc program numbers and LinuxCNC o-words ------------------------------------
 
-  bool o_line(std::vector<OutWord>& words) {
+  bool o_line() {
     const Token& o = take();
     const Token& label_token = peek();
     if (label_token.kind != Tok::number && label_token.kind != Tok::name) {
@@ -1247,11 +1249,15 @@ class Program {
     }
     take();
     if (peek().kind == Tok::keyword) return o_word(o, label_of(label_token));
-    if (label_token.kind == Tok::name) fail(peek(), "expected an o-word keyword (sub, call, if, ...)", raw_);
+    if (label_token.kind == Tok::name) {
+      fail(peek(), "expected an o-word keyword (sub, call, if, ...)", raw_);
+    }
     // A Fanuc program number. The main flow steps over a subprogram (one that ends with M99),
     // unless no program of the file ends with M2 / M30: then this one is the main program (a
     // program that loops with M99).
-    if (peek().kind != Tok::end) fail(peek(), "an O (program number) block takes nothing else", raw_);
+    if (peek().kind != Tok::end) {
+      fail(peek(), "an O (program number) block takes nothing else", raw_);
+    }
     ensure_index();
     if (frames_.back().kind != FrameKind::main) {
       site().fail(o.column(), "'O" + number_text(label_token.number) + "': subprogram " +
@@ -1266,7 +1272,6 @@ class Program {
         return true;
       }
     }
-    (void)words;
     return true;
   }
 
@@ -1497,8 +1502,9 @@ class Program {
     if (src().indexed) return;
     src().indexed = true;
     src().starts.push_back(0);
-    for (std::size_t p = src().text.find('\n'); p != std::string_view::npos && p + 1 < src().text.size();
-         p = src().text.find('\n', p + 1)) {
+    const std::string_view text = src().text;
+    for (std::size_t p = text.find('\n'); p != std::string_view::npos && p + 1 < text.size();
+         p = text.find('\n', p + 1)) {
       src().starts.push_back(p + 1);
     }
     src().info.resize(src().starts.size());
@@ -1526,7 +1532,8 @@ class Program {
       return tokens[j].kind == Tok::letter && tokens[j].word == w;
     };
     if (is_letter(k, "N") && tokens[k + 1].kind == Tok::number) k += 2;
-    if (is_letter(k, "O") && (tokens[k + 1].kind == Tok::number || tokens[k + 1].kind == Tok::name)) {
+    if (is_letter(k, "O") &&
+        (tokens[k + 1].kind == Tok::number || tokens[k + 1].kind == Tok::name)) {
       if (tokens[k + 2].kind == Tok::keyword) {
         info.o_word = static_cast<int>(src().o_words.size());
         src().o_words.push_back(OWord{label_of(tokens[k + 1]), to_lower(tokens[k + 2].word)});
@@ -1556,7 +1563,8 @@ class Program {
 
   const std::string& o_keyword(std::size_t i) const {
     static const std::string none;
-    return src().info[i].o_word < 0 ? none : src().o_words[static_cast<std::size_t>(src().info[i].o_word)].keyword;
+    const int o_word = src().info[i].o_word;
+    return o_word < 0 ? none : src().o_words[static_cast<std::size_t>(o_word)].keyword;
   }
 
   /// A line without macro syntax matters to the index only by M2 / M30 (found without tokens:
@@ -1574,7 +1582,9 @@ class Program {
         while (j < line.size() && (line[j] == ' ' || line[j] == '\t')) ++j;
         while (j < line.size() && line[j] == '0') ++j;
         std::size_t digits = j;
-        while (digits < line.size() && std::isdigit(static_cast<unsigned char>(line[digits]))) ++digits;
+        while (digits < line.size() && std::isdigit(static_cast<unsigned char>(line[digits]))) {
+          ++digits;
+        }
         const std::string_view code = line.substr(j, digits - j);
         if ((code == "2" || code == "30") && (digits == line.size() || line[digits] != '.')) {
           src().info[i].m_end = true;

@@ -109,7 +109,9 @@ class GcodeReader {
         // A block of a subprogram file: it and its messages name that file.
         const std::size_t blocks = path_.blocks.size(), warnings = path_.warnings.size();
         detail::with_messages_naming(file_, *expanded.file, [&] { block(expanded.text); });
-        for (std::size_t i = blocks; i < path_.blocks.size(); ++i) path_.blocks[i].file = *expanded.file;
+        for (std::size_t i = blocks; i < path_.blocks.size(); ++i) {
+          path_.blocks[i].file = *expanded.file;
+        }
         for (std::size_t i = warnings; i < path_.warnings.size(); ++i) {
           path_.warnings[i].file = *expanded.file;
         }
