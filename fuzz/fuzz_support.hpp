@@ -143,6 +143,10 @@ class SampleMachineReaderOptions {
  public:
   SampleMachineReaderOptions()
       : machine_(kinematics::load_machine(source_dir() + "/samples/machines/mikron_ucp710.yaml")) {
+    // A G-code loop that never ends runs to ReaderOptions::max_executed_blocks (10 million
+    // blocks: about 1 s in a release build, minutes under the sanitizers, which the fuzzer would
+    // report as a hang); the limit itself is what the fuzzer checks, not how long it takes.
+    options_.max_executed_blocks = 20'000;
     options_.rotary_words_to_tool_axis = [this](const auto& words) {
       return kinematics::forward_kinematics(machine_, axes_from_words(words), kToolLength_m).axis_W;
     };

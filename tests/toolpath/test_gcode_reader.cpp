@@ -410,7 +410,7 @@ TEST(GcodeReader, EachKindOfBadInputIsAnError) {
   const Case cases[] = {
       {"G0 X0 Y0 Z0\nG1 X1.2.3 F100\n", "part.nc:2:4: 'X1.2.3'", "malformed number"},
       {"G0 X0 Y0 Z0\nG1 X F100\n", "part.nc:2:4:", "no value"},
-      {"G0 X0 Y0 Z0\nG1 X1 # F100\n", "part.nc:2:7:", "unexpected character"},
+      {"G0 X0 Y0 Z0\nG1 X1 # F100\n", "part.nc:2:7: '#'", "a parameter needs a number"},
       {"G0 X0 Y0 Z0 (OPEN\n", "part.nc:1:13:", "not closed"},
       {"X10 Y0\n", "part.nc:1:1: 'X10'", "before any motion mode"},
       {"G0 X0 Y0 Z0\nG1 X10\n", "part.nc:2:1: 'G1'", "before any F"},

@@ -6,6 +6,7 @@
 #include <algorithm>
 #include <cmath>
 #include <exception>
+#include <filesystem>
 #include <new>
 #include <numbers>
 #include <optional>
@@ -15,6 +16,7 @@
 #include <vector>
 
 #include "canned_cycles.hpp"
+#include "gcode_program.hpp"
 #include "toolpath_detail.hpp"
 #include "vmsim/common/errors.hpp"
 #include "vmsim/toolpath/toolpath.hpp"
@@ -101,17 +103,29 @@ class GcodeReader {
     offset_ = *initial;
     text = detail::without_byte_order_mark(text);
     detail::require_utf8_text(text, file_);
-    std::size_t begin = 0;
-    while (begin < text.size() && !ended_) {
-      std::size_t end = text.find('\n', begin);
-      if (end == std::string_view::npos) end = text.size();
-      std::string_view line = text.substr(begin, end - begin);
-      if (!line.empty() && line.back() == '\r') line.remove_suffix(1);
-      ++line_;
-      begin = end + 1;
-      line_text_ = detail::trim(line);
-      block(line);
-    }
+    // The program pre-pass (gcode_program.hpp) runs parameters, expressions, loops and
+    // subprograms and gives the blocks in the order the control runs them; a block keeps its
+    // source line (SourceBlock::text is the line as written) and the source columns of its words.
+    detail::run_gcode_program(text, file_, options_, [&](const detail::ExpandedBlock& expanded) {
+      line_ = expanded.line;
+      line_text_ = detail::trim(expanded.source);
+      expanded_ = &expanded;
+      if (!expanded.file) {
+        block(expanded.text);
+      } else {
+        // A block of a subprogram file: it and its messages name that file.
+        const std::size_t blocks = path_.blocks.size(), warnings = path_.warnings.size();
+        detail::with_messages_naming(file_, *expanded.file, [&] { block(expanded.text); });
+        for (std::size_t i = blocks; i < path_.blocks.size(); ++i) {
+          path_.blocks[i].file = *expanded.file;
+        }
+        for (std::size_t i = warnings; i < path_.warnings.size(); ++i) {
+          path_.warnings[i].file = *expanded.file;
+        }
+      }
+      expanded_ = nullptr;
+      return !ended_;
+    });
     detail::require_motion(path_, file_);
     return std::move(path_);
   }
@@ -161,7 +175,8 @@ class GcodeReader {
       skip_blanks();
       if (i >= n || line[i] == ';') break;
       const char c = line[i];
-      const int column = static_cast<int>(i) + 1;
+      const int column = expanded_ ? expanded_->source_column(static_cast<int>(i) + 1)
+                                   : static_cast<int>(i) + 1;
       if (c == '(') {
         const std::size_t close = line.find(')', i);
         if (close == std::string_view::npos) fail(column, "comment '(' is not closed on its line");
@@ -1490,6 +1505,7 @@ class GcodeReader {
   Toolpath path_;
   int line_ = 0;
   std::string line_text_;
+  const detail::ExpandedBlock* expanded_ = nullptr;  ///< the block being read (its columns)
   bool ended_ = false;
   bool started_ = false;
   int warning_count_ = 0;
@@ -1539,7 +1555,14 @@ Toolpath parse_gcode(const std::string& text, const std::string& file_name_for_m
 }
 
 Toolpath read_gcode(const std::string& path, const ReaderOptions& options) {
-  return parse_gcode(detail::read_text_file(path), path, options);
+  if (!options.subprogram_folder.empty()) {
+    return parse_gcode(detail::read_text_file(path), path, options);
+  }
+  // Subprograms in other files are looked for beside the program.
+  ReaderOptions with_folder = options;
+  const std::filesystem::path folder = std::filesystem::path(path).parent_path();
+  with_folder.subprogram_folder = folder.empty() ? "." : folder.string();
+  return parse_gcode(detail::read_text_file(path), path, with_folder);
 }
 
 }  // namespace vmsim::toolpath

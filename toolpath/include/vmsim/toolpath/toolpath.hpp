@@ -62,9 +62,9 @@
 //    `X=10` and extended addresses `A3=0.5`; comments `( ... )` and after `;`; `%` lines and O
 //    program numbers skipped; N is kept as SourceBlock::block_number; a block starting with `/`
 //    (block delete) is skipped with a warning. S and D words are accepted and ignored; M2/M30
-//    end the program (the rest of the file is not read); M98/M99 are an error (subprograms are
-//    expanded before this reader); other M codes are ignored. An address twice in one block is
-//    an error.
+//    end the program (the rest of the file is not read); M98/M99 and G65 are subprogram calls
+//    (below, "G-code programs"); other M codes are ignored. An address twice in one block is an
+//    error.
 //  - G0 G1 G2 G3 (modal; an axis word before any of them is an error), G17/G18/G19 planes
 //    (arcs turn in (X,Y), (Z,X), (Y,Z); G3 is counter-clockwise seen from the plane normal +Z,
 //    +Y, +X), G20/G21 inch/mm (lengths and F), G90/G91 absolute/incremental (X Y Z A B C),
@@ -162,6 +162,77 @@
 //    Errors naming the word: G41/G42 cutter compensation, G68.1 3-D rotation, G51 scaling, G16
 //    polar, G87 G88, any other G-code, and words outside this list (U V W, Siemens keywords
 //    other than TRAORI/TRAFOOF); P Q L E where their G-code does not use them.
+//
+// G-code programs (read_gcode; toolpath/src/gcode_program.cpp): the programming language of
+// Fanuc Custom Macro B and LinuxCNC runs first, and the block interpreter above reads the blocks
+// it gives, in the order the control runs them, with every parameter and expression replaced by
+// its number (SourceBlock::line and ::text stay the source line as written; a block run several
+// times gives a SourceBlock each time, all naming that line). A line with no '#', '[', '<', O
+// word, keyword of two or more letters, M98/M99 or G65-G67 goes through untouched.
+//  - Parameters: #1-#33 are local to a call level (G65 and o-call give the callee its own;
+//    M98 shares its caller's), #34-#999 common to all (Fanuc #100-#199, #500-#999; nothing is
+//    kept from one reading to the next); all start vacant. #0 is always vacant. #1000 and above
+//    are control system variables, which are not simulated (an error), except that writing
+//    #3000 (Fanuc alarm) stops with an error quoting the value and the block's comment.
+//    LinuxCNC named parameters #<name> are local to the call level, #<_name> global; names
+//    ignore case and blanks; reading one never set is an error (EXISTS[#<name>] tests it).
+//    Indirection: #[expression], ##n. A parameter number must be an integer (within 1e-4).
+//  - Vacant (Fanuc): a word whose value is vacant is left out of its block (G90 X#1 with #1
+//    vacant is G90); [#1] and -#1 stay vacant; any arithmetic or function reads vacant as 0; EQ
+//    and NE tell vacant from 0 (#1 EQ #0 is true only when #1 is vacant), GT GE LT LE read it as
+//    0. (LinuxCNC's numbered parameters start at 0 instead: such a program that reads one never
+//    set gets the word left out here.)
+//  - Assignments: `#i = expression`, several on one line; as in LinuxCNC, the values set on a
+//    line take effect after the whole line is read (#1=5 #2=#1 gives #2 the old #1).
+//  - Values in words: any address takes a number, #..., [expression] or a function (LinuxCNC
+//    X SIN[30]), with a sign: X#1, X-#1, X[#1+2], G#2, F#3, Siemens X=#1. A macro value of an
+//    integer address (M T H D N L O, not G) is rounded to an integer as on Fanuc; others are
+//    handed on at full precision (shortest decimal text that reads back the same double).
+//  - Expressions in [ ]: numbers, parameters, unary - and +, binary ** (power), * / MOD, + -,
+//    EQ NE GT GE LT LE (1 or 0), AND OR XOR (logical: non-zero is true), with LinuxCNC's
+//    precedence: ** first, then * / MOD, then + -, then comparisons, then AND OR XOR, each
+//    left to right (Fanuc puts AND with * and OR XOR with +: a Fanuc program that brackets its
+//    conditions, [[#1 GT 0] AND [#2 LT 5]], reads the same). MOD as LinuxCNC: 0 <= a MOD b <
+//    |b|. Functions, angles in degrees: SIN COS TAN ASIN ACOS, ATAN[y]/[x] (and ATAN[y,x]; in
+//    (-180, 180]; ATAN[t] alone: one argument), SQRT ABS ROUND (half away from zero) FIX
+//    (fraction dropped, as Fanuc: FIX[-1.2] = -1) FUP (away from zero: FUP[-1.2] = -2; LinuxCNC
+//    rounds down and up, the same for positive numbers) LN EXP, EXISTS[#<name>]. Errors:
+//    division or MOD by zero, SQRT of a negative number, LN of a number <= 0, ASIN/ACOS outside
+//    [-1, 1], a result beyond a double.
+//  - Fanuc control flow: `IF [cond] GOTO n`, `IF [cond] THEN #i = expression ...`, `GOTO n`
+//    (n an expression; to the block N n of the program running, searched forward, then from the
+//    program's start), `WHILE [cond] DO m` ... `END m` (m a loop number; `DO m` alone loops for
+//    ever). Fanuc subprograms: `O<n>` ... `M99` in the same file, after the main program's M30 or
+//    before the main program (the main flow steps over a program that ends with M99); `M98 P<n>
+//    [L<k>]`, and the packed form M98 P<kkkknnnn> (k times program nnnn) where no program
+//    numbered P exists; other words of an M98 block run before the call. `G65 P<n> [L<k>]`
+//    with arguments A B C I J K D E F H M Q R S T U V W X Y Z into #1 #2 #3 #4 #5 #6 #7 #8 #9 #11
+//    #13 #17-#26 (argument specification I); the other locals of the macro start vacant. M99
+//    in the main program ends it (the control would start it again); a file whose only
+//    program ends with M99 (no M2/M30 anywhere) runs that program once. Not supported (errors):
+//    M99 P (return to a block number), G66/G67 modal calls.
+//  - Subprograms in other files: a program number or o-word subroutine not in the file is
+//    looked for in ReaderOptions::subprogram_folder (read_gcode: the program's folder): M98 /
+//    G65 P1234 in O1234.nc, o1234.nc, 1234.nc, O1234.NC (O0012.nc for P12), which may hold the
+//    O line or the body alone, up to its M99; o<name> call in name.ngc (LinuxCNC), which holds
+//    o<name> sub ... endsub. Their blocks (SourceBlock::file) and errors name that file.
+//  - LinuxCNC o-words (numbered o100 or named o<name>, any case): `sub` / `endsub [value]` /
+//    `return [value]` (the value goes to #<_value>), `call [a1] [a2] ...` (at most 30 arguments
+//    into #1..#30 of the callee), `if [c]` / `elseif [c]` / `else` / `endif`, `while [c]` /
+//    `endwhile`, `do` / `while [c]`, `repeat [n]` / `endrepeat`, `break`, `continue`. The main
+//    flow steps over a sub ... endsub definition, wherever it is in the file.
+//  - Comments (...) and after ';' are never run (LinuxCNC (debug, ...) and (print, ...) are
+//    ignored). A block-delete line ('/') is skipped whole, its assignments too.
+//  - Limits and errors: from the program's first jump on, every block run counts towards
+//    ReaderOptions::max_executed_blocks (default 10 million: a loop that never ends stops with
+//    an error naming the block; a program that runs straight through is not limited) and
+//    calls nest at most ReaderOptions::max_call_depth deep (default 64). Every error names the
+//    file, line and column: an unknown parameter syntax, a named parameter not set, an undefined
+//    block number, program or subroutine, a WHILE without its END (or END without its WHILE),
+//    an o-word without its partner (if without endif, endwhile without while, sub without
+//    endsub), the end of the file inside a subprogram (no M99 / endsub), a subprogram that runs
+//    into the next program. An error of the block interpreter in a word made from an
+//    expression names that word's source column and quotes the word with its value (X2000000).
 #include <Eigen/Core>
 #include <array>
 #include <cstddef>
@@ -306,6 +377,16 @@ struct ReaderOptions {
   /// 2 GB, as much as a simulation on an ordinary workstation should take.
   std::size_t max_points_per_block = 1'000'000;
   std::size_t max_path_points = 2'000'000;
+  /// G-code programs (parameters, loops, subprograms): the blocks the program may run from its
+  /// first jump (GOTO, loop, call) on, each run of a block counted (a loop that never ends stops
+  /// here with an error naming the block; a program that never jumps is not limited), and the
+  /// depth of nested calls (M98, G65, o-word call).
+  std::size_t max_executed_blocks = 10'000'000;
+  std::size_t max_call_depth = 64;
+  /// Where a G-code program's subprograms that are not in its own file are looked for (M98 /
+  /// G65 P1234: O1234.nc, o1234.nc, 1234.nc; o<name> call: name.ngc). Empty: nowhere;
+  /// read_gcode and read_toolpath give the program file's folder when this is empty.
+  std::string subprogram_folder;
 };
 
 /// Reads an APT/CL file (subset above). Throws vmsim::InputError naming the file, line, column
