@@ -486,7 +486,8 @@ std::vector<bool> cutting_samples(const Context& context, const Run& run) {
 
 Json run_summary(const Context& context, const Run& run) {
   Json summary;
-  summary["feed_mm_per_min"] = run.feed_m_per_s * 60e3;
+  // Rounded to 1e-6 mm/min: a programmed 3000 mm/min x 10 % is 300, not 300.00000000000006.
+  summary["feed_mm_per_min"] = round_to(run.feed_m_per_s * 60e3, 1e-6);
   summary["feed_setting"] =
       run.feed.fixed_m_per_s > 0.0
           ? "every cutting move at feed_mm_per_min"

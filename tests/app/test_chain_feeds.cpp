@@ -10,7 +10,10 @@
 #include "chain_inputs.hpp"
 #include "cli_runner.hpp"
 #include "part_file.hpp"
+#include <nlohmann/json.hpp>
+
 #include "vmsim/common/errors.hpp"
+#include "vmsim/common/files.hpp"
 #include "vmsim/kinematics/path_kinematics.hpp"
 
 namespace vmsim {
@@ -117,6 +120,33 @@ TEST(ChainFeeds, ContradictoryOrImplausibleFeedSettingsNameFileLineAndField) {
       EXPECT_NE(message.find(c.expected), std::string::npos) << message;
     }
   }
+}
+
+// simulate-part end to end on a 5-axis program as CAM systems post them: G43.4, a rapid
+// re-orientation at a safe height (A 0 -> -20 -> 0 about the fixed tip), a plunge at F2000 and
+// a pass at F3000. The feeds follow the program: production at 100 % (largest cutting feed
+// 3000 mm/min), reference at 10 % (300 mm/min). Before, the run stopped at the re-orientation
+// ("changes the tool orientation without moving the tip") and ran every move at one feed.
+TEST(ChainFeeds, SimulatePartRunsAReorientationAtTheProgrammedFeedsTimesTheOverrides) {
+  const auto folder = test::fresh_folder("chain_feeds_simulate");
+  std::ofstream(folder / "prog.nc") << "G21 G90 G94\nG43.4 H1\nG0 X-30 Y0 Z60 A0 C0\nG0 A-20\nG0 A0\n"
+                                       "G1 Z18 F2000\nG1 X30 F3000\nG0 Z60\n";
+  std::ofstream(folder / "part.yaml")
+      << "name: reorientation\n"
+         "machine: " << kMikron << "\n"
+         "toolpath: prog.nc\n"
+         "tool: {type: ball, diameter_mm: 10, length_mm: 100, cutting_length_mm: 20}\n"
+         "stock: {box: {min_mm: [-20, -10, 0], max_mm: [20, 10, 20]}}\n"
+         "feeds: {override_percent: 100, reference_percent: 10}\n";
+  const test::RunResult run =
+      test::run_vmsim("simulate-part --part " + (folder / "part.yaml").string() + " --out " +
+                      (folder / "out").string() + " --no-renders --threads 1");
+  ASSERT_EQ(run.exit_code, 0) << run.output;
+  const nlohmann::json report = nlohmann::json::parse(read_file((folder / "out" / "report.json").string()));
+  EXPECT_EQ(report["runs"]["production"]["feed_mm_per_min"].get<double>(), 3000.0);
+  EXPECT_EQ(report["runs"]["reference"]["feed_mm_per_min"].get<double>(), 300.0);
+  // The reference cuts the pass ten times slower: 40 mm of stock at 300 mm/min is 8 s at least.
+  EXPECT_GT(report["runs"]["reference"]["duration_s"].get<double>(), 8.0);
 }
 
 }  // namespace
