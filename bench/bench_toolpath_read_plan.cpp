@@ -43,12 +43,12 @@ std::size_t write_program(const std::filesystem::path& file) {
   put("%");
   put("(relief raster: 9000 rows, 160000 G1, 9000 arcs)");
   put("G21 G90 G94 G17");
-  put("G0 X0 Y0 Z20");
-  std::snprintf(line, sizeof line, "G1 Z%.4f F3000", relief_mm(0, 0));
+  put("G0 X0 Y-225 Z20");
+  std::snprintf(line, sizeof line, "G1 Z%.4f F3000", relief_mm(0, -225.0));
   put(line);
-  const double step_y = 0.2;
+  const double step_y = 0.05;  // 9000 rows in 450 mm: within Y's travel of +-275 mm
   for (int row = 0; row < 9000; ++row) {
-    const double y = row * step_y;
+    const double y = -225.0 + row * step_y;
     const int moves = row < 7000 ? 18 : 17;  // 7000 x 18 + 2000 x 17 = 160 000
     const bool forward = row % 2 == 0;
     for (int k = 1; k <= moves; ++k) {
