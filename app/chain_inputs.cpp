@@ -3,6 +3,7 @@
 #include <array>
 #include <filesystem>
 #include <cmath>
+#include <limits>
 #include <numbers>
 #include <optional>
 
@@ -24,6 +25,35 @@ void add_chain_input_options(CLI::App& command, ChainInputOptions& options) {
       ->check(CLI::ExistingFile);
   command.add_option("--tool-length-mm", options.tool_length_mm,
                      "tool length from the spindle gauge point to the tool tip [mm]");
+}
+
+std::vector<double> point_feeds_m_per_s(const ChainInputs& inputs,
+                                        const kinematics::PathKinematics& path,
+                                        const FeedSetting& feed) {
+  std::vector<double> feeds(inputs.path.size(), 0.0);
+  for (std::size_t i = 1; i < inputs.path.size(); ++i) {
+    const toolpath::PathPoint& point = inputs.toolpath.points[inputs.toolpath_point[i]];
+    if (point.kind == toolpath::MotionKind::rapid) continue;
+    if (i < path.turns_in_place.size() && path.turns_in_place[i]) continue;
+    if (feed.fixed_m_per_s > 0.0) {
+      feeds[i] = feed.fixed_m_per_s;
+      continue;
+    }
+    double programmed = point.feed_m_per_s;
+    if (point.inverse_time_feed_per_s > 0.0) {
+      // G93: the move takes 1 / F; its chord at that time (an arc's chords each got n F).
+      const double chord_m = (inputs.path[i].pose.tip_W_m - inputs.path[i - 1].pose.tip_W_m).norm();
+      programmed = chord_m * point.inverse_time_feed_per_s;
+    }
+    if (!(programmed > 0.0)) {
+      if (point.inverse_time_feed_per_s > 0.0) continue;  // G93 without tip motion: axes' limits
+      const auto& block = inputs.toolpath.blocks[static_cast<std::size_t>(point.block)];
+      throw InputError(located_message(block.file, block.line, 0,
+                                       "a cutting move without a programmed feed (F / FEDRAT)"));
+    }
+    feeds[i] = programmed * feed.programmed_factor;
+  }
+  return feeds;
 }
 
 double to_trace_unit(const kinematics::Axis& axis, double joint_value_si) {
@@ -75,6 +105,34 @@ bool same_rotary_words(const toolpath::PathPoint& a, const toolpath::PathPoint& 
     if (std::isnan(x) != std::isnan(y) || (!std::isnan(x) && x != y)) return false;
   }
   return true;
+}
+
+// The rotary axes a point's programmed words A B C give (joint unit, NaN for the other axes);
+// empty when the point carries no words, or when its tool axis is not theirs (a G43.5 tool
+// vector after G43.4 words: the words in force no longer place the axes, the IKT does).
+Eigen::VectorXd programmed_rotary_axes(const kinematics::MachineModel& machine,
+                                       const toolpath::PathPoint& point, double tool_length_m) {
+  Eigen::VectorXd q = Eigen::VectorXd::Constant(static_cast<Eigen::Index>(machine.axis_count()),
+                                                std::numeric_limits<double>::quiet_NaN());
+  bool any = false;
+  for (std::size_t k = 0; k < point.rotary_words_deg.size(); ++k) {
+    if (std::isnan(point.rotary_words_deg[k])) continue;
+    const int index = machine.axis_index(std::string(1, static_cast<char>('A' + k)));
+    if (index < 0 || machine.axes[static_cast<std::size_t>(index)].type !=
+                         kinematics::AxisType::rotary) {
+      continue;
+    }
+    q[index] = point.rotary_words_deg[k] * std::numbers::pi / 180.0;
+    any = true;
+  }
+  if (!any) return {};
+  Eigen::VectorXd q_full = machine.home_positions();
+  for (Eigen::Index i = 0; i < q.size(); ++i) {
+    if (!std::isnan(q[i])) q_full[i] = q[i];
+  }
+  const Eigen::Vector3d axis_W = kinematics::forward_kinematics(machine, q_full, tool_length_m).axis_W;
+  if (std::atan2(axis_W.cross(point.axis_W).norm(), axis_W.dot(point.axis_W)) > 1e-6) return {};
+  return q;
 }
 
 }  // namespace
@@ -180,9 +238,16 @@ ChainInputs load_chain_inputs(const ChainInputOptions& options) {
   for (const auto& warning : inputs.toolpath.warnings) {
     inputs.warnings.push_back(located_message(warning.file, warning.line, 0, warning.message));
   }
-  if (options.corner_tolerance_m > 0.0) {
+  bool programmed_blending = false;  // a G64 P / G5.1 tolerance somewhere in the program
+  if (!options.corner_tolerance_override) {
+    for (const auto& point : inputs.toolpath.points) {
+      programmed_blending = programmed_blending || point.corner_tolerance_m > 0.0;
+    }
+  }
+  if (options.corner_tolerance_m > 0.0 || programmed_blending) {
     planner::CornerBlendOptions blend;
     blend.tolerance_m = options.corner_tolerance_m;
+    blend.program_tolerances = !options.corner_tolerance_override;
     blend.axis_tolerance_rad = options.corner_axis_tolerance_rad;
     blend.corner_angle_rad = inputs.path_kinematics.corner_angle_rad;
     blend.corner_baseline_m = inputs.path_kinematics.fit_half_window_m;
@@ -215,7 +280,11 @@ ChainInputs load_chain_inputs(const ChainInputOptions& options) {
         continue;
       }
     }
-    inputs.path.push_back({{point.tip_W_m, point.axis_W}, point.block});
+    // An NC moves the rotary axes to the programmed words (G43.4 included): they are kept,
+    // not chosen again by the inverse kinematics.
+    inputs.path.push_back({{point.tip_W_m, point.axis_W},
+                           point.block,
+                           programmed_rotary_axes(inputs.machine, point, inputs.tool_length_m)});
     inputs.toolpath_point.push_back(i);
   }
   return inputs;

@@ -20,8 +20,13 @@ struct ChainInputOptions {
   std::string toolpath_path;
   double tool_length_mm = -1.0;
   /// Corner blending (planner/corner_blend.hpp): the largest distance between the blended and
-  /// the programmed path [m]; 0 = no blending (exact stop at every corner).
+  /// the programmed path [m]; 0 = no blending (exact stop). With corner_tolerance_override
+  /// false it holds only at corners where the program says nothing; elsewhere the program's
+  /// own (PathPoint::corner_tolerance_m: G61 / G9 exact stop, G64 P, G5.1).
   double corner_tolerance_m = 0.0;
+  /// True: corner_tolerance_m at every corner, whatever the program asks (a command-line
+  /// --corner-tolerance-mm or --exact-stop).
+  bool corner_tolerance_override = false;
   /// Largest angle between the blended and the programmed tool axis at a corner [rad].
   double corner_axis_tolerance_rad = planner::CornerBlendOptions{}.axis_tolerance_rad;
 };
@@ -63,6 +68,16 @@ ChainInputs load_chain_inputs(const ChainInputOptions& options);
 void apply_machine_setup(const kinematics::MachineModel& machine,
                          const std::optional<MachineSetup>& setup, double tool_length_m,
                          toolpath::ReaderOptions& reader, const std::string& part_path);
+
+/// The feed limit of each path point's motion [m/s] for the planner
+/// (FeedrateOptions::point_feed_m_per_s): 0 (no feed limit: the axes' own limits) on rapids and
+/// on motions that turn the tool about a fixed tip (PathKinematics::turns_in_place); on cutting
+/// moves feed.fixed_m_per_s where > 0, else the programmed feed (G94 F; G93: the chord length
+/// times the inverse time) times feed.programmed_factor. `path` is solve_path_kinematics of
+/// inputs.path. Throws vmsim::InputError naming the block where a cutting move has no feed.
+std::vector<double> point_feeds_m_per_s(const ChainInputs& inputs,
+                                        const kinematics::PathKinematics& path,
+                                        const FeedSetting& feed);
 
 /// Joint value to the trace unit: mm for linear axes, deg for rotary axes.
 double to_trace_unit(const kinematics::Axis& axis, double joint_value_si);

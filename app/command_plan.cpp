@@ -107,6 +107,9 @@ int run_plan(const PlanOptions& options, const CommandContext& context) {
     input_options.corner_tolerance_m = options.corner_tolerance_mm * 1e-3;
     input_options.corner_axis_tolerance_rad = options.corner_axis_tolerance_deg * std::numbers::pi / 180.0;
   }
+  // Either option overrides the program's corner tolerances (G61 / G64 P / G5.1); without them
+  // the program's apply, exact stop where it says nothing.
+  input_options.corner_tolerance_override = options.exact_stop || options.corner_tolerance_mm > 0.0;
 
   const ChainInputs inputs = load_chain_inputs(input_options);
   OutputFolder output(options.out_dir, chain_input_files(input_options, inputs), {"plan", VMSIM_VERSION});
@@ -114,11 +117,9 @@ int run_plan(const PlanOptions& options, const CommandContext& context) {
   const kinematics::PathKinematics path = kinematics::solve_path_kinematics(
       inputs.machine, inputs.path, inputs.machine.home_positions(), inputs.tool_length_m,
       inputs.block_names, inputs.path_kinematics);
-  fo.point_feed_m_per_s.resize(path.s_m.size(), 0.0);
-  for (std::size_t i = 0; i < path.s_m.size(); ++i) {
-    const toolpath::PathPoint& point = inputs.toolpath.points[inputs.toolpath_point[i]];
-    fo.point_feed_m_per_s[i] = point.kind == toolpath::MotionKind::rapid ? 0.0 : point.feed_m_per_s;
-  }
+  // The programmed feeds (G94 F, G93 inverse time); rapids and turns about a fixed tip on the
+  // axes' own limits.
+  fo.point_feed_m_per_s = point_feeds_m_per_s(inputs, path, FeedSetting{});
   const planner::FeedratePlan plan = planner::plan_feedrate(inputs.machine, path, fo);
   const auto& prof = plan.profile;
   const auto& axes = inputs.machine.axes;
@@ -182,9 +183,14 @@ int run_plan(const PlanOptions& options, const CommandContext& context) {
     return block >= 0 ? inputs.block_names[static_cast<std::size_t>(block)] : std::string("-");
   };
   nlohmann::json corners = nlohmann::json::object();
-  corners["mode"] = input_options.corner_tolerance_m > 0.0 ? "blended" : "exact stop";
-  if (input_options.corner_tolerance_m > 0.0) {
-    corners["tolerance_mm"] = options.corner_tolerance_mm;
+  // Blending ran where a tolerance was given, or where the program asks one (G64 P / G5.1).
+  const bool blending = input_options.corner_tolerance_m > 0.0 || !inputs.blended_corners.empty() ||
+                        !inputs.exact_stop_corners.empty();
+  corners["mode"] = input_options.corner_tolerance_m > 0.0 ? "blended"
+                    : blending                             ? "the program's tolerances"
+                                                           : "exact stop";
+  if (blending) {
+    if (input_options.corner_tolerance_m > 0.0) corners["tolerance_mm"] = options.corner_tolerance_mm;
     corners["axis_tolerance_deg"] = options.corner_axis_tolerance_deg;
     corners["blended"] = inputs.blended_corners.size();
     double deviation = 0.0, axis_deviation = 0.0;
@@ -277,10 +283,12 @@ int run_plan(const PlanOptions& options, const CommandContext& context) {
        << " ms; wrote " << options.out_dir << "/{limits.csv,setpoints.csv,summary.json"
        << (plot ? ",plan.png}" : "}");
   context.say(line.str());
-  if (input_options.corner_tolerance_m > 0.0) {
+  if (blending) {
     std::ostringstream blended;
-    blended << std::setprecision(4) << "corners: " << inputs.blended_corners.size()
-            << " blended within " << options.corner_tolerance_mm << " mm (largest deviation "
+    blended << std::setprecision(4) << "corners: " << inputs.blended_corners.size() << " blended within "
+            << (input_options.corner_tolerance_m > 0.0 ? format_double(options.corner_tolerance_mm) + " mm"
+                                                        : std::string("the program's tolerances"))
+            << " (largest deviation "
             << corners["largest_deviation_mm"].get<double>() << " mm), "
             << inputs.exact_stop_corners.size() << " exact stops";
     context.say(blended.str());
@@ -328,7 +336,9 @@ void add_plan_command(CLI::App& app, CommandContext& context) {
           ->capture_default_str();
   axis_tolerance->needs(tolerance);
   command->add_flag("--exact-stop", options->exact_stop,
-                    "stop at every corner (the default without --corner-tolerance-mm)")
+                    "stop at every corner, whatever the program asks (without it and "
+                    "--corner-tolerance-mm: the program's G61 / G9 / G64 P / G5.1, exact stop "
+                    "where it says nothing)")
       ->excludes(tolerance);
   command->add_flag("--no-third-order", options->no_third_order,
                     "leave out the jerk / torque-rate limits");

@@ -1,4 +1,6 @@
 // vmsim simulate-part: the main job (see simulate_part.hpp).
+#include <cmath>
+#include <limits>
 #include <unistd.h>
 
 #include <chrono>
@@ -31,7 +33,8 @@ struct CommandOptions {
   bool perfect_drives = false;
   bool third_order = false;
   bool compare_methods = false;
-  double corner_tolerance_mm = 0.0;
+  /// NaN = not given: the program's corner tolerances (G61 / G64 P / G5.1), else exact stop.
+  double corner_tolerance_mm = std::numeric_limits<double>::quiet_NaN();
   double tolerance_um = 0.0;
   int threads = 0;
 };
@@ -70,10 +73,12 @@ int run(const CommandOptions& command, const CommandContext& context) {
   options.perfect_drives = command.perfect_drives;
   options.third_order = command.third_order;
   options.compare_methods = command.compare_methods;
-  if (!(command.corner_tolerance_mm >= 0.0)) {
+  const bool tolerance_given = !std::isnan(command.corner_tolerance_mm);
+  if (tolerance_given && !(command.corner_tolerance_mm >= 0.0)) {
     throw InputError("--corner-tolerance-mm must be >= 0, got " + format_double(command.corner_tolerance_mm));
   }
-  options.corner_tolerance_m = command.corner_tolerance_mm * 1e-3;
+  options.corner_tolerance_m = tolerance_given ? command.corner_tolerance_mm * 1e-3 : 0.0;
+  options.corner_tolerance_override = tolerance_given;
   options.threads = command.threads;
   if (!(command.tolerance_um >= 0.0) || command.tolerance_um > 1e4) {
     throw InputError("--tolerance-um must be > 0 and at most 10 000 (10 mm), got " +
@@ -171,8 +176,9 @@ void add_simulate_part_command(CLI::App& app, CommandContext& context) {
   command->add_flag("--third-order", options->third_order,
                     "apply jerk / torque-rate limits in the plan (exact, much slower planning)");
   command->add_option("--corner-tolerance-mm", options->corner_tolerance_mm,
-                      "blend G1 corners within this distance [mm] (0: exact stop)")
-      ->capture_default_str();
+                      "blend G1 corners within this distance [mm] (0: exact stop) at every "
+                      "corner; default: what the program asks (G61 / G9 exact stop, G64 P, "
+                      "G5.1), exact stop where it says nothing");
   command->add_flag("--no-commanded-check", options->no_commanded_check,
                     "skip cutting the commanded path to check the reference run");
   command->callback([options, &context] { context.result = run(*options, context); });

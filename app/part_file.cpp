@@ -221,10 +221,13 @@ void read_design(const PartReader& reader, const YAML::Node& design, PartDescrip
   }
 }
 
-void read_tool(PartReader& reader, const YAML::Node& tool, ToolDescription& result) {
-  reader.require_map(tool, "tool", {"type", "diameter_mm", "corner_radius_mm", "length_mm",
-                                    "cutting_length_mm"});
-  const std::string type = reader.text(tool, "type", "tool");
+// `tool:`, or one entry of `tools:` (path "tools[k]", with its `number`).
+void read_tool(PartReader& reader, const YAML::Node& tool, ToolDescription& result,
+               const std::string& path = "tool", const Keys& extra_keys = {}) {
+  Keys keys{"type", "diameter_mm", "corner_radius_mm", "length_mm", "cutting_length_mm"};
+  keys.insert(keys.end(), extra_keys.begin(), extra_keys.end());
+  reader.require_map(tool, path, keys);
+  const std::string type = reader.text(tool, "type", path);
   if (type == "ball") {
     result.type = ToolType::ball;
   } else if (type == "flat") {
@@ -232,25 +235,25 @@ void read_tool(PartReader& reader, const YAML::Node& tool, ToolDescription& resu
   } else if (type == "bull") {
     result.type = ToolType::bull;
   } else {
-    reader.fail(tool["type"], "tool.type: '" + type + "' is not one of ball, flat, bull");
+    reader.fail(tool["type"], path + ".type: '" + type + "' is not one of ball, flat, bull");
   }
   for (const char* key : {"diameter_mm", "length_mm"}) {
-    const double value_mm = reader.positive_number(tool, key, "tool");
+    const double value_mm = reader.positive_number(tool, key, path);
     if (value_mm > kToolSizeLimit_mm) {
-      reader.fail(tool[key], std::string("tool.") + key + ": " + tool[key].Scalar() +
+      reader.fail(tool[key], path + "." + key + ": " + tool[key].Scalar() +
                                  " mm is not a plausible tool (more than 10 m; m or µm written?)");
     }
     if (value_mm > kToolSizeWarning_mm) {
-      reader.warn(tool[key], std::string("tool.") + key + ": " + tool[key].Scalar() +
+      reader.warn(tool[key], path + "." + key + ": " + tool[key].Scalar() +
                                  " mm is unusually large (more than 1 m): check the unit");
     }
   }
-  result.diameter_m = reader.number(tool["diameter_mm"], "tool.diameter_mm") * 1e-3;
-  result.length_m = reader.number(tool["length_mm"], "tool.length_mm") * 1e-3;
+  result.diameter_m = reader.number(tool["diameter_mm"], path + ".diameter_mm") * 1e-3;
+  result.length_m = reader.number(tool["length_mm"], path + ".length_mm") * 1e-3;
   if (tool["corner_radius_mm"]) {
-    const double radius_mm = reader.number(tool["corner_radius_mm"], "tool.corner_radius_mm");
+    const double radius_mm = reader.number(tool["corner_radius_mm"], path + ".corner_radius_mm");
     if (radius_mm < 0.0 || radius_mm * 1e-3 > result.diameter_m / 2.0 + 1e-12) {
-      reader.fail(tool["corner_radius_mm"], "tool.corner_radius_mm: must be between 0 and "
+      reader.fail(tool["corner_radius_mm"], path + ".corner_radius_mm: must be between 0 and "
                                             "diameter_mm / 2, got '" +
                                                 tool["corner_radius_mm"].Scalar() + "'");
     }
@@ -259,11 +262,11 @@ void read_tool(PartReader& reader, const YAML::Node& tool, ToolDescription& resu
     result.corner_radius_m = result.diameter_m / 2.0;
   }
   if (tool["cutting_length_mm"]) {
-    result.cutting_length_m = reader.positive_number(tool, "cutting_length_mm", "tool") * 1e-3;
+    result.cutting_length_m = reader.positive_number(tool, "cutting_length_mm", path) * 1e-3;
     if (result.cutting_length_m < result.diameter_m - 1e-12 ||
         result.cutting_length_m > result.length_m + 1e-12) {
       reader.fail(tool["cutting_length_mm"],
-                  "tool.cutting_length_mm: must be between diameter_mm and length_mm, got '" +
+                  path + ".cutting_length_mm: must be between diameter_mm and length_mm, got '" +
                       tool["cutting_length_mm"].Scalar() + "'");
     }
   }
@@ -379,6 +382,70 @@ MachineSetup read_setup(const PartReader& reader, const YAML::Node& node) {
   return setup;
 }
 
+// `tools:` a list of tools with distinct T numbers.
+void read_tools(PartReader& reader, const YAML::Node& tools, PartDescription& part) {
+  if (!tools.IsSequence() || tools.size() == 0) {
+    reader.fail(tools, "tools: expected a list of tools, got " + PartReader::what(tools));
+  }
+  for (std::size_t k = 0; k < tools.size(); ++k) {
+    const std::string path = "tools[" + std::to_string(k) + "]";
+    const YAML::Node entry = tools[k];
+    if (!entry.IsMap()) reader.fail(entry, path + ": expected a map, got " + PartReader::what(entry));
+    NumberedTool numbered;
+    const YAML::Node number = reader.required(entry, "number", path);
+    const double value = reader.number(number, path + ".number");
+    if (!(value >= 0.0 && value <= 1e9 && value == std::floor(value))) {
+      reader.fail(number, path + ".number: expected a whole number 0 .. 1e9, got '" + number.Scalar() + "'");
+    }
+    numbered.number = static_cast<int>(value);
+    for (const NumberedTool& other : part.tools) {
+      if (other.number == numbered.number) {
+        reader.fail(number, path + ".number: T" + number.Scalar() + " is in the table twice");
+      }
+    }
+    read_tool(reader, entry, numbered.tool, path, {"number"});
+    part.tools.push_back(numbered);
+  }
+}
+
+// A percentage of the programmed feed, within (0, max_percent].
+double read_percent(PartReader& reader, const YAML::Node& feeds, const std::string& key,
+                    double max_percent) {
+  const double percent = reader.positive_number(feeds, key, "feeds");
+  if (percent > max_percent) {
+    reader.fail(feeds[key], "feeds." + key + ": " + feeds[key].Scalar() + " % is above " +
+                                format_double(max_percent) + " %");
+  }
+  return percent / 100.0;
+}
+
+// `feeds`: production = a fixed feed (production_mm_per_min, every cutting move, as before) or
+// the programmed feed x override_percent (default 100 %); reference = a fixed feed
+// (reference_mm_per_min) or the programmed feed x reference_percent (default 1 %).
+void read_feeds(PartReader& reader, const YAML::Node& feeds, PartDescription& part) {
+  reader.require_map(feeds, "feeds", {"production_mm_per_min", "override_percent",
+                                      "reference_mm_per_min", "reference_percent"});
+  for (const auto& [fixed, percent] : {std::pair<const char*, const char*>{"production_mm_per_min", "override_percent"},
+                                       {"reference_mm_per_min", "reference_percent"}}) {
+    if (feeds[fixed] && feeds[percent]) {
+      reader.fail(feeds[percent], std::string("feeds: give either ") + fixed + " or " + percent +
+                                      ", not both");
+    }
+  }
+  if (feeds["production_mm_per_min"]) {
+    part.production_feed_m_per_s = read_feed_m_per_s(reader, feeds, "production_mm_per_min");
+    part.production_feed = {part.production_feed_m_per_s, 0.0};
+  } else if (feeds["override_percent"]) {
+    part.production_feed = {0.0, read_percent(reader, feeds, "override_percent", 1000.0)};
+  }
+  if (feeds["reference_mm_per_min"]) {
+    part.reference_feed_m_per_s = read_feed_m_per_s(reader, feeds, "reference_mm_per_min");
+    part.reference_feed = {part.reference_feed_m_per_s, 0.0};
+  } else if (feeds["reference_percent"]) {
+    part.reference_feed = {0.0, read_percent(reader, feeds, "reference_percent", 100.0)};
+  }
+}
+
 }  // namespace
 
 PartDescription load_part(const std::string& path) {
@@ -386,7 +453,7 @@ PartDescription load_part(const std::string& path) {
   PartReader reader(path);
   if (!root.IsMap()) throw InputError(located_message(path, 0, 0, "a part file is a YAML map"));
   reader.require_map(root, "", {"name", "description", "machine", "toolpath", "tool", "stock",
-                                "design", "strategy", "feeds", "setup", "tolerance_um"});
+                                "design", "strategy", "feeds", "tools", "setup", "tolerance_um"});
   const std::filesystem::path folder = std::filesystem::path(path).parent_path();
   PartDescription part;
   part.file = path;
@@ -394,7 +461,12 @@ PartDescription load_part(const std::string& path) {
   part.description = root["description"] ? reader.text(root, "description", "") : "";
   part.machine_path = (folder / reader.text(root, "machine", "")).lexically_normal().string();
   part.toolpath_path = (folder / reader.text(root, "toolpath", "")).lexically_normal().string();
-  read_tool(reader, reader.required(root, "tool", ""), part.tool);
+  if (root["tools"]) read_tools(reader, root["tools"], part);
+  if (root["tool"] || part.tools.empty()) {
+    read_tool(reader, reader.required(root, "tool", ""), part.tool);
+  } else {
+    part.tool = part.tools.front().tool;
+  }
   if (root["stock"]) read_stock(reader, root["stock"], folder, part);
   read_design(reader, root["design"], part);
   if (root["setup"]) part.setup = read_setup(reader, root["setup"]);
@@ -402,10 +474,7 @@ PartDescription load_part(const std::string& path) {
   if (root["strategy"] && !root["strategy"].IsMap()) {
     reader.fail(root["strategy"], "strategy: expected a map, got " + PartReader::what(root["strategy"]));
   }
-  const YAML::Node feeds = reader.required(root, "feeds", "");
-  reader.require_map(feeds, "feeds", {"production_mm_per_min", "reference_mm_per_min"});
-  part.production_feed_m_per_s = read_feed_m_per_s(reader, feeds, "production_mm_per_min");
-  part.reference_feed_m_per_s = read_feed_m_per_s(reader, feeds, "reference_mm_per_min");
+  read_feeds(reader, reader.required(root, "feeds", ""), part);
   if (root["tolerance_um"]) {
     // The depth of mark the part can take: the report's verdict (simulate-part --tolerance-um
     // overrides it). Beyond 10 mm it is no surface tolerance but a unit mistake.
@@ -417,6 +486,14 @@ PartDescription load_part(const std::string& path) {
   }
   part.warnings = std::move(reader.warnings);
   return part;
+}
+
+const ToolDescription* PartDescription::tool_for(int tool_number) const {
+  if (tool_number < 0) return &tool;
+  for (const NumberedTool& entry : tools) {
+    if (entry.number == tool_number) return &entry.tool;
+  }
+  return nullptr;
 }
 
 }  // namespace vmsim::app

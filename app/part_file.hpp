@@ -25,6 +25,12 @@ struct ToolDescription {
   double cutting_length_m = 0.0;
 };
 
+/// One entry of the part file's `tools:` table: the tool a program selects with T<number> M6.
+struct NumberedTool {
+  int number = 0;  ///< the T number, >= 0
+  ToolDescription tool;
+};
+
 /// The stock box [m, W].
 struct StockBox {
   Eigen::Vector3d min_W_m = Eigen::Vector3d::Zero();
@@ -78,13 +84,31 @@ struct MachineSetup {
   std::optional<Eigen::Vector3d> g30_reference_mm;
 };
 
+/// How a run sets the feed of its cutting moves (part file `feeds`, samples/parts/README.md).
+/// Rapids and turns of the tool about a fixed tip get no feed limit (the axes' own limits).
+struct FeedSetting {
+  /// > 0: every cutting move at this feed [m/s] (`production_mm_per_min`,
+  /// `reference_mm_per_min`, --feed-mm-per-min), whatever the program says.
+  double fixed_m_per_s = 0.0;
+  /// Else: the programmed feed (G94 F, APT FEDRAT; G93 inverse time as the chord over the
+  /// programmed time) times this factor (`override_percent` / 100, `reference_percent` / 100).
+  double programmed_factor = 1.0;
+};
+
 struct PartDescription {
   std::string file;
   std::string name;
   std::string description;
   std::string machine_path;   ///< resolved against the part file's folder
   std::string toolpath_path;  ///< resolved against the part file's folder
+  /// The tool where the program selects none (PathPoint::tool_number -1): `tool:`, or the
+  /// first entry of `tools:` where only the table is given.
   ToolDescription tool;
+  /// `tools:` (T numbers, distinct), in the order of the file; empty where not given.
+  std::vector<NumberedTool> tools;
+  /// The tool for a PathPoint::tool_number: `tool` for -1, else the table's entry; nullptr
+  /// where the table has no such number.
+  const ToolDescription* tool_for(int tool_number) const;
   std::optional<StockBox> stock;  ///< `stock: {box: {min_mm, max_mm}}` where given
   /// `stock: {stl: <file>}`: a closed mesh (a near-net stock, mm), read and checked with the
   /// part file; `stock_stl_path` is resolved against the part file's folder. One of `stock` and
@@ -95,10 +119,14 @@ struct PartDescription {
   std::vector<DesignSphere> design_spheres;  ///< the sphere patches of `design.surfaces`
   std::vector<DesignCylinder> design_cylinders;  ///< the cylinder patches of `design.surfaces`
   std::optional<MachineSetup> setup;  ///< `setup:` where given
-  double production_feed_m_per_s = 0.0;
-  double reference_feed_m_per_s = 0.0;
   /// `tolerance_um`: the deepest mark the part can take [m] (the report's verdict); 0 = not given.
   double tolerance_m = 0.0;
+  /// The fixed feeds where the file gives them (0 where the feed follows the program).
+  double production_feed_m_per_s = 0.0;
+  double reference_feed_m_per_s = 0.0;
+  /// The production and reference feeds as the runs apply them.
+  FeedSetting production_feed;
+  FeedSetting reference_feed{0.0, 0.01};
   /// Values plausible but unusual (a feed of 500 m/min, a tool 2 m long), each naming the file,
   /// line and field; the program prints them as warnings.
   std::vector<std::string> warnings;

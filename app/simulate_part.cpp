@@ -10,9 +10,11 @@
 #include <map>
 #include <numbers>
 #include <optional>
+#include <span>
 #include <sstream>
 
 #include "chain_inputs.hpp"
+#include "tool_table.hpp"
 #include "json_text.hpp"
 #include "report_html.hpp"
 #include "report_marks.hpp"
@@ -47,10 +49,12 @@ double seconds_since(Clock::time_point start) {
 // 18.9 and not as 189 * 0.1 = 18.900000000000002.
 double round_to(double value, double step) { return std::round(value / step) / std::round(1.0 / step); }
 
-// Everything one run (one feed) produces.
+// Everything one run (one feed setting) produces.
 struct Run {
-  Run(std::string run_name, double feed) : name(std::move(run_name)), feed_m_per_s(feed) {}
+  Run(std::string run_name, const FeedSetting& setting) : name(std::move(run_name)), feed(setting) {}
   std::string name;
+  FeedSetting feed;
+  /// The largest feed of a cutting move in this run [m/s] (the fixed feed where one is set).
   double feed_m_per_s = 0.0;
   planner::FeedratePlan plan;
   Trace servo;                          ///< t, <AXIS>.cmd|pos|...: the simulated drives
@@ -147,7 +151,9 @@ struct Context {
   PartDescription part;
   ChainInputs inputs;
   kinematics::PathKinematics path;
-  removal::Tool tool;
+  removal::Tool tool;  ///< the part's tool (PathPoint::tool_number -1)
+  /// Per point of inputs.path, the removal tool of its motion (the T selected there).
+  std::vector<removal::Tool> point_tools;
   StockShape stock;
   std::vector<SurfaceView> views;
   /// The uncut buffer of each view, made once (over a mesh stock that takes a while): every run
@@ -191,10 +197,16 @@ std::string method_name(planner::FeedrateMethod method) {
   return method == planner::FeedrateMethod::kinematic ? "kinematic" : "dynamic";
 }
 
-Run simulate_run(const Context& context, const std::string& name, double feed_m_per_s,
+Run simulate_run(const Context& context, const std::string& name, const FeedSetting& feed,
                  planner::FeedrateMethod method) {
   const kinematics::MachineModel& machine = context.inputs.machine;
-  Run run(name, feed_m_per_s);
+  Run run(name, feed);
+  const std::vector<double> point_feeds = point_feeds_m_per_s(context.inputs, context.path, feed);
+  double feed_m_per_s = 0.0;
+  for (double f : point_feeds) feed_m_per_s = std::max(feed_m_per_s, f);
+  // A path of rapids only: the servo records at its finest period.
+  if (!(feed_m_per_s > 0.0)) feed_m_per_s = feed.fixed_m_per_s > 0.0 ? feed.fixed_m_per_s : 1.0;
+  run.feed_m_per_s = feed_m_per_s;
   {
     StageTimer timer(run, "plan", context.progress);
     planner::FeedrateOptions plan_options;
@@ -203,13 +215,10 @@ Run simulate_run(const Context& context, const std::string& name, double feed_m_
     plan_options.effects = context.options.effects;
     plan_options.third_order = context.options.third_order;
     plan_options.path_tolerance_m = context.options.setpoint_path_tolerance_m;
-    // The run's feed replaces the programmed one on cutting moves (a feed override); rapids
-    // keep no feed limit and go as fast as the axes allow, identically in both runs.
-    plan_options.point_feed_m_per_s.resize(context.inputs.path.size());
-    for (std::size_t i = 0; i < context.inputs.path.size(); ++i) {
-      const auto& point = context.inputs.toolpath.points[context.inputs.toolpath_point[i]];
-      plan_options.point_feed_m_per_s[i] = point.kind == toolpath::MotionKind::rapid ? 0.0 : feed_m_per_s;
-    }
+    // The run's feed setting on cutting moves (a fixed feed, or the programmed one times an
+    // override); rapids and turns about a fixed tip keep no feed limit and go as fast as the
+    // axes allow, identically in both runs.
+    plan_options.point_feed_m_per_s = point_feeds;
     try {
       run.plan = planner::plan_feedrate(machine, context.path, plan_options);
       if (!plan_options.third_order) {
@@ -295,6 +304,14 @@ Run simulate_run(const Context& context, const std::string& name, double feed_m_
   }
   {
     StageTimer timer(run, "removal", context.progress);
+    // Per kept pose, the path point its motion runs towards (for the tool in the spindle).
+    std::vector<std::size_t> trajectory_point(run.trajectory.size(), 0);
+    const auto& s_points = context.path.s_m;
+    for (std::size_t k = 0; k < run.trajectory.size(); ++k) {
+      const double s = plan_s_at(run.plan, run.trajectory_t_s[k]);
+      const auto i = static_cast<std::size_t>(std::lower_bound(s_points.begin(), s_points.end(), s) - s_points.begin());
+      trajectory_point[k] = std::min(i, s_points.size() - 1);
+    }
     removal::CutOptions cut_options;
     cut_options.threads = context.options.threads;
     for (const SurfaceView& view : context.views) {
@@ -308,7 +325,8 @@ Run simulate_run(const Context& context, const std::string& name, double feed_m_
         return false;
       };
       run.buffers.push_back(context.uncut[static_cast<std::size_t>(&view - context.views.data())]);
-      run.cuts.push_back(run.buffers.back().cut(context.tool, run.trajectory, cut_options));
+      run.cuts.push_back(cut_with_tools(run.buffers.back(), context.point_tools, run.trajectory,
+                                        trajectory_point, cut_options));
     }
   }
   return run;
@@ -489,7 +507,13 @@ std::vector<bool> cutting_samples(const Context& context, const Run& run) {
 
 Json run_summary(const Context& context, const Run& run) {
   Json summary;
-  summary["feed_mm_per_min"] = run.feed_m_per_s * 60e3;
+  // Rounded to 1e-6 mm/min: a programmed 3000 mm/min x 10 % is 300, not 300.00000000000006.
+  summary["feed_mm_per_min"] = round_to(run.feed_m_per_s * 60e3, 1e-6);
+  summary["feed_setting"] =
+      run.feed.fixed_m_per_s > 0.0
+          ? "every cutting move at feed_mm_per_min"
+          : "the programmed feed x " + format_double(run.feed.programmed_factor * 100.0) +
+                " % (feed_mm_per_min: the largest)";
   summary["duration_s"] = run.plan.duration_s;
   summary["lower_bound_s"] = run.plan.lower_bound_s;
   summary["setpoint_check_worst_ratio"] = run.plan.check.worst();
@@ -916,7 +940,7 @@ std::string path_for_report(const std::string& path, const std::string& part_pat
 std::string millimetres_text(double metres) { return format_double(std::round(metres * 1e7) / 1e4); }
 
 // What the run was: the report's "context" (shown at the top of report.html).
-Json report_context(const Context& context, double production_feed_m_per_s, double reference_feed_m_per_s) {
+Json report_context(const Context& context, const FeedSetting& production_feed, const FeedSetting& reference_feed) {
   const SimulatePartOptions& options = context.options;
   Json out;
   out["part_file"] = part_path_for_report(options.part_path);
@@ -937,18 +961,27 @@ Json report_context(const Context& context, double production_feed_m_per_s, doub
                                            ", within the box "
                                      : std::string("box ")) +
                  corner(context.stock.bounds.min_W_m) + " to " + corner(context.stock.bounds.max_W_m) + " mm";
-  const auto feed_text = [](double feed_m_per_s, bool from_command_line, const char* option) {
-    return format_double(std::round(feed_m_per_s * 60e4) / 10.0) + " mm/min (" +
-           (from_command_line ? std::string(option) : std::string("part file")) + ")";
+  // A fixed feed, or the program's feeds times a factor, and where that came from.
+  const auto feed_text = [](const FeedSetting& feed, bool from_command_line, const char* option) {
+    const std::string source = from_command_line ? std::string(option) : std::string("part file");
+    if (feed.fixed_m_per_s > 0) {
+      return format_double(std::round(feed.fixed_m_per_s * 60e4) / 10.0) + " mm/min on every cutting move (" +
+             source + ")";
+    }
+    return "the program's feeds x " + format_double(std::round(feed.programmed_factor * 1e5) / 1e3) +
+           " % (part file; rapids at the axes' limits)";
   };
-  out["production_feed"] = feed_text(production_feed_m_per_s, options.production_feed_m_per_s > 0, "--feed-mm-per-min");
+  out["production_feed"] = feed_text(production_feed, options.production_feed_m_per_s > 0, "--feed-mm-per-min");
   out["reference_feed"] =
-      feed_text(reference_feed_m_per_s, options.reference_feed_m_per_s > 0, "--reference-feed-mm-per-min");
+      feed_text(reference_feed, options.reference_feed_m_per_s > 0, "--reference-feed-mm-per-min");
   out["planning"] = method_name(options.method) + std::string(options.third_order ? ", jerk / torque-rate limits"
                                                                                   : ", no jerk limit") +
                     (options.perfect_drives ? ", perfect drives (no servo)" : "");
-  out["corners"] = options.corner_tolerance_m > 0
-                       ? "blended within " + millimetres_text(options.corner_tolerance_m) + " mm"
+  out["corners"] = !options.corner_tolerance_override
+                       ? std::string("as the program asks (G61 / G9 exact stop, G64 P / G5.1 / G187 blending), "
+                                     "exact stop where it says nothing")
+                   : options.corner_tolerance_m > 0
+                       ? "blended within " + millimetres_text(options.corner_tolerance_m) + " mm at every corner"
                        : std::string("exact stop at every corner");
   out["grid"] = format_double(options.grid_m * 1e6) + " um line spacing; marks deeper than " +
                 format_double(options.mark_threshold_m * 1e6) + " um";
@@ -970,7 +1003,8 @@ Json simulate_part(const SimulatePartOptions& options, const ProgressSink& progr
   ChainInputOptions chain_options;
   chain_options.part_path = options.part_path;
   chain_options.corner_tolerance_m = options.corner_tolerance_m;
-  Context context{options, progress, load_part(options.part_path), load_chain_inputs(chain_options), {}, {}, {}, {}, {}};
+  chain_options.corner_tolerance_override = options.corner_tolerance_override;
+  Context context{options, progress, load_part(options.part_path), load_chain_inputs(chain_options), {}, {}, {}, {}, {}, {}};
   // The output folder is checked (and its staging folder made) before any computation: a bad
   // --out fails at once, and nothing the user owns is ever replaced.
   OutputFolder output(options.out_dir,
@@ -985,21 +1019,15 @@ Json simulate_part(const SimulatePartOptions& options, const ProgressSink& progr
     throw InputError(options.part_path +
                      ": simulate-part needs a stock (stock: {box: {min_mm, max_mm}} or {stl: <file>})");
   }
-  context.tool.type = context.part.tool.type == ToolType::ball   ? removal::ToolType::ball
-                      : context.part.tool.type == ToolType::flat ? removal::ToolType::flat
-                                                                 : removal::ToolType::bull;
-  context.tool.diameter_m = context.part.tool.diameter_m;
-  context.tool.corner_radius_m = context.part.tool.corner_radius_m;
-  // The removal sweeps the cutting body only (removal::Tool: "give a length that covers the
-  // engaged part"): a long body on a tilted tool costs orientation sub-steps on every segment.
-  context.tool.length_m = context.part.tool.cutting_length_m > 0 ? context.part.tool.cutting_length_m
-                                                                : context.part.tool.length_m;
-  context.tool.validate();
+  context.tool = removal_tool(context.part.tool);
+  context.point_tools = point_tools(context.part, context.inputs);
   for (const std::string& warning : context.inputs.warnings) progress("warning: " + warning);
-  const double production_feed =
-      options.production_feed_m_per_s > 0 ? options.production_feed_m_per_s : context.part.production_feed_m_per_s;
-  const double reference_feed =
-      options.reference_feed_m_per_s > 0 ? options.reference_feed_m_per_s : context.part.reference_feed_m_per_s;
+  const FeedSetting production_feed = options.production_feed_m_per_s > 0
+                                          ? FeedSetting{options.production_feed_m_per_s, 0.0}
+                                          : context.part.production_feed;
+  const FeedSetting reference_feed = options.reference_feed_m_per_s > 0
+                                         ? FeedSetting{options.reference_feed_m_per_s, 0.0}
+                                         : context.part.reference_feed;
   progress("part " + context.part.name + ": " + std::to_string(context.inputs.path.size()) +
            " path points; inverse kinematics ...");
   context.path = kinematics::solve_path_kinematics(context.inputs.machine, context.inputs.path,
@@ -1130,7 +1158,9 @@ Json simulate_part(const SimulatePartOptions& options, const ProgressSink& progr
     Eigen::Vector3d worst_at = Eigen::Vector3d::Zero();
     for (std::size_t v = 0; v < context.views.size(); ++v) {
       removal::NBuffer commanded = context.uncut[v];
-      commanded.cut(context.tool, poses, cut_options);
+      std::vector<std::size_t> pose_point(poses.size());
+      for (std::size_t k = 0; k < poses.size(); ++k) pose_point[k] = k;
+      cut_with_tools(commanded, context.point_tools, poses, pose_point, cut_options);
       std::vector<double> reference_vs_commanded = removal::difference(reference.buffers[v], commanded);
       // Steep in either surface: a line in the plane of a tool face (a wall view's row at the
       // floor's height) is cut whole or not at all by a rounding of the tool's height.

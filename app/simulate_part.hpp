@@ -33,6 +33,9 @@ struct SimulatePartOptions {
   bool third_order = false;
   /// Corner blending tolerance [m] (planner/corner_blend.hpp); 0 = exact stop at corners.
   double corner_tolerance_m = 0.0;
+  /// True: corner_tolerance_m at every corner (given on the command line); false: the
+  /// program's tolerances (ChainInputOptions::corner_tolerance_override).
+  bool corner_tolerance_override = false;
   double grid_m = 20e-6;                 ///< line spacing of every surface view
   double mark_threshold_m = 2e-6;        ///< |deviation| above which a line belongs to a mark
   /// The actual trajectory is thinned to the samples needed to keep every dropped sample within

@@ -514,6 +514,56 @@ std::optional<InverseResult> inverse_kinematics(const MachineModel& model, const
   return std::move(all.front());
 }
 
+std::optional<InverseResult> inverse_kinematics_given_rotary(
+    const MachineModel& model, const ToolPose& pose, const Eigen::VectorXd& q_given,
+    const Eigen::VectorXd& q_previous, double tool_length_m, double axis_tolerance_rad,
+    std::string* why) {
+  check_size(model, q_given, "inverse_kinematics_given_rotary");
+  check_size(model, q_previous, "inverse_kinematics_given_rotary");
+  const auto fail = [why](const std::string& reason) -> std::optional<InverseResult> {
+    if (why != nullptr) *why = reason;
+    return std::nullopt;
+  };
+  const ClosedFormStructure st = analyse_structure(model);
+  if (!st.valid) {
+    return fail("rotary axis words need a machine of three linear and two rotary axes");
+  }
+  Eigen::VectorXd q = q_previous;
+  for (int axis : st.rotary_axis) {
+    if (!std::isnan(q_given[idx(axis)])) q[idx(axis)] = q_given[idx(axis)];
+  }
+  const double axis_norm = pose.axis_W.norm();
+  if (!(axis_norm > 0.0) || !pose.tip_W_m.allFinite()) return fail("no tool pose");
+  const Eigen::Vector3d axis_W = forward_kinematics(model, q, tool_length_m).axis_W;
+  const double angle = axis_angle_error(axis_W, pose.axis_W / axis_norm);
+  if (!(angle <= axis_tolerance_rad)) {
+    return fail("the rotary axes give a tool axis " + std::to_string(angle * 180.0 / std::numbers::pi) +
+                " deg away from the programmed one");
+  }
+  if (!solve_linear_axes(model, st, pose.tip_W_m, tool_length_m, q)) {
+    return fail("the linear axes cannot reach the tip");
+  }
+  if (!within_travel(model, q)) {
+    for (std::size_t i = 0; i < model.axis_count(); ++i) {
+      const Axis& axis = model.axes[i];
+      const double value = q[static_cast<Eigen::Index>(i)];
+      if ((axis.type == AxisType::rotary && axis.continuous) ||
+          (value >= axis.travel_min - 1e-12 && value <= axis.travel_max + 1e-12)) {
+        continue;
+      }
+      const bool rotary = axis.type == AxisType::rotary;
+      const double f = rotary ? 180.0 / std::numbers::pi : 1000.0;
+      const char* unit = rotary ? " deg" : " mm";
+      return fail("axis " + axis.name + " would be at " + std::to_string(value * f) + unit +
+                  ", outside its travel [" + std::to_string(axis.travel_min * f) + ", " +
+                  std::to_string(axis.travel_max * f) + "]" + unit);
+    }
+  }
+  const double sin_singular = std::sin(1e-3);
+  return InverseResult{q, axis_W.cross(st.w[0]).norm() <= sin_singular ||
+                              st.v.cross(st.w[1]).norm() <= sin_singular};
+}
+
 std::string explain_unreachable(const MachineModel& model, const ToolPose& pose,
                                 const Eigen::VectorXd& q_previous, double tool_length_m,
                                 const InverseOptions& options) {

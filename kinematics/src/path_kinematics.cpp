@@ -12,6 +12,8 @@ namespace {
 
 /// A tip that moves less than this between two points does not move [m].
 constexpr double kStationaryChord_m = 1e-12;
+/// Rotary axes that move less than this (Euclidean, rad) between two points do not move.
+constexpr double kStationaryAngle_rad = 1e-12;
 
 std::string block_label(const PathPose& pose, const std::vector<std::string>& block_names) {
   if (pose.block >= 0 && static_cast<std::size_t>(pose.block) < block_names.size()) {
@@ -129,6 +131,20 @@ PathKinematics solve_path_kinematics(const MachineModel& model, const std::vecto
   std::vector<bool> singular(n, false);
   Eigen::VectorXd q_previous = q_start;
   for (std::size_t i = 0; i < n; ++i) {
+    if (path[i].q_given.size() > 0) {
+      std::string why;
+      const auto given = inverse_kinematics_given_rotary(model, path[i].pose, path[i].q_given,
+                                                         q_previous, tool_length_m, 1e-6, &why);
+      if (!given) {
+        throw InfeasibleError("tool path point " + std::to_string(i) + " (" +
+                              block_label(path[i], block_names) +
+                              "): the programmed rotary axes: " + why);
+      }
+      out.q.col(static_cast<Eigen::Index>(i)) = given->q;
+      singular[i] = given->singular;
+      q_previous = given->q;
+      continue;
+    }
     const auto result = inverse_kinematics(model, path[i].pose, q_previous, tool_length_m,
                                            options.inverse);
     if (!result) {
@@ -142,12 +158,30 @@ PathKinematics solve_path_kinematics(const MachineModel& model, const std::vecto
     q_previous = result->q;
   }
 
-  // Arc length and chords.
+  // Arc length and chords. A motion that turns the tool about a fixed tip (a re-orientation)
+  // has no tip arc length: it is parametrised by its rotary motion instead (see the header).
   std::vector<Eigen::Vector3d> chord(n, Eigen::Vector3d::Zero());  // chord[i]: point i-1 -> i
+  std::vector<bool> turns_in_place(n, false);
   for (std::size_t i = 1; i < n; ++i) {
     chord[i] = path[i].pose.tip_W_m - path[i - 1].pose.tip_W_m;
-    out.s_m[i] = out.s_m[i - 1] + chord[i].norm();
+    double ds = chord[i].norm();
+    if (ds < kStationaryChord_m) {
+      double rotary2 = 0.0;
+      for (std::size_t j = 0; j < model.axis_count(); ++j) {
+        if (model.axes[j].type != AxisType::rotary) continue;
+        const auto row = static_cast<Eigen::Index>(j);
+        const double d = out.q(row, static_cast<Eigen::Index>(i)) -
+                         out.q(row, static_cast<Eigen::Index>(i - 1));
+        rotary2 += d * d;
+      }
+      if (std::sqrt(rotary2) > kStationaryAngle_rad) {
+        turns_in_place[i] = true;
+        ds = kReorientationLever_m * std::sqrt(rotary2);
+      }
+    }
+    out.s_m[i] = out.s_m[i - 1] + ds;
   }
+  out.turns_in_place = turns_in_place;
 
   // Corners cut the path into stretches. A corner point with a turning tangent ends one
   // stretch and starts the next; a stationary tip (zero chord) separates them.
@@ -166,6 +200,18 @@ PathKinematics solve_path_kinematics(const MachineModel& model, const std::vecto
     return nullptr;
   };
   for (std::size_t i = 1; i < n; ++i) {
+    if (turns_in_place[i]) {
+      // Its own stretch, from rest to rest: corners at both ends.
+      if (i - 1 > first) {
+        out.corners.push_back({i - 1, out.s_m[i - 1], 0.0});
+        stretches.push_back({first, i - 1});
+        first = i - 1;
+      }
+      out.corners.push_back({i, out.s_m[i], 0.0});
+      stretches.push_back({first, i});
+      first = i;
+      continue;
+    }
     if (chord[i].norm() < kStationaryChord_m) {
       const Eigen::Vector3d* before = last_moving_chord_before(i - 1);
       const Eigen::Vector3d* after = next_moving_chord_after(i);

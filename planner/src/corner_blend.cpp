@@ -117,9 +117,10 @@ void CornerBlendOptions::validate() const {
   auto fail = [](const std::string& field, double value, const std::string& rule) {
     throw InputError("corner blending: " + field + " = " + format_double(value) + ": " + rule);
   };
-  if (!(tolerance_m > 0.0) || !std::isfinite(tolerance_m)) {
-    fail("tolerance_m", tolerance_m, "must be > 0");
+  if (program_tolerances ? !(tolerance_m >= 0.0) : !(tolerance_m > 0.0)) {
+    fail("tolerance_m", tolerance_m, program_tolerances ? "must be >= 0" : "must be > 0");
   }
+  if (!std::isfinite(tolerance_m)) fail("tolerance_m", tolerance_m, "must be finite");
   if (!(axis_tolerance_rad > 0.0) || !std::isfinite(axis_tolerance_rad)) {
     fail("axis_tolerance_rad", axis_tolerance_rad, "must be > 0");
   }
@@ -219,6 +220,16 @@ CornerBlendResult blend_corners(const Toolpath& path, const CornerBlendOptions& 
       keep("a rapid motion (rapids are not blended)");
       continue;
     }
+    // The program's tolerance at this corner where it gives one (G61 / G9: 0, G64 P, G5.1).
+    const double tolerance_m = options.program_tolerances && !std::isnan(corner.corner_tolerance_m)
+                                   ? corner.corner_tolerance_m
+                                   : options.tolerance_m;
+    if (!(tolerance_m > 0.0)) {
+      keep(options.program_tolerances && !std::isnan(corner.corner_tolerance_m)
+               ? "the program asks an exact stop (G61 / G9)"
+               : "no corner tolerance (exact stop)");
+      continue;
+    }
     if (uses_inverse_time(corner) || uses_inverse_time(next)) {
       keep("a G93 inverse-time feed (splitting the motion would change its time)");
       continue;
@@ -236,7 +247,7 @@ CornerBlendResult blend_corners(const Toolpath& path, const CornerBlendOptions& 
     const Eigen::Vector3d rho2 = *log_out / chord_out.norm();
     const double beta = beta_for(theta);
     const double weight = middle_weight(beta);
-    const double target_m = options.tolerance_m * (1.0 - options.chord_error_fraction);
+    const double target_m = tolerance_m * (1.0 - options.chord_error_fraction);
     double L = 16.0 * target_m / (weight * std::sin(0.5 * theta));
     L = std::min(L, 0.5 * std::min(chord_in.norm(), chord_out.norm()));
     const double axis_rate = (rho1 + rho2).norm();
@@ -272,7 +283,7 @@ CornerBlendResult blend_corners(const Toolpath& path, const CornerBlendOptions& 
     }
     // The middle is always a sample: the blended polyline's closest point to the corner.
     std::vector<double> parameters{0.0};
-    const double sagitta_m = options.chord_error_fraction * options.tolerance_m;
+    const double sagitta_m = options.chord_error_fraction * tolerance_m;
     sample(curve, 0.0, 0.5, sagitta_m, options.max_chord_turn_rad, 0, parameters);
     sample(curve, 0.5, 1.0, sagitta_m, options.max_chord_turn_rad, 0, parameters);
     for (const double t : parameters) {

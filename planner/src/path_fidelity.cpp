@@ -162,6 +162,8 @@ std::vector<bool> insert_points(const kinematics::MachineModel& machine, Working
   out.block_names = old.block_names;
   const bool has_blocks = old.block.size() == n;
   if (has_blocks) out.block.resize(m);
+  const bool has_turns = old.turns_in_place.size() == n;
+  if (has_turns) out.turns_in_place.assign(m, false);
   Working next;
   next.programmed.tip.resize(m);
   next.programmed.axis.resize(m);
@@ -179,6 +181,7 @@ std::vector<bool> insert_points(const kinematics::MachineModel& machine, Working
     out.q_ss.col(idx(k)) = old.q_ss.col(idx(i));
     out.q_sss.col(idx(k)) = old.q_sss.col(idx(i));
     if (has_blocks) out.block[k] = old.block[i];
+    if (has_turns) out.turns_in_place[k] = old.turns_in_place[i];
     next.programmed.tip[k] = w.programmed.tip[i];
     next.programmed.axis[k] = w.programmed.axis[i];
     next.source_point[k] = w.source_point[i];
@@ -199,6 +202,7 @@ std::vector<bool> insert_points(const kinematics::MachineModel& machine, Working
       out.q_ss.col(idx(k)) = (1.0 - f) * old.q_ss.col(idx(i)) + f * old.q_ss.col(idx(i + 1));
       out.q_sss.col(idx(k)) = (1.0 - f) * old.q_sss.col(idx(i)) + f * old.q_sss.col(idx(i + 1));
       if (has_blocks) out.block[k] = old.block[i + 1];
+      if (has_turns) out.turns_in_place[k] = old.turns_in_place[i + 1];
       next.programmed.tip[k] = tip;
       next.programmed.axis[k] = axis;
       next.source_point[k] = w.source_point[i + 1];

@@ -69,7 +69,13 @@ PathSpline::PathSpline(const kinematics::PathKinematics& path) : s_m_(path.s_m) 
   for (std::size_t i = 0; i + 1 < n; ++i) {
     const double h = s_m_[i + 1] - s_m_[i];
     if (!(h > 1e-12)) {
-      throw InputError("path point " + std::to_string(i + 1) + " (s = " +
+      std::string where;
+      if (i + 1 < path.block.size() && path.block[i + 1] >= 0) {
+        const auto block = static_cast<std::size_t>(path.block[i + 1]);
+        where = block < path.block_names.size() ? ", " + path.block_names[block]
+                                                : ", block #" + std::to_string(block);
+      }
+      throw InputError("path point " + std::to_string(i + 1) + where + " (s = " +
                        format_double(s_m_[i] * 1e3) +
                        " mm) changes the tool orientation without moving the tip: a feed along "
                        "the tip's arc length is undefined there");

@@ -319,5 +319,44 @@ TEST(CliPlan, BadInputExitsWithItsCodeAndWritesNothing) {
   EXPECT_FALSE(std::filesystem::exists(out));
 }
 
+// A rapid re-orientation about a fixed tip (G43.4: A turns from 0 to -30 deg at the tip
+// (0, 0, 100) mm), then a G1 of 10 mm at F1000. The turn is planned on A's own limits: with
+// the second-order planner the time-optimal rest-to-rest turn of 30 deg at 90 deg/s and
+// 298.8 deg/s^2 (15 rev/min, 0.83 rev/s^2) is the trapezoid 30 / 90 + 90 / 298.8 = 0.6345 s
+// (the linear axes follow a 20 mm lever: far from their limits); the G1 takes
+// 0.01 / (1 / 60) + (1 / 60) / 2.5 = 0.6067 s on X. Before, the plan stopped with "changes the
+// tool orientation without moving the tip".
+TEST(CliPlan, ARapidReorientationAboutAFixedTipIsPlannedOnTheRotaryLimits) {
+  const auto folder = test::fresh_folder("plan_reorientation");
+  std::ofstream(folder / "turn.nc") << "G21 G90 G94\nG43.4 H1\nG0 X0 Y0 Z100 A0 C0\nG0 A-30\nG1 X10 F1000\n";
+  const auto out = folder / "out";
+  const test::RunResult run = test::run_vmsim(
+      "plan --machine " + kMikron + " --toolpath " + (folder / "turn.nc").string() +
+      " --tool-length-mm 100 --no-third-order --no-plot --out " + out.string());
+  ASSERT_EQ(run.exit_code, 0) << run.output;
+  const double turn_s = 30.0 / 90.0 + 90.0 / (0.83 * 360.0);
+  const double line_s = 0.01 / (1.0 / 60.0) + (1.0 / 60.0) / 2.5;
+  const double T = read_json(out / "summary.json")["duration_s"];
+  EXPECT_GE(T, (turn_s + line_s) * (1 - 1e-3));
+  EXPECT_LE(T, (turn_s + line_s) * 1.01 + 0.008);  // two stops, rounded up to the 4 ms period
+  const kinematics::MachineModel machine = kinematics::load_machine(kMikron);
+  const Trace trace = read_trace((out / "setpoints.csv").string());
+  const std::vector<Eigen::VectorXd> q = joint_samples(trace, machine);
+  bool turned = false;
+  for (const Eigen::VectorXd& qk : q) {
+    const kinematics::ToolPose pose = kinematics::forward_kinematics(machine, qk, 0.1);
+    if (qk[3] > -30.0 * std::numbers::pi / 180.0 + 1e-9) {  // still turning: the tip stays
+      EXPECT_LT((pose.tip_W_m - Eigen::Vector3d(0, 0, 0.1)).norm(), 5e-6 * 1.01) << qk.transpose();
+    } else {
+      turned = true;
+    }
+    EXPECT_GE(qk[3], -30.0 * std::numbers::pi / 180.0 - 1e-12);
+  }
+  EXPECT_TRUE(turned);
+  const kinematics::ToolPose last = kinematics::forward_kinematics(machine, q.back(), 0.1);
+  EXPECT_LT((last.tip_W_m - Eigen::Vector3d(0.01, 0, 0.1)).norm(), 1e-9);
+  EXPECT_NEAR(q.back()[3], -30.0 * std::numbers::pi / 180.0, 1e-12);
+}
+
 }  // namespace
 }  // namespace vmsim

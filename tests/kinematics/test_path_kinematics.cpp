@@ -350,9 +350,12 @@ TEST(PathKinematics, CornerReportedAndNotDifferentiatedAcross) {
   EXPECT_GT((slope_in - slope_out).norm(), 0.5);
 }
 
-TEST(PathKinematics, StationaryTipIsACut) {
-  // A pure reorientation (the tip stands still between points 10 and 11) has no derivative
-  // with respect to s: reported as a corner, the derivatives stay finite.
+TEST(PathKinematics, StationaryTipIsAReorientationStretchParametrisedByTheRotaryMotion) {
+  // A pure reorientation (the tip stands still between points 10 and 11, the tool tilts from
+  // 0.3 to 0.35 rad) has no tip arc length: it is a stretch of its own (corners at 10 and 11)
+  // whose s counts kReorientationLever_m per rad of rotary motion: 0.1 m * 0.05 rad (only the
+  // tilting axis moves: the tilt stays in one plane). Before, the stationary tip was a single
+  // cut and the planner refused the zero-length segment.
   const vk::MachineModel model = vk::make_table_table_sample();
   std::vector<vk::PathPose> path;
   for (int i = 0; i <= 20; ++i) {
@@ -362,11 +365,18 @@ TEST(PathKinematics, StationaryTipIsACut) {
   }
   const vk::PathKinematics pk =
       vk::solve_path_kinematics(model, path, model.home_positions(), kToolLength, {});
-  ASSERT_EQ(pk.corners.size(), 1u);
-  EXPECT_EQ(pk.corners[0].point, 11u);
-  EXPECT_NEAR(pk.corners[0].angle_rad, 0.0, 1e-12);
+  ASSERT_EQ(pk.corners.size(), 2u);
+  EXPECT_EQ(pk.corners[0].point, 10u);
+  EXPECT_EQ(pk.corners[1].point, 11u);
+  EXPECT_NEAR(pk.s_m[11] - pk.s_m[10], vk::kReorientationLever_m * 0.05, 1e-12);
+  EXPECT_NEAR(pk.s_m[10], 0.010, 1e-12);
+  ASSERT_EQ(pk.turns_in_place.size(), path.size());
+  for (std::size_t i = 0; i < path.size(); ++i) EXPECT_EQ(pk.turns_in_place[i], i == 11) << i;
   EXPECT_TRUE(pk.q_s.allFinite() && pk.q_ss.allFinite() && pk.q_sss.allFinite());
-  EXPECT_LT(pk.q_s.row(3).cwiseAbs().maxCoeff(), 1e-9);  // A is constant on each side
+  EXPECT_LT(pk.q_s.row(3).segment(0, 10).cwiseAbs().maxCoeff(), 1e-9);  // A constant before
+  EXPECT_LT(pk.q_s.row(3).segment(11, 10).cwiseAbs().maxCoeff(), 1e-9);  // and after
+  // On the turn A moves 0.05 rad over 0.005 m of s.
+  EXPECT_NEAR(std::abs(pk.q_s(3, 10)), 10.0, 1e-9);
 }
 
 TEST(PathKinematics, UnreachablePoseNamesPointAndBlock) {

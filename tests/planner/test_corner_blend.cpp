@@ -164,6 +164,43 @@ TEST(CornerBlend, DeviationIsTheClosedFormAndWithinToleranceForEveryAngleAndLegL
   }
 }
 
+// The program's tolerance per corner (PathPoint::corner_tolerance_m, from G61 / G9 / G64 P /
+// G5.1): a zig-zag of four 90 deg corners with 20 mm legs asks 0 (exact stop), nothing (NaN:
+// the option's tolerance_m, here 0: exact stop), 0.01 mm and 0.1 mm. The blended corners use
+// their own tolerance: the closed-form deviation is it less the chord allowance (legs long
+// enough). With program_tolerances off, tolerance_m holds everywhere.
+TEST(CornerBlend, TheProgramsToleranceHoldsPerCorner) {
+  Toolpath path = polyline({{0, 0, 0}, {0.02, 0, 0}, {0.02, 0.02, 0}, {0.04, 0.02, 0},
+                            {0.04, 0.04, 0}, {0.06, 0.04, 0}});
+  path.points[1].corner_tolerance_m = 0.0;
+  path.points[3].corner_tolerance_m = 0.01e-3;
+  path.points[4].corner_tolerance_m = 0.1e-3;
+  CornerBlendOptions options;
+  options.program_tolerances = true;
+  options.tolerance_m = 0.0;
+  const CornerBlendResult r = blend_corners(path, options);
+  ASSERT_EQ(r.blended.size(), 2u);
+  EXPECT_EQ(r.blended[0].point, 3u);
+  EXPECT_NEAR(r.blended[0].deviation_m, 0.01e-3 * (1 - options.chord_error_fraction), 1e-15);
+  EXPECT_EQ(r.blended[1].point, 4u);
+  EXPECT_NEAR(r.blended[1].deviation_m, 0.1e-3 * (1 - options.chord_error_fraction), 1e-15);
+  ASSERT_EQ(r.exact_stops.size(), 2u);
+  EXPECT_EQ(r.exact_stops[0].point, 1u);
+  EXPECT_NE(r.exact_stops[0].reason.find("G61"), std::string::npos) << r.exact_stops[0].reason;
+  EXPECT_EQ(r.exact_stops[1].point, 2u);
+  // The command line's tolerance overrides the program's.
+  options.program_tolerances = false;
+  options.tolerance_m = 0.05e-3;
+  const CornerBlendResult all = blend_corners(path, options);
+  ASSERT_EQ(all.blended.size(), 4u);
+  for (const BlendedCorner& blend : all.blended) {
+    EXPECT_NEAR(blend.deviation_m, 0.05e-3 * (1 - options.chord_error_fraction), 1e-15);
+  }
+  // Without program_tolerances a tolerance of 0 stays an error.
+  options.tolerance_m = 0.0;
+  EXPECT_THROW(blend_corners(path, options), InputError);
+}
+
 TEST(CornerBlend, ChordErrorOfTheSamplesIsBelowItsBound) {
   CornerBlendOptions options;
   options.tolerance_m = 0.1e-3;

@@ -28,10 +28,10 @@ const Sample& path1() {
     Sample out;
     const std::string root = VMSIM_SOURCE_DIR;
     out.machine = kinematics::load_machine(root + "/samples/machines/mikron_ucp710.yaml");
-    const Toolpath tp = toolpath::read_apt(root + "/samples/parts/path1_yz/toolpath.apt");
+    const toolpath::Toolpath tp = toolpath::read_apt(root + "/samples/parts/path1_yz/toolpath.apt");
     std::vector<kinematics::PathPose> poses;
     for (const auto& p : tp.points) {
-      if (p.kind == MotionKind::rapid) continue;
+      if (p.kind == toolpath::MotionKind::rapid) continue;
       if (!poses.empty() && (poses.back().pose.tip_W_m - p.tip_W_m).norm() < 1e-12) continue;
       poses.push_back({{p.tip_W_m, p.axis_W}, p.block});
     }

@@ -183,7 +183,7 @@ INSTANTIATE_TEST_SUITE_P(Points, DensePath, ::testing::Values(12001, 36001));
 // Sample path 2 (blade-like, passing 1.06 deg from the table-table machine's singularity) on
 // the Mikron sample, tool length 60 mm.
 kinematics::PathKinematics path2_blade(const kinematics::MachineModel& machine) {
-  const Toolpath tp = toolpath::read_apt(std::string(VMSIM_SOURCE_DIR) + "/samples/parts/path2_blade/toolpath.apt");
+  const toolpath::Toolpath tp = toolpath::read_apt(std::string(VMSIM_SOURCE_DIR) + "/samples/parts/path2_blade/toolpath.apt");
   std::vector<kinematics::PathPose> poses;
   for (const auto& p : tp.points) {
     if (!poses.empty() && (poses.back().pose.tip_W_m - p.tip_W_m).norm() < 1e-12) continue;

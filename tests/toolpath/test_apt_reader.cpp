@@ -127,6 +127,20 @@ TEST(AptReader, UnknownRecordIsAWarningWithItsLine) {
   EXPECT_NE(path.warnings[0].message.find("WOBBLE"), std::string::npos);
 }
 
+// LOADTL/n puts tool n in the spindle for the motions that follow (PathPoint::tool_number);
+// before any LOADTL the part file's tool (-1). A tool number that is not whole is an error.
+TEST(AptReader, LoadtlSetsTheToolNumberOfTheFollowingMotions) {
+  const Toolpath path = apt(
+      "FROM/0,0,100\nFEDRAT/600\nGOTO/1,0,100\nLOADTL/7,LENGTH,60\nGOTO/2,0,100\n"
+      "GOTO/3,0,100\nLOADTL/2\nGOTO/4,0,100\n");
+  ASSERT_EQ(path.points.size(), 5u);
+  const int expected[] = {-1, -1, 7, 7, 2};
+  for (std::size_t i = 0; i < 5; ++i) EXPECT_EQ(path.points[i].tool_number, expected[i]) << i;
+  EXPECT_TRUE(path.warnings.empty());
+  EXPECT_NE(apt_error("FEDRAT/600\nLOADTL/2.5\nGOTO/1,2,3\n").find("part.apt:2"), std::string::npos);
+  EXPECT_NE(apt_error("FEDRAT/600\nLOADTL/2.5\nGOTO/1,2,3\n").find("'2.5'"), std::string::npos);
+}
+
 TEST(AptReader, CutterDiameterAndCornerRadius) {
   Toolpath path = apt("CUTTER/10,2\nFEDRAT/1\nGOTO/0,0,0\n");
   EXPECT_NEAR(*path.cutter_diameter_m, 0.010, 1e-18);

@@ -294,6 +294,8 @@ class AptReader {
       }
     } else if (name == "CUTTER") {
       cutter(record);
+    } else if (name == "LOADTL" && !record.args.empty()) {
+      loadtl(record);
     } else if (name == "MULTAX") {
       if (record.args.empty()) {
         multax_ = Multax::on;
@@ -372,6 +374,17 @@ class AptReader {
                          detail::format_number(detail::kMaxFeedMmPerMin) + "] mm/min");
     }
     feed_m_per_s_ = feed_mm_per_min * kMetresPerMillimetre / kSecondsPerMinute;
+  }
+
+  // LOADTL/n[,...]: tool n is in the spindle for the motions that follow
+  // (PathPoint::tool_number); further modifiers (LENGTH, ...) are ignored.
+  void loadtl(const Record& record) {
+    const Token& token = record.args.front();
+    const double value = number(record, token);
+    if (!(value >= 0.0 && value <= 1e9 && value == std::floor(value))) {
+      fail(token.at, "tool number '" + token.text + "' is not a whole number 0 .. 1e9");
+    }
+    tool_number_ = static_cast<int>(value);
   }
 
   void cutter(const Record& record) {
@@ -454,6 +467,7 @@ class AptReader {
       point.axis_W = axis_W_;
       point.kind = rapid ? MotionKind::rapid : MotionKind::linear;
       point.feed_m_per_s = rapid ? 0.0 : *feed_m_per_s_;
+      point.tool_number = tool_number_;
       point.block = block_index;
       detail::append_point(path_, point, options_, file_, record.name_at.line);
     }
@@ -467,6 +481,7 @@ class AptReader {
   Toolpath path_;
   double mm_per_unit_ = 1.0;
   std::optional<double> feed_m_per_s_;
+  int tool_number_ = -1;  ///< LOADTL; -1: none loaded (the part file's tool)
   Eigen::Vector3d axis_W_ = Eigen::Vector3d::UnitZ();
   Multax multax_ = Multax::unset;
   bool rapid_next_ = false;

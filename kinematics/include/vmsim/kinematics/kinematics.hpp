@@ -85,6 +85,21 @@ std::optional<InverseResult> inverse_kinematics(const MachineModel& model, const
                                                 double tool_length_m,
                                                 const InverseOptions& options = {});
 
+/// IKT with the rotary axes given, as an NC in tool-centre-point mode (G43.4, TRAORI with
+/// A B C words) runs them: the rotary axes ARE the programmed values, only the linear axes are
+/// solved for the tip (the tip is affine in them). q_given: one entry per axis [joint unit];
+/// a rotary entry that is NaN keeps its q_previous value, linear entries are ignored. For
+/// machines of three prismatic and two revolute axes (the closed-form structure).
+///
+/// Returns std::nullopt with `why` filled (when given) when the machine is not of that
+/// structure, the given rotary axes do not give pose.axis_W (angle above
+/// axis_tolerance_rad), the linear axes cannot reach the tip, or an axis leaves its travel.
+/// Throws std::invalid_argument when q_given or q_previous has the wrong size.
+std::optional<InverseResult> inverse_kinematics_given_rotary(
+    const MachineModel& model, const ToolPose& pose, const Eigen::VectorXd& q_given,
+    const Eigen::VectorXd& q_previous, double tool_length_m, double axis_tolerance_rad = 1e-6,
+    std::string* why = nullptr);
+
 /// Every IKT solution of a pose that lies within the travel (machine tools: up to two; robots:
 /// the one found from q_previous), the one closest to q_previous first. For tests and for
 /// choosing a start configuration.

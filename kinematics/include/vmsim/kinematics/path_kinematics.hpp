@@ -14,6 +14,10 @@ namespace vmsim::kinematics {
 struct PathPose {
   ToolPose pose;
   int block = -1;
+  /// Axis values the program gives (NC rotary words under tool-centre-point programming),
+  /// one entry per axis [joint unit], NaN where not given; empty = none (the IKT chooses).
+  /// Where given, solve_path_kinematics keeps them (inverse_kinematics_given_rotary).
+  Eigen::VectorXd q_given = Eigen::VectorXd();
 };
 
 /// How the derivatives are estimated (see solve_path_kinematics).
@@ -46,8 +50,18 @@ struct SingularZone {
   double s_end_m = 0.0;
 };
 
+/// The path parameter of a motion that turns the tool about a fixed tip (a re-orientation at
+/// a safe height): s grows by this lever times the rotary axes' motion (Euclidean, rad) there.
+inline constexpr double kReorientationLever_m = 0.1;
+
 struct PathKinematics {
-  std::vector<double> s_m;   ///< arc length of the tool tip at each point
+  /// Path parameter at each point: the arc length of the tool tip, except on motions that turn
+  /// the tool about a fixed tip (turns_in_place), which count kReorientationLever_m per rad of
+  /// rotary motion.
+  std::vector<double> s_m;
+  /// Per point: the motion ending here turns the tool about a fixed tip (a stretch of its own,
+  /// corners at both ends, so it runs from rest to rest on the axes' own limits).
+  std::vector<bool> turns_in_place;
   Eigen::MatrixXd q;         ///< axis positions, one column per point (rows = axes)
   Eigen::MatrixXd q_s;       ///< dq/ds      [joint unit / m]
   Eigen::MatrixXd q_ss;      ///< d2q/ds2    [joint unit / m^2]
@@ -72,9 +86,16 @@ struct PathKinematics {
 
 /// IKT of every pose, continuous along the path from q_start, then the derivatives.
 ///
+/// Poses with PathPose::q_given: the rotary axes are the given values (the NC moves them to the
+/// programmed words), the linear axes are solved (inverse_kinematics_given_rotary); a pose
+/// whose given axes do not give its tool axis, or leave the travel, is an InfeasibleError
+/// naming the block.
+///
 /// q: inverse_kinematics of pose i with q_previous = q of pose i-1 (q_start for the first), so
 /// rotary axes are unwrapped and a table-table C axis holds still through a singular zone.
-/// s: cumulative chord length of the programmed tips (s_m[0] = 0).
+/// s: cumulative chord length of the programmed tips (s_m[0] = 0); a motion where the tip stays
+/// (chord < 1e-12 m) but the rotary axes turn counts kReorientationLever_m times their motion
+/// (rad) and is a stretch of its own (corners at both ends, angle 0).
 /// Corners: a point where the angle between the incoming and the outgoing chord exceeds
 /// options.corner_angle_rad (and so does the angle between the secants to the points
 /// fit_half_window_m before and after it, so that rounding noise is not a corner), or where the tip does not move (a chord shorter than 1e-12 m,

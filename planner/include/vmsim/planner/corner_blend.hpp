@@ -56,7 +56,9 @@
 //  - a rapid on either side (rapids are not blended), a G93 inverse-time feed on either side
 //    (splitting the motion would change its time),
 //  - the tip not moving on either side (the tool axis turns on the spot),
-//  - the tool axis turning by more than 90 deg over an adjacent segment.
+//  - the tool axis turning by more than 90 deg over an adjacent segment,
+//  - a tolerance of 0 at that corner (CornerBlendOptions::program_tolerances: G61 / G9 there,
+//    or no programmed tolerance and tolerance_m = 0).
 // Arc points (MotionKind::arc) are treated like any other: the tessellated arc turns by less
 // than the corner angle at each point, so only a tangent jump between an arc and a line (or two
 // arcs) is a corner; its blend uses the arc's chord as the leg.
@@ -78,8 +80,13 @@ using toolpath::Toolpath;
 
 
 struct CornerBlendOptions {
-  /// Largest distance between the blended and the programmed path [m]; > 0.
+  /// Largest distance between the blended and the programmed path [m]; > 0, or >= 0 with
+  /// program_tolerances (0: corners the program says nothing about stay exact stops).
   double tolerance_m = 0.0;
+  /// Per corner, the tolerance the program asks there (PathPoint::corner_tolerance_m of the
+  /// corner point, from G61 / G9 = 0: exact stop, G64 P / G5.1: blend within it) instead of
+  /// tolerance_m, which then holds only where the program says nothing (NaN).
+  bool program_tolerances = false;
   /// Largest angle between the blended tool axis and the corner's programmed axis [rad]; > 0.
   double axis_tolerance_rad = 1.0 * 3.14159265358979323846 / 180.0;
   /// Corner criterion, as in kinematics::PathKinematicsOptions (corner_angle_rad and the

@@ -49,6 +49,7 @@
 //    UNITS unit per minute); MMPR/IPR (per revolution) is an error.
 //  - CUTTER/d[,r[,e,f,a,b,h]] (APT 7-parameter form): Toolpath::cutter_diameter_m and
 //    cutter_corner_radius_m (r defaults to 0; 0 <= r <= d/2).
+//  - LOADTL/n[,...]: tool n (PathPoint::tool_number) for the motions that follow.
 //  - FINI ends the file. CUTCOM (other than /OFF), CYCLE (other than /OFF) and CIRCLE / MOVARC
 //    change the geometry and are errors. Harmless records (SPINDL COOLNT LOADTL END CLPRNT NOPOST
 //    MACHIN SELCTL TOOLNO STOP OPSTOP DELAY SEQNO INTOL OUTTOL TOLER PLABEL TLDATA MSYS PAINT
