@@ -1,12 +1,12 @@
 // vmsim simulate-part: the main job (see simulate_part.hpp).
-#include <cmath>
-#include <limits>
 #include <unistd.h>
 
 #include <chrono>
+#include <cmath>
 #include <cstdio>
 #include <filesystem>
 #include <iostream>
+#include <limits>
 
 #include "commands.hpp"
 #include "effects_option.hpp"

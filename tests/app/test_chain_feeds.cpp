@@ -5,13 +5,12 @@
 
 #include <cmath>
 #include <fstream>
+#include <nlohmann/json.hpp>
 #include <string>
 
 #include "chain_inputs.hpp"
 #include "cli_runner.hpp"
 #include "part_file.hpp"
-#include <nlohmann/json.hpp>
-
 #include "vmsim/common/errors.hpp"
 #include "vmsim/common/files.hpp"
 #include "vmsim/kinematics/path_kinematics.hpp"

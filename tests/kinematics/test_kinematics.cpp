@@ -13,6 +13,7 @@
 #include <random>
 
 #include "vmsim/kinematics/kinematics.hpp"
+#include "vmsim/kinematics/machine_loader.hpp"
 #include "vmsim/kinematics/sample_models.hpp"
 
 namespace vk = vmsim::kinematics;
@@ -502,3 +503,51 @@ TEST(InverseKinematics, RobotRedundancyResolvedByLeastJointMotion) {
     EXPECT_LT(free_motion, 1e-6) << "null-space part of dq: " << null.dot(dq);
   }
 }
+
+namespace {
+
+// inverse_kinematics_given_rotary keeps the given rotary axes (not the branch nearest the
+// previous pose) and solves the linear axes: the direct kinematics gives the pose back. Given
+// axes whose tool axis is not the pose's, or a tip beyond a linear travel, are refused with
+// the reason.
+TEST(Kinematics, GivenRotaryAxesAreKeptAndOnlyTheLinearAxesSolved) {
+  // The Mikron sample (A -120..30 deg, C endless): both branches of A -10 deg lie in travel.
+  const vk::MachineModel model =
+      vk::load_machine(std::string(VMSIM_SOURCE_DIR) + "/samples/machines/mikron_ucp710.yaml");
+  const double deg = std::numbers::pi / 180.0;
+  Eigen::VectorXd q_words = model.home_positions();
+  q_words[3] = -10.0 * deg;
+  q_words[4] = -150.0 * deg;
+  const vk::ToolPose pose = vk::forward_kinematics(model, q_words, kToolLength);
+  // Both branches of the pose; the IKT alone takes the first (nearest home). The given axes
+  // are the other one's.
+  const auto all = vk::inverse_kinematics_all(model, pose, model.home_positions(), kToolLength);
+  ASSERT_EQ(all.size(), 2u);
+  const Eigen::VectorXd other = all[1].q;
+  Eigen::VectorXd given = Eigen::VectorXd::Constant(5, std::nan(""));
+  given[3] = other[3];
+  given[4] = other[4];
+  const auto kept = vk::inverse_kinematics_given_rotary(model, pose, given, model.home_positions(), kToolLength);
+  ASSERT_TRUE(kept.has_value());
+  EXPECT_EQ(kept->q[3], other[3]);
+  EXPECT_EQ(kept->q[4], other[4]);
+  EXPECT_GT(std::abs(all[0].q[3] - other[3]), 1.0 * deg);  // really the other branch
+  EXPECT_LT((kept->q - other).norm(), 1e-12);
+  const vk::ToolPose back = vk::forward_kinematics(model, kept->q, kToolLength);
+  EXPECT_LT((back.tip_W_m - pose.tip_W_m).norm(), 1e-12);
+  given[3] = -other[3];
+  // A given A of the other sign (C kept) gives another tool axis: refused.
+  std::string why;
+  EXPECT_FALSE(vk::inverse_kinematics_given_rotary(model, pose, given, model.home_positions(), kToolLength,
+                                                   1e-6, &why));
+  EXPECT_NE(why.find("deg away from the programmed one"), std::string::npos) << why;
+  // A tip 2 m away: a linear axis leaves its travel, named.
+  given[3] = other[3];
+  vk::ToolPose far = pose;
+  far.tip_W_m.y() += 2.0;
+  EXPECT_FALSE(vk::inverse_kinematics_given_rotary(model, far, given, model.home_positions(), kToolLength,
+                                                   1e-6, &why));
+  EXPECT_NE(why.find("outside its travel"), std::string::npos) << why;
+}
+
+}  // namespace
