@@ -34,7 +34,7 @@ double IndependentDrive::equivalent_inertia_kg_m2() const {
 }
 
 std::vector<double> independent_excitation(double period, std::size_t& record_from,
-                                           std::size_t& record_to) {
+                                           std::size_t& record_to, int repeats) {
   // Velocity plan [m/s]: (target, acceleration, hold). The log starts inside the first cruise
   // and ends inside the last one.
   struct Segment {
@@ -50,10 +50,15 @@ std::vector<double> independent_excitation(double period, std::size_t& record_fr
       {-0.03, 2.0, 0.5},   {0.04, 2.0, 0.8},    {0.0, 1.0, 0.2}};
   std::vector<double> vel;
   std::size_t first_cruise_end = 0, last_cruise_start = 0;
-  for (std::size_t s = 0; s < std::size(plan); ++s) {
-    if (s == std::size(plan) - 1) last_cruise_start = vel.size() - static_cast<std::size_t>(0.5 / period);
-    ramp_hold(vel, period, plan[s].v, plan[s].a, plan[s].hold);
-    if (s == 1) first_cruise_end = vel.size();
+  // The middle of the plan (from its first reversal on) is repeated for longer runs.
+  const std::size_t last = std::size(plan) - 1;
+  for (int rep = 0; rep < repeats; ++rep) {
+    for (std::size_t s = rep == 0 ? 0 : 2; s <= last; ++s) {
+      if (s == last && rep + 1 < repeats) break;
+      if (s == last) last_cruise_start = vel.size() - static_cast<std::size_t>(0.5 / period);
+      ramp_hold(vel, period, plan[s].v, plan[s].a, plan[s].hold);
+      if (s == 1) first_cruise_end = vel.size();
+    }
   }
   // Jerk limit: moving average over 20 ms (an acceleration of 4 m/s^2 then needs 200 m/s^3).
   const std::size_t m = static_cast<std::size_t>(0.02 / period);

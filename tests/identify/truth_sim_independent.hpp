@@ -28,7 +28,7 @@ namespace vmsim::identify::test {
 struct IndependentDrive {
   // Mechanics (SI).
   double lead_m = 0.016;
-  double motor_inertia_kg_m2 = 2.0e-4;  ///< rotor + coupling + screw
+  double motor_inertia_kg_m2 = 6.0e-4;  ///< rotor + coupling + screw (a 32 mm screw, 1 m)
   double load_mass_kg = 150.0;
   double kt_N_m_per_A = 1.5;
   double viscous_A_s_per_m = 3.0;       ///< friction in equivalent current at the motor
@@ -77,7 +77,7 @@ struct IndependentDrive {
 /// speeds both ways, reversals and hard accelerations; `record_from`/`record_to` receive the
 /// index window to log (both inside motion).
 std::vector<double> independent_excitation(double period_s, std::size_t& record_from,
-                                           std::size_t& record_to);
+                                           std::size_t& record_to, int repeats = 1);
 
 /// Simulates and returns the logged window: t, X.cmd, X.pos (scale), X.pos_motor, X.cur.
 Trace simulate_independent(const IndependentDrive& drive, const std::vector<double>& setpoints_m,
