@@ -53,6 +53,7 @@ class Context {
   std::vector<Dataset> sets;
   double sigma_e = 1.0, sigma_d = 1.0;
   double sigma_meas_e = 0.0;  // white-noise level of the measured effort itself [A]
+  double effort_peak_A = 0.0;  // peak |measured effort|
   double sigma_p = 1.0;  // position residual noise: the delay fit and the position channel
   double cutoff_hz = 0.0;
   bool has_diff = false;
@@ -893,6 +894,19 @@ Unexplained find_unexplained(const Context& ctx, const Evaluation& ev, double pe
   return u;
 }
 
+// The noise is estimated from the measured effort's fourth difference: a drive that hunts at
+// high frequency (a limit cycle) makes that estimate large, and a verdict "at the noise" would
+// then hide it. Said in the verdict when the noise exceeds 5 % of the peak effort.
+void warn_if_noise_is_large(Unexplained& u, const Context& ctx) {
+  if (ctx.effort_peak_A <= 0.0 || ctx.sigma_meas_e < 0.05 * ctx.effort_peak_A) return;
+  std::ostringstream out;
+  out.precision(3);
+  out << "; but the measured effort's own high-frequency noise is " << ctx.sigma_meas_e
+      << " A, " << 100.0 * ctx.sigma_meas_e / ctx.effort_peak_A
+      << " % of its peak: a drive hunting at high frequency counts as noise here";
+  u.sentence += out.str();
+}
+
 void analyse_residual(AxisDiagnosis& out, const Context& ctx, const Evaluation& ev,
                       const kinematics::Axis& axis) {
   // Phases on every sample of every dataset.
@@ -1119,6 +1133,7 @@ AxisDiagnosis diagnose_axis(const kinematics::MachineModel& machine,
     const double floor_e = 1e-4 * std::max(peak, 1e-3);
     const double meas = options.effort_noise_A > 0.0 ? options.effort_noise_A : robust_noise_level(meas_e);
     ctx.sigma_meas_e = std::max(meas, floor_e);
+    ctx.effort_peak_A = peak;
     ctx.sigma_e = std::max(std::hypot(meas, robust_noise_level(sim_e)), floor_e);
     const double count = axis.controller.encoder_counts_per_rev;
     const double quantum = count > 0.0 ? kTwoPi * axis.drive.ratio / count : 0.0;
@@ -1230,7 +1245,7 @@ AxisDiagnosis diagnose_axis(const kinematics::MachineModel& machine,
                   c.bound_note.empty();
         // The evidence sentence carries what was measured on held-out data.
         c.evidence += "; on held-out data the " + c.channel + " residual falls by " +
-                      fmt(100.0 * c.relative_gain, 2) + " %";
+                      fmt(100.0 * c.relative_gain, 3) + " %";
         if (!c.bound_note.empty()) c.evidence += " (" + c.bound_note + ")";
       } else {
         c.score = -1e300;
@@ -1274,6 +1289,7 @@ AxisDiagnosis diagnose_axis(const kinematics::MachineModel& machine,
   const Evaluation after = ctx.evaluate(model, true);
   out.after = summarise(ctx, after, true);
   out.unexplained = find_unexplained(ctx, after, period, options, linear_axis(axis));
+  warn_if_noise_is_large(out.unexplained, ctx);
 
   // Residual series on the validation samples (the whole first run when held-out blocks).
   const Evaluation before_ev = ctx.evaluate(make_drive_model(machine, first.axis_index), true);
