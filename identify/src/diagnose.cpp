@@ -4,6 +4,10 @@
 #include <Eigen/Dense>
 #include <algorithm>
 #include <array>
+#include <atomic>
+#include <exception>
+#include <mutex>
+#include <thread>
 #include <cmath>
 #include <functional>
 #include <numbers>
@@ -140,6 +144,31 @@ struct Fit {
   std::string evidence;
   std::string bound_note;  // a parameter that stayed on a scan bound after widening: rejected
 };
+
+// Runs body(0 .. n-1) on as many threads as the machine has cores (at most n); the first
+// exception is rethrown on the caller's thread.
+void for_each_index_in_parallel(std::size_t n, const std::function<void(std::size_t)>& body) {
+  const std::size_t threads =
+      std::min<std::size_t>(n, std::max(1u, std::thread::hardware_concurrency()));
+  std::atomic<std::size_t> next{0};
+  std::exception_ptr error;
+  std::mutex error_mutex;
+  auto worker = [&] {
+    for (std::size_t i = next++; i < n; i = next++) {
+      try {
+        body(i);
+      } catch (...) {
+        const std::lock_guard<std::mutex> lock(error_mutex);
+        if (!error) error = std::current_exception();
+      }
+    }
+  };
+  std::vector<std::thread> pool;
+  for (std::size_t t = 1; t < threads; ++t) pool.emplace_back(worker);
+  worker();
+  for (auto& thread : pool) thread.join();
+  if (error) std::rethrow_exception(error);
+}
 
 // A 1-D scan of the closed loop that does not accept its own bounds: a minimum on a bound is
 // scanned again over a range widened beyond it (within [hard_lo, hard_hi], the physically
@@ -1194,8 +1223,16 @@ AxisDiagnosis diagnose_axis(const kinematics::MachineModel& machine,
     const double look_elsewhere = 2.0 * std::log(std::max(1.0, static_cast<double>(remaining.size())));
     std::vector<CandidateResult> results;
     std::vector<Fit> fits;
-    for (const auto& key : remaining) {
-      Fit f = fit_candidate(key, ctx, model, base_ev, fastest, period);
+    // The candidates are fitted independently of each other: one thread per core.
+    std::vector<Fit> fitted(remaining.size());
+    std::vector<Evaluation> judged(remaining.size());
+    for_each_index_in_parallel(remaining.size(), [&](std::size_t i) {
+      fitted[i] = fit_candidate(remaining[i], ctx, model, base_ev, fastest, period);
+      if (fitted[i].ok) judged[i] = ctx.evaluate(fitted[i].model, false);
+    });
+    for (std::size_t index = 0; index < remaining.size(); ++index) {
+      const std::string& key = remaining[index];
+      Fit f = std::move(fitted[index]);
       CandidateResult c;
       c.effect = key;
       c.evidence = f.evidence;
@@ -1203,7 +1240,7 @@ AxisDiagnosis diagnose_axis(const kinematics::MachineModel& machine,
       c.validation_cost_before = base_ev.val;
       c.validation_cost_after = base_ev.val;
       if (f.ok) {
-        const Evaluation e = ctx.evaluate(f.model, false);
+        const Evaluation& e = judged[index];
         c.parameters = f.parameters;
         c.parameter_count = f.parameter_count;
         c.validation_cost_after = e.val;
