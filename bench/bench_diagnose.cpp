@@ -27,11 +27,15 @@ void BM_DiagnoseTwentySeconds(benchmark::State& state) {
       identify::test::independent_machine_yaml(nominal), "independent.yaml");
   const auto data = identify::extract_measurements(machine, trace, "bench");
   std::size_t found = 0;
+  std::string names;
   for (auto _ : state) {
     const identify::Diagnosis d = identify::diagnose(machine, data, {});
     found = d.axes.at(0).found.size();
+    names.clear();
+    for (const auto& c : d.axes.at(0).found) names += (names.empty() ? "" : ",") + c.effect;
     benchmark::DoNotOptimize(found);
   }
+  state.SetLabel("found: " + names);
   state.counters["trace_s"] = static_cast<double>(data.at(0).t.size()) * nominal.trace_period_s;
   state.counters["effects_found"] = static_cast<double>(found);
 }
