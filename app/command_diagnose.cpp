@@ -45,8 +45,7 @@ int run_diagnose(const DiagnoseCommandOptions& options, const CommandContext& co
   diagnose_options.excluded = options.exclude;
   diagnose_options.max_effects = options.max_effects;
   diagnose_options.effort_noise_A = options.effort_noise_A;
-  // um for a linear axis; a rotary axis takes the same number as arcsec would be confusing, so
-  // the option is for linear axes (the joint unit is m).
+  // um -> m on a linear axis; the same factor reads urad -> rad on a rotary one.
   diagnose_options.position_noise = options.position_noise_um * 1e-6;
   const identify::Diagnosis diagnosis =
       identify::diagnose(machine, data, validation, diagnose_options);
@@ -115,8 +114,8 @@ void add_diagnose_command(CLI::App& app, CommandContext& context) {
                       "measured signal itself")
       ->check(CLI::PositiveNumber);
   command->add_option("--position-noise-um", options->position_noise_um,
-                      "noise of the measured position of a linear axis [um]; default: estimated "
-                      "from the measured signal, at least the encoder quantum / sqrt(12)")
+                      "noise of the measured position [um; urad on a rotary axis]; default: "
+                      "estimated from the measured signal, at least the encoder quantum / sqrt(12)")
       ->check(CLI::PositiveNumber);
   command->callback([options, &context] { context.result = run_diagnose(*options, context); });
 }
