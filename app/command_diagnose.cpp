@@ -22,6 +22,8 @@ struct DiagnoseCommandOptions {
   std::string out_dir;
   std::vector<std::string> exclude;
   int max_effects = 4;
+  double effort_noise_A = 0.0;
+  double position_noise_um = 0.0;
 };
 
 int run_diagnose(const DiagnoseCommandOptions& options, const CommandContext& context) {
@@ -42,6 +44,9 @@ int run_diagnose(const DiagnoseCommandOptions& options, const CommandContext& co
   identify::DiagnoseOptions diagnose_options;
   diagnose_options.excluded = options.exclude;
   diagnose_options.max_effects = options.max_effects;
+  diagnose_options.effort_noise_A = options.effort_noise_A;
+  // um -> m on a linear axis; the same factor reads urad -> rad on a rotary one.
+  diagnose_options.position_noise = options.position_noise_um * 1e-6;
   const identify::Diagnosis diagnosis =
       identify::diagnose(machine, data, validation, diagnose_options);
   std::vector<identify::AxisNote> notes;
@@ -64,7 +69,7 @@ int run_diagnose(const DiagnoseCommandOptions& options, const CommandContext& co
   for (const auto& axis : diagnosis.axes) {
     std::ostringstream line;
     line << "  " << axis.axis_name << ": ";
-    if (axis.found.empty()) line << "nothing found above the noise";
+    if (axis.found.empty()) line << "no effect of the catalogue found";
     for (std::size_t i = 0; i < axis.found.size(); ++i) {
       line << (i ? ", " : "found ") << axis.found[i].effect;
     }
@@ -72,6 +77,7 @@ int run_diagnose(const DiagnoseCommandOptions& options, const CommandContext& co
     line << "; validation effort residual RMS " << axis.before.effort_rms_A << " -> "
          << axis.after.effort_rms_A << " A";
     context.say(line.str());
+    context.say("    " + axis.unexplained.sentence);
   }
   return 0;
 }
@@ -103,6 +109,14 @@ void add_diagnose_command(CLI::App& app, CommandContext& context) {
                       "effects to leave out of the catalogue (e.g. current_saturation)");
   command->add_option("--max-effects", options->max_effects, "at most this many effects per axis")
       ->check(CLI::Range(0, 12));
+  command->add_option("--effort-noise-A", options->effort_noise_A,
+                      "white-noise level of the measured effort [A]; default: estimated from the "
+                      "measured signal itself")
+      ->check(CLI::PositiveNumber);
+  command->add_option("--position-noise-um", options->position_noise_um,
+                      "noise of the measured position [um; urad on a rotary axis]; default: "
+                      "estimated from the measured signal, at least the encoder quantum / sqrt(12)")
+      ->check(CLI::PositiveNumber);
   command->callback([options, &context] { context.result = run_diagnose(*options, context); });
 }
 

@@ -42,8 +42,8 @@ std::optional<std::string> Trace::metadata_value(const std::string& key) const {
 }
 
 const std::set<std::string>& known_trace_signals() {
-  static const std::set<std::string> signals = {"cmd", "pos",    "pos2", "vel",
-                                                "cur", "torque", "force"};
+  static const std::set<std::string> signals = {"cmd", "pos",    "pos2", "pos_motor",
+                                                "vel", "cur",    "torque", "force"};
   return signals;
 }
 
@@ -120,7 +120,7 @@ Trace parse_trace(const std::string& text, const std::string& file, const TraceR
             throw InputError(located_message(
                 file, line_number, 0,
                 "column '" + name + "': unknown signal '" + signal +
-                    "' (known: cmd, pos, pos2, vel, cur, torque, force)"));
+                    "' (known: cmd, pos, pos2, pos_motor, vel, cur, torque, force)"));
           }
           if (options.known_axes && !options.known_axes->count(axis)) {
             throw InputError(located_message(

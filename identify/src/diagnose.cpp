@@ -3,6 +3,11 @@
 // (identify/README.md describes the method).
 #include <Eigen/Dense>
 #include <algorithm>
+#include <array>
+#include <atomic>
+#include <exception>
+#include <mutex>
+#include <thread>
 #include <cmath>
 #include <functional>
 #include <numbers>
@@ -29,7 +34,8 @@ struct Dataset {
   const AxisMeasurement* m = nullptr;
   std::vector<char> fit, val;
   std::vector<double> vc, ac;  // commanded velocity and acceleration [joint unit/s, /s^2]
-  std::vector<double> diff;    // measured pos2 - pos; empty without pos2
+  std::vector<double> diff;    // measured load minus motor position; empty without a second system
+  bool motor_logged = false;   // diff from .pos - .pos_motor (loop on a direct scale)
 };
 
 struct Residuals {
@@ -42,6 +48,7 @@ struct Residuals {
 struct Evaluation {
   double fit = 0.0, val = 0.0;  // cost in noise units
   double val_effort = 0.0, val_diff = 0.0;  // the validation cost per evidence channel
+  double val_position = 0.0;  // position channel (ranking and the verdict; not fitted)
   std::vector<Residuals> sets;
 };
 
@@ -49,7 +56,9 @@ class Context {
  public:
   std::vector<Dataset> sets;
   double sigma_e = 1.0, sigma_d = 1.0;
-  double sigma_p = 1.0;  // position residual noise: used only by the delay fit
+  double sigma_meas_e = 0.0;  // white-noise level of the measured effort itself [A]
+  double effort_peak_A = 0.0;  // peak |measured effort|
+  double sigma_p = 1.0;  // position residual noise: the delay fit and the position channel
   double cutoff_hz = 0.0;
   bool has_diff = false;
   double vmax = 0.0, amax = 0.0;
@@ -67,6 +76,7 @@ class Context {
           e.val += ce + cd;
           e.val_effort += ce;
           e.val_diff += cd;
+          e.val_position += std::pow(r.position[i] / sigma_p, 2);
         }
       }
       if (keep) e.sets.push_back(std::move(r));
@@ -115,7 +125,11 @@ class Context {
     r.effort = zero_phase_lowpass(r.raw_effort, d.m->period_s, cutoff_hz);
     if (!d.diff.empty()) {
       r.diff.resize(n);
-      for (std::size_t i = 0; i < n; ++i) r.diff[i] = d.diff[i] - (s.load_pos[i] - s.pos[i]);
+      for (std::size_t i = 0; i < n; ++i) {
+        // Measured and simulated load minus motor, from the same two measuring systems.
+        const double simulated = d.motor_logged ? s.pos[i] - s.motor_pos[i] : s.load_pos[i] - s.pos[i];
+        r.diff[i] = d.diff[i] - simulated;
+      }
     }
     return r;
   }
@@ -128,7 +142,75 @@ struct Fit {
   std::map<std::string, double> parameters;
   int parameter_count = 0;
   std::string evidence;
+  std::string bound_note;  // a parameter that stayed on a scan bound after widening: rejected
 };
+
+// Runs body(0 .. n-1) on as many threads as the machine has cores (at most n); the first
+// exception is rethrown on the caller's thread.
+void for_each_index_in_parallel(std::size_t n, const std::function<void(std::size_t)>& body) {
+  const std::size_t threads =
+      std::min<std::size_t>(n, std::max(1u, std::thread::hardware_concurrency()));
+  std::atomic<std::size_t> next{0};
+  std::exception_ptr error;
+  std::mutex error_mutex;
+  auto worker = [&] {
+    for (std::size_t i = next++; i < n; i = next++) {
+      try {
+        body(i);
+      } catch (...) {
+        const std::lock_guard<std::mutex> lock(error_mutex);
+        if (!error) error = std::current_exception();
+      }
+    }
+  };
+  std::vector<std::thread> pool;
+  for (std::size_t t = 1; t < threads; ++t) pool.emplace_back(worker);
+  worker();
+  for (auto& thread : pool) thread.join();
+  if (error) std::rethrow_exception(error);
+}
+
+// A 1-D scan of the closed loop that does not accept its own bounds: a minimum on a bound is
+// scanned again over a range widened beyond it (within [hard_lo, hard_hi], the physically
+// possible values); still on a bound of the widened range -> `note` says so (the fit is then
+// rejected by the caller). On a hard bound the value is what the data say (e.g. no delay).
+double bounded_scan(const std::function<double(double)>& f, double lo, double hi, int grid,
+                    bool log, double tolerance, double hard_lo, double hard_hi,
+                    const std::string& name, std::string& note) {
+  double best = 0.0;
+  lo = std::max(lo, hard_lo);
+  hi = std::min(hi, hard_hi);
+  auto at_bound = [&](double x, double a, double b, double& which) {
+    const double tol_abs = log ? 1.5 * tolerance * std::abs(x) : 1.5 * tolerance;
+    if (std::abs(x - a) <= tol_abs) { which = a; return true; }
+    if (std::abs(x - b) <= tol_abs) { which = b; return true; }
+    return false;
+  };
+  double x = detail::scan_minimum(f, lo, hi, grid, log, tolerance, best);
+  double which = 0.0;
+  if (!at_bound(x, lo, hi, which)) return x;
+  const bool low = which == lo;
+  if ((low && lo <= hard_lo) || (!low && hi >= hard_hi)) return x;  // a hard bound: accepted
+  double a = lo, b = hi;
+  if (log) {
+    a = low ? std::max(hard_lo, lo / 8.0) : hi / 2.0;
+    b = low ? lo * 2.0 : std::min(hard_hi, hi * 8.0);
+  } else {
+    const double width = hi - lo;
+    a = low ? std::max(hard_lo, lo - width) : hi - 0.25 * width;
+    b = low ? lo + 0.25 * width : std::min(hard_hi, hi + width);
+  }
+  x = detail::scan_minimum(f, a, b, grid, log, tolerance, best);
+  const double lo2 = a, hi2 = b;
+  if (at_bound(x, lo2, hi2, which) && !((which == lo2 && lo2 <= hard_lo) || (which == hi2 && hi2 >= hard_hi))) {
+    std::ostringstream out;
+    out.precision(3);
+    out << name << " ended on the bound " << x << " of its scan [" << lo2 << ", " << hi2
+        << "] after widening from [" << lo << ", " << hi << "]: rejected";
+    note = out.str();
+  }
+  return x;
+}
 
 // Least squares of the baseline residual (effort, or diff when `on_diff`) on regressors, over
 // the fit samples. Returns the coefficients and the explained sum of squares.
@@ -260,7 +342,7 @@ Fit fit_coulomb(const Context& ctx, const DriveModel& base, const Evaluation& ev
   };
   const double b0 = base.servo.axis.drive.friction_dry_A;
   const std::vector<double> th = gauss_newton(ctx, apply, {b0 + c(0)}, {0.1 + 0.2 * std::abs(b0)});
-  Fit f{true, apply(th), {{"friction_dry_A", std::max(0.0, th[0])}}, 1, ""};
+  Fit f{true, apply(th), {{"friction_dry_A", std::max(0.0, th[0])}}, 1, "", ""};
   f.evidence = "effort residual follows sign(v): dry friction " + fmt(b0) + " -> " +
                fmt(std::max(0.0, th[0])) + " A";
   return f;
@@ -278,7 +360,7 @@ Fit fit_viscous(const Context& ctx, const DriveModel& base, const Evaluation& ev
   const double step = 0.3 * std::max(std::abs(a0), 0.1 / std::max(ctx.vmax, 1e-9));
   const std::vector<double> th = gauss_newton(ctx, apply, {a0 + c(0)}, {step});
   const std::string unit = linear_axis(base.servo.axis) ? "A_s_per_m" : "A_s_per_rad";
-  Fit f{true, apply(th), {{"friction_viscous_" + unit, std::max(0.0, th[0])}}, 1, ""};
+  Fit f{true, apply(th), {{"friction_viscous_" + unit, std::max(0.0, th[0])}}, 1, "", ""};
   f.evidence = "effort residual proportional to v: viscous friction " + fmt(a0) + " -> " +
                fmt(std::max(0.0, th[0])) + " " + unit;
   return f;
@@ -314,7 +396,7 @@ Fit fit_asymmetric(const Context& ctx, const DriveModel& base, const Evaluation&
   const double vstep = 0.3 * std::max(a0, 0.1 / std::max(ctx.vmax, 1e-9));
   const std::vector<double> th = gauss_newton(ctx, apply, {b0 + c(0), b0 + c(1), a0 + c(2), a0 + c(3)},
                                               {step, step, vstep, vstep});
-  Fit f{true, apply(th), {}, 4, ""};
+  Fit f{true, apply(th), {}, 4, "", ""};
   const auto& a = f.model.servo.axis.effects.asymmetric_friction;
   const std::string unit = linear_axis(base.servo.axis) ? "_A_s_per_m" : "_A_s_per_rad";
   f.parameters = {{"dry_positive_A", a.dry_positive_A},
@@ -359,21 +441,22 @@ Fit fit_stribeck(const Context& ctx, const DriveModel& base, const Evaluation& e
         {0.2 + 0.2 * b0}, iterations);
   };
   double best = 0.0;
-  double vs = detail::scan_minimum(
+  std::string note;
+  double vs = bounded_scan(
       [&](double v) { return fit_cost(ctx, apply(v, refit(v, 1)[0])); }, ctx.vmax * 1e-3,
-      ctx.vmax * 0.2, 8, true, 0.05, best);
+      ctx.vmax * 0.2, 8, true, 0.05, ctx.vmax * 1e-5, ctx.vmax, "the Stribeck velocity", note);
   const std::vector<double> th = refit(vs, 3);
   // The level, then the velocity again, by scans (the cost is rough, and the level and v_s
   // trade against each other).
   const double level0 = std::max(th[0], 0.05 + 0.1 * b0);
-  const double extra = detail::scan_minimum([&](double x) { return fit_cost(ctx, apply(vs, x)); },
-                                            0.3 * level0, 2.5 * level0, 9, false,
-                                            0.01 * level0, best);
+  const double extra = bounded_scan([&](double x) { return fit_cost(ctx, apply(vs, x)); },
+                                    0.3 * level0, 2.5 * level0, 9, false, 0.01 * level0, 0.0,
+                                    1e9, "the static friction level", note);
   vs = detail::scan_minimum([&](double v) { return fit_cost(ctx, apply(v, extra)); }, 0.4 * vs,
                             2.5 * vs, 7, true, 0.03, best);
   const bool lin = linear_axis(base.servo.axis);
   Fit f{true, apply(vs, extra),
-        {{lin ? "velocity_m_per_s" : "velocity_rad_per_s", vs}, {"exponent", 2.0}}, 2, ""};
+        {{lin ? "velocity_m_per_s" : "velocity_rad_per_s", vs}, {"exponent", 2.0}}, 2, "", note};
   f.parameters["static_friction_A"] = f.model.servo.axis.effects.stribeck.static_friction_A;
   f.evidence = "extra effort at low speed: +" + fmt(extra) + " A below about " +
                fmt(vs * (lin ? 1e3 : 180.0 / std::numbers::pi)) + (lin ? " mm/s" : " deg/s");
@@ -394,11 +477,12 @@ Fit fit_backlash(const Context& ctx, const DriveModel& base) {
     return m;
   };
   const double unit = linear_axis(base.servo.axis) ? 1e-6 : std::numbers::pi / 648000.0;
-  double best = 0.0;
-  const double gap = detail::scan_minimum([&](double g) { return fit_cost(ctx, apply(g)); },
-                                          0.3 * unit, 300.0 * unit, 10, true, 0.03, best);
+  std::string note;
+  const double gap = bounded_scan([&](double g) { return fit_cost(ctx, apply(g)); }, 0.3 * unit,
+                                  300.0 * unit, 10, true, 0.03, 0.01 * unit, 3000.0 * unit,
+                                  "the gap", note);
   const bool lin = linear_axis(base.servo.axis);
-  Fit f{true, apply(gap), {{lin ? "gap_m" : "gap_rad", gap}}, 1, ""};
+  Fit f{true, apply(gap), {{lin ? "gap_m" : "gap_rad", gap}}, 1, "", note};
   f.evidence = "lost motion at reversals between motor and load: gap " +
                fmt(gap / unit) + (lin ? " um" : " arcsec");
   return f;
@@ -434,9 +518,10 @@ Fit fit_cogging(const Context& ctx, const DriveModel& base, const Evaluation& ev
   // The amplitude along the fitted phase by a scan: the cost is rough (quantisation noise
   // re-arranges with every change), which slows Gauss-Newton down on a small ripple.
   double best = 0.0;
-  const double scale = detail::scan_minimum(
+  std::string note;
+  const double scale = bounded_scan(
       [&](double k) { return fit_cost(ctx, apply({k * th[0], k * th[1]})); }, 0.5, 2.5, 9, false,
-      0.02, best);
+      0.02, 0.0, 50.0, "the cogging amplitude factor", note);
   th = {scale * th[0], scale * th[1]};
   const double rotation = detail::scan_minimum(
       [&](double d) {
@@ -446,7 +531,7 @@ Fit fit_cogging(const Context& ctx, const DriveModel& base, const Evaluation& ev
       -0.8, 0.8, 9, false, 0.02, best);
   th = {std::cos(rotation) * th[0] - std::sin(rotation) * th[1],
         std::sin(rotation) * th[0] + std::cos(rotation) * th[1]};
-  Fit f{true, apply(th), {}, 3, ""};
+  Fit f{true, apply(th), {}, 3, "", note};
   const auto& c = f.model.servo.axis.effects.cogging;
   f.parameters = {{"amplitude_N_m", c.amplitude_N_m},
                   {"periods_per_rev", c.periods_per_rev},
@@ -483,7 +568,7 @@ Fit fit_pitch(const Context& ctx, const DriveModel& base, const Evaluation& ev) 
   const std::vector<double> th0 = {best_c(0), best_c(1)};
   const double step = 0.5 * std::hypot(th0[0], th0[1]) + (linear_axis(base.servo.axis) ? 1e-6 : 5e-6);
   const std::vector<double> th = gauss_newton(ctx, apply, th0, {step, step});
-  Fit f{true, apply(th), {}, 3, ""};
+  Fit f{true, apply(th), {}, 3, "", ""};
   const auto& p = f.model.servo.axis.effects.pitch_error;
   const bool lin = linear_axis(base.servo.axis);
   f.parameters = {{lin ? "amplitude_m" : "amplitude_rad", p.amplitude},
@@ -496,7 +581,8 @@ Fit fit_pitch(const Context& ctx, const DriveModel& base, const Evaluation& ev) 
   return f;
 }
 
-Fit fit_compliance(const Context& ctx, const DriveModel& base, double fastest_period_s) {
+Fit fit_compliance(const Context& ctx, const DriveModel& base, double fastest_period_s,
+                   double trace_period_s) {
   const auto& axis = base.servo.axis;
   const double r = axis.drive.ratio;
   const double j_eq = axis.drive.equivalent_inertia_kg_m2;
@@ -517,14 +603,16 @@ Fit fit_compliance(const Context& ctx, const DriveModel& base, double fastest_pe
     c.motor_side_inertia_kg_m2 = jm;
     return m;
   };
-  const double f_max = std::min(0.3 / fastest_period_s, 2000.0);
-  double best = 0.0;
-  const double f_hz = detail::scan_minimum([&](double f) { return fit_cost(ctx, apply(f, 0.05)); },
-                                           10.0, f_max, 10, true, 0.02, best);
-  const double zeta = detail::scan_minimum(
-      [&](double z) { return fit_cost(ctx, apply(f_hz, z)); }, 0.005, 0.6, 6, true, 0.05, best);
+  // What the data resolve: the mode must lie below 40 % of the trace's sample rate (and
+  // within the loops' own rate); the damping ratio between 0.2 % and 100 %.
+  const double f_max = std::min({0.3 / fastest_period_s, 0.4 / trace_period_s, 2000.0});
+  std::string note;
+  const double f_hz = bounded_scan([&](double f) { return fit_cost(ctx, apply(f, 0.05)); }, 10.0,
+                                   f_max, 10, true, 0.02, 1.0, f_max, "the mode frequency", note);
+  const double zeta = bounded_scan([&](double z) { return fit_cost(ctx, apply(f_hz, z)); }, 0.005,
+                                   0.6, 6, true, 0.05, 0.002, 1.0, "the damping ratio", note);
   const bool lin = linear_axis(axis);
-  Fit f{true, apply(f_hz, zeta), {}, 2, ""};
+  Fit f{true, apply(f_hz, zeta), {}, 2, "", note};
   f.parameters = {{lin ? "stiffness_N_per_m" : "stiffness_N_m_per_rad", stiffness_of(f_hz)},
                   {"damping_ratio", zeta},
                   {"motor_side_inertia_kg_m2", jm},
@@ -539,14 +627,23 @@ Fit fit_delay(const Context& ctx, const DriveModel& base, double trace_period_s)
     m.servo.axis.controller.delay_s = delay;
     return m;
   };
-  const double d0 = base.servo.axis.controller.delay_s;
-  const double span = std::max(0.01, 5.0 * base.servo.axis.controller.position_period_s);
-  double best = 0.0;
-  const int grid = std::clamp(static_cast<int>(span / (0.5 * trace_period_s)) + 1, 11, 41);
-  const double delay = detail::scan_minimum([&](double d) { return ctx.fit_cost_with_position(apply(d)); }, 0.0,
-                                            d0 + span, grid, false, 0.01 * trace_period_s, best);
-  Fit f{true, apply(delay), {{"delay_s", delay}}, 1, ""};
-  f.evidence = "set point delayed by " + fmt(delay * 1e3) + " ms (model " + fmt(d0 * 1e3) + " ms)";
+  const auto& c = base.servo.axis.controller;
+  const double d0 = c.delay_s;
+  const double span = std::max(0.01, 5.0 * c.position_period_s);
+  // A model slower than the drive needs a delay removed: down to minus the loops' output dead
+  // times (what the machine file's computation delays put in).
+  const double removable = c.position_output_delay_samples * c.position_period_s +
+                           std::max(0.0, c.position_output_dead_time_s) +
+                           c.velocity_output_delay_samples * c.velocity_period_s;
+  const int grid = std::clamp(static_cast<int>((span + removable + d0) / (0.5 * trace_period_s)) + 1, 11, 61);
+  std::string note;
+  const double delay = bounded_scan([&](double d) { return ctx.fit_cost_with_position(apply(d)); },
+                                    -removable, d0 + span, grid, false, 0.01 * trace_period_s,
+                                    -removable, 0.1, "the delay", note);
+  Fit f{true, apply(delay), {{"delay_s", delay}}, 1, "", note};
+  f.evidence = std::string(delay >= d0 ? "set point and feedforward later" : "set point and feedforward earlier") +
+               " than the model by " + fmt(std::abs(delay - d0) * 1e3) + " ms: delay " +
+               fmt(d0 * 1e3) + " -> " + fmt(delay * 1e3) + " ms";
   return f;
 }
 
@@ -560,7 +657,7 @@ Fit fit_gravity(const Context& ctx, const DriveModel& base, const Evaluation& ev
   };
   const std::vector<double> th = gauss_newton(ctx, apply, {base.offset_A + c(0)}, {0.1});
   const double kt = base.servo.axis.drive.torque_constant_N_m_per_A;
-  Fit f{true, apply(th), {{"offset_A", th[0]}, {"offset_N_m", th[0] * kt}}, 1, ""};
+  Fit f{true, apply(th), {{"offset_A", th[0]}, {"offset_N_m", th[0] * kt}}, 1, "", ""};
   f.evidence = "constant effort offset of " + fmt(th[0]) + " A, the same in both directions";
   return f;
 }
@@ -571,7 +668,10 @@ Fit fit_saturation(const Context& ctx, const DriveModel& base) {
     for (double e : d.m->effort_A) peak = std::max(peak, std::abs(e));
   }
   const double limit0 = base.servo.axis.controller.current_max_A;
-  if (peak <= 0.0 || (limit0 > 0.0 && limit0 < 0.6 * peak)) {
+  // Plausible limits: the measured current reaches the limit but does not exceed it beyond its
+  // noise, so the limit lies at or above the measured peak less 3 noise levels.
+  const double floor_A = std::max(0.0, peak - 3.0 * ctx.sigma_meas_e);
+  if (peak <= 0.0 || (limit0 > 0.0 && limit0 <= floor_A)) {
     Fit f;
     f.evidence = "no effort near a limit below the model's";
     return f;
@@ -581,13 +681,28 @@ Fit fit_saturation(const Context& ctx, const DriveModel& base) {
     m.servo.axis.controller.current_max_A = imax;
     return m;
   };
-  double best = 0.0;
   const double hi = limit0 > 0.0 ? std::min(limit0, 1.2 * peak) : 1.2 * peak;
-  const double imax = detail::scan_minimum([&](double i) { return fit_cost(ctx, apply(i)); },
-                                           0.6 * peak, hi, 9, false, 0.002 * peak, best);
-  Fit f{true, apply(imax), {{"current_A", imax}}, 1, ""};
-  f.evidence = "effort flat at its limit: current saturation " + fmt(imax) + " A (model " +
-               (limit0 > 0.0 ? fmt(limit0) + " A)" : "none)");
+  std::string note;
+  const double imax = bounded_scan([&](double i) { return fit_cost(ctx, apply(i)); }, floor_A, hi,
+                                   9, false, 0.002 * peak, floor_A, 1e9, "the current limit", note);
+  // A limit that cuts nothing of the simulated current explains nothing: it ends on the upper
+  // bound, and the note rejects it.
+  if (imax >= 0.99 * hi) note = "the current limit ended on the upper bound of its scan: nothing is cut";
+  // Evidence measured: how long the measured current stays within 2 noise levels of the limit.
+  double at_limit_s = 0.0;
+  for (const Dataset& d : ctx.sets) {
+    for (double e : d.m->effort_A) {
+      if (std::abs(e) >= imax - 2.0 * ctx.sigma_meas_e) at_limit_s += d.m->period_s;
+    }
+  }
+  if (at_limit_s < 3.0 * ctx.sets.front().m->period_s && note.empty()) {
+    note = "the measured current never stays at the fitted limit (" + fmt(at_limit_s * 1e3) +
+           " ms within 2 noise levels): not a saturation";
+  }
+  Fit f{true, apply(imax), {{"current_A", imax}}, 1, "", note};
+  f.evidence = "measured current at " + fmt(imax) + " A (within 2 noise levels) for " +
+               fmt(at_limit_s * 1e3) + " ms, peak " + fmt(peak) + " A: current saturation " +
+               fmt(imax) + " A (model " + (limit0 > 0.0 ? fmt(limit0) + " A)" : "none)");
   return f;
 }
 
@@ -599,6 +714,13 @@ Fit fit_inertia(const Context& ctx, const DriveModel& base, const Evaluation& ev
     DriveModel m = base;
     auto& dr = m.servo.axis.drive;
     dr.equivalent_inertia_kg_m2 = std::max(th[0], 1e-3 * drive.equivalent_inertia_kg_m2);
+    // The drive's torque feedforward uses the inertia it was tuned with, not the plant's: keep
+    // its product J w_t where it was.
+    auto& ctl = m.servo.axis.controller;
+    if (ctl.torque_feedforward) {
+      ctl.torque_feedforward_weight = base.servo.axis.controller.torque_feedforward_weight *
+                                      drive.equivalent_inertia_kg_m2 / dr.equivalent_inertia_kg_m2;
+    }
     dr.rotor_inertia_kg_m2 = std::min(dr.rotor_inertia_kg_m2, 0.999 * dr.equivalent_inertia_kg_m2);
     auto& cmp = m.servo.axis.effects.compliance;
     if (cmp.enabled && cmp.motor_side_inertia_kg_m2 >= dr.equivalent_inertia_kg_m2) {
@@ -611,10 +733,10 @@ Fit fit_inertia(const Context& ctx, const DriveModel& base, const Evaluation& ev
   const double guess = j0 + c(0) * drive.torque_constant_N_m_per_A * drive.ratio;
   std::vector<double> th =
       gauss_newton(ctx, apply, {std::clamp(guess, 0.3 * j0, 3.0 * j0)}, {0.2 * j0});
-  double best = 0.0;
-  th[0] = detail::scan_minimum([&](double j) { return fit_cost(ctx, apply({j})); }, 0.6 * th[0],
-                               1.6 * th[0], 9, false, 0.002 * th[0], best);
-  Fit f{true, apply(th), {}, 1, ""};
+  std::string note;
+  th[0] = bounded_scan([&](double j) { return fit_cost(ctx, apply({j})); }, 0.6 * th[0],
+                       1.6 * th[0], 9, false, 0.002 * th[0], 0.01 * j0, 100.0 * j0, "J_eq", note);
+  Fit f{true, apply(th), {}, 1, "", note};
   const double j = f.model.servo.axis.drive.equivalent_inertia_kg_m2;
   f.parameters = {{"equivalent_inertia_kg_m2", j}};
   f.evidence = "effort residual proportional to the acceleration: J_eq " + fmt(j0) + " -> " +
@@ -631,7 +753,7 @@ Fit fit_candidate(const std::string& key, const Context& ctx, const DriveModel& 
   if (key == "backlash") return fit_backlash(ctx, base);
   if (key == "cogging") return fit_cogging(ctx, base, ev);
   if (key == "pitch_error") return fit_pitch(ctx, base, ev);
-  if (key == "compliance") return fit_compliance(ctx, base, fastest_period_s);
+  if (key == "compliance") return fit_compliance(ctx, base, fastest_period_s, trace_period_s);
   if (key == "delay") return fit_delay(ctx, base, trace_period_s);
   if (key == "gravity") return fit_gravity(ctx, base, ev);
   if (key == "current_saturation") return fit_saturation(ctx, base);
@@ -667,6 +789,153 @@ double r2_of(const std::vector<double>& y, const std::vector<char>& use,
   return std::clamp(explained / sst, 0.0, 1.0);
 }
 
+const char* const kPhaseNames[] = {"standstill", "constant_velocity", "acceleration", "reversal"};
+
+// Phase of every sample from the commanded motion: 3 reversal (within 30 ms of a sign change of
+// the commanded speed), 2 acceleration, 1 constant velocity, 0 standstill.
+std::vector<int> sample_phases(const Dataset& d, double vband, double aband) {
+  const std::size_t n = d.vc.size();
+  const double h = d.m->period_s;
+  std::vector<char> reversal(n, 0);
+  double last_sign = 0.0;
+  std::size_t last_index = 0;
+  for (std::size_t i = 0; i < n; ++i) {
+    const double sg = sign_band(d.vc[i], vband);
+    if (sg != 0.0) {
+      if (last_sign != 0.0 && sg != last_sign && i - last_index < static_cast<std::size_t>(0.5 / h)) {
+        const std::size_t w = static_cast<std::size_t>(0.03 / h);
+        for (std::size_t j = (last_index > w ? last_index - w : 0); j < std::min(n, i + w); ++j) {
+          reversal[j] = 1;
+        }
+      }
+      last_sign = sg;
+      last_index = i;
+    }
+  }
+  std::vector<int> phase(n, 0);
+  for (std::size_t i = 0; i < n; ++i) {
+    if (reversal[i]) {
+      phase[i] = 3;
+    } else if (std::abs(d.ac[i]) > aband) {
+      phase[i] = 2;
+    } else if (std::abs(d.vc[i]) > vband) {
+      phase[i] = 1;
+    }
+  }
+  return phase;
+}
+
+// What the found effects leave on the validation samples, in noise units, and where the
+// largest part of its excess over the noise lies.
+Unexplained find_unexplained(const Context& ctx, const Evaluation& ev, double period,
+                             const DiagnoseOptions& options, bool linear) {
+  Unexplained u;
+  const double sigma_ef = ctx.sigma_e * std::sqrt(std::min(1.0, 2.0 * ctx.cutoff_hz * period));
+  double n = 0.0, e2 = 0.0, d2 = 0.0, p2 = 0.0;
+  // Excess energy per sample (above the noise), for the location.
+  struct Span {
+    std::size_t set = 0, from = 0, to = 0;
+    double energy = 0.0;
+  };
+  std::vector<Span> spans;
+  double total_excess = 0.0;
+  const double threshold = 2.0 * sigma_ef;
+  for (std::size_t k = 0; k < ctx.sets.size(); ++k) {
+    const Dataset& d = ctx.sets[k];
+    const Residuals& r = ev.sets[k];
+    const std::size_t gap = static_cast<std::size_t>(0.05 / d.m->period_s);  // merge within 50 ms
+    bool open = false;
+    std::size_t quiet = 0;
+    for (std::size_t i = 0; i < r.effort.size(); ++i) {
+      if (d.val[i]) {
+        n += 1.0;
+        e2 += r.effort[i] * r.effort[i];
+        p2 += r.position[i] * r.position[i];
+        if (!r.diff.empty()) d2 += r.diff[i] * r.diff[i];
+      }
+      const bool counted = d.val[i] || d.fit[i];
+      const double excess = counted ? std::max(0.0, r.effort[i] * r.effort[i] - sigma_ef * sigma_ef) : 0.0;
+      total_excess += excess;
+      if (counted && std::abs(r.effort[i]) > threshold) {
+        if (!open) spans.push_back({k, i, i, 0.0});
+        open = true;
+        quiet = 0;
+        spans.back().to = i;
+      } else if (open && ++quiet > gap) {
+        open = false;
+      }
+      if (open) spans.back().energy += excess;
+    }
+  }
+  if (n <= 0.0) return u;
+  u.effort_rms_A = std::sqrt(e2 / n);
+  u.effort_noise_units = u.effort_rms_A / sigma_ef;
+  u.position_rms = std::sqrt(p2 / n);
+  u.position_noise_units = u.position_rms / ctx.sigma_p;
+  if (ctx.has_diff) {
+    u.load_diff_rms = std::sqrt(d2 / n);
+    u.load_diff_noise_units = u.load_diff_rms / ctx.sigma_d;
+  }
+  const double limit = options.unexplained_noise_units;
+  u.present = u.effort_noise_units > limit || u.load_diff_noise_units > limit;
+  const double unit = linear ? 1e6 : 3600.0 * 180.0 / std::numbers::pi;
+  const std::string pu = linear ? " um" : " arcsec";
+  std::ostringstream out;
+  out.precision(3);
+  if (!u.present) {
+    out << "the residual left is at the noise: effort " << u.effort_noise_units
+        << " noise levels (" << u.effort_rms_A << " A RMS low-passed)";
+    if (ctx.has_diff) out << ", load minus motor " << u.load_diff_noise_units << " (" << u.load_diff_rms * unit << pu << ")";
+    out << ", position " << u.position_rms * unit << pu << " RMS";
+    u.sentence = out.str();
+    return u;
+  }
+  const Span* top = nullptr;
+  for (const Span& sp : spans) {
+    if (!top || sp.energy > top->energy) top = &sp;
+  }
+  out << "something the catalogue does not explain: effort residual " << u.effort_noise_units
+      << " noise levels (" << u.effort_rms_A << " A RMS low-passed)";
+  if (ctx.has_diff) out << ", load minus motor " << u.load_diff_noise_units << " noise levels (" << u.load_diff_rms * unit << pu << " RMS)";
+  out << ", position " << u.position_rms * unit << pu << " RMS";
+  if (top && total_excess > 0.0) {
+    const Dataset& d = ctx.sets[top->set];
+    const std::vector<int> phases = sample_phases(d, 0.01 * ctx.vmax, 0.05 * ctx.amax);
+    std::array<double, 4> share{};
+    u.position_from = 1e300;
+    u.position_to = -1e300;
+    for (std::size_t i = top->from; i <= top->to; ++i) {
+      share[static_cast<std::size_t>(phases[i])] += 1.0;
+      u.position_from = std::min(u.position_from, d.m->pos[i]);
+      u.position_to = std::max(u.position_to, d.m->pos[i]);
+    }
+    const auto dominant = static_cast<std::size_t>(std::max_element(share.begin(), share.end()) - share.begin());
+    u.phase = kPhaseNames[dominant];
+    u.t_from_s = d.m->t[top->from];
+    u.t_to_s = d.m->t[top->to];
+    u.span_share = top->energy / total_excess;
+    const double pos_unit = linear ? 1e3 : 180.0 / std::numbers::pi;
+    out << "; mostly at t = " << u.t_from_s << " .. " << u.t_to_s << " s (" << 100.0 * u.span_share
+        << " % of the excess), during " << u.phase << ", at position " << u.position_from * pos_unit
+        << " .. " << u.position_to * pos_unit << (linear ? " mm" : " deg");
+  }
+  u.sentence = out.str();
+  return u;
+}
+
+// The noise is estimated from the measured effort's fourth difference: a drive that hunts at
+// high frequency (a limit cycle) makes that estimate large, and a verdict "at the noise" would
+// then hide it. Said in the verdict when the noise exceeds 5 % of the peak effort.
+void warn_if_noise_is_large(Unexplained& u, const Context& ctx) {
+  if (ctx.effort_peak_A <= 0.0 || ctx.sigma_meas_e < 0.05 * ctx.effort_peak_A) return;
+  std::ostringstream out;
+  out.precision(3);
+  out << "; but the measured effort's own high-frequency noise is " << ctx.sigma_meas_e
+      << " A, " << 100.0 * ctx.sigma_meas_e / ctx.effort_peak_A
+      << " % of its peak: a drive hunting at high frequency counts as noise here";
+  u.sentence += out.str();
+}
+
 void analyse_residual(AxisDiagnosis& out, const Context& ctx, const Evaluation& ev,
                       const kinematics::Axis& axis) {
   // Phases on every sample of every dataset.
@@ -681,36 +950,12 @@ void analyse_residual(AxisDiagnosis& out, const Context& ctx, const Evaluation& 
     const Dataset& d = ctx.sets[s];
     const Residuals& r = ev.sets[s];
     const std::size_t n = d.vc.size();
-    const double h = d.m->period_s;
-    // Reversals: sign changes of the commanded velocity (outside the dead band).
-    std::vector<char> reversal(n, 0);
-    double last_sign = 0.0;
-    std::size_t last_index = 0;
-    for (std::size_t i = 0; i < n; ++i) {
-      const double sg = sign_band(d.vc[i], vband);
-      if (sg != 0.0) {
-        if (last_sign != 0.0 && sg != last_sign && i - last_index < static_cast<std::size_t>(0.5 / h)) {
-          const std::size_t w = static_cast<std::size_t>(0.03 / h);
-          for (std::size_t j = (last_index > w ? last_index - w : 0); j < std::min(n, i + w); ++j) {
-            reversal[j] = 1;
-          }
-        }
-        last_sign = sg;
-        last_index = i;
-      }
-    }
+    const std::vector<int> phase_index = sample_phases(d, vband, aband);
     double t_event = -1.0;
     bool accelerating = false;
     for (std::size_t i = 0; i < n; ++i) {
-      std::string phase = "standstill";
+      const std::string phase = kPhaseNames[phase_index[i]];
       const bool acc_now = std::abs(d.ac[i]) > aband;
-      if (reversal[i]) {
-        phase = "reversal";
-      } else if (acc_now) {
-        phase = "acceleration";
-      } else if (std::abs(d.vc[i]) > vband) {
-        phase = "constant_velocity";
-      }
       if (acc_now != accelerating) t_event = d.m->t[i];
       accelerating = acc_now;
       Acc& x = acc[phase];
@@ -857,11 +1102,20 @@ AxisDiagnosis diagnose_axis(const kinematics::MachineModel& machine,
         (b % 2 == 0 ? d.fit[i] : d.val[i]) = 1;
       }
     }
+    // The trace's edges: the zero-phase filter's reflection and the lead-in's junction.
+    const std::size_t edge = std::min(n / 4, static_cast<std::size_t>(options.edge_s / m->period_s));
+    for (std::size_t i = 0; i < edge; ++i) {
+      d.fit[i] = d.val[i] = d.fit[n - 1 - i] = d.val[n - 1 - i] = 0;
+    }
     d.vc = detail::derivative(m->cmd, m->period_s);
     d.ac = detail::derivative(d.vc, m->period_s);
     if (!m->pos2.empty()) {
       d.diff.resize(n);
       for (std::size_t i = 0; i < n; ++i) d.diff[i] = m->pos2[i] - m->pos[i];
+    } else if (!m->pos_motor.empty()) {
+      d.motor_logged = true;
+      d.diff.resize(n);
+      for (std::size_t i = 0; i < n; ++i) d.diff[i] = m->pos[i] - m->pos_motor[i];
     } else {
       all_diff = false;
     }
@@ -889,35 +1143,55 @@ AxisDiagnosis diagnose_axis(const kinematics::MachineModel& machine,
   }
 
   DriveModel model = make_drive_model(machine, first.axis_index);
-  // Noise levels from the baseline residual's high-frequency part.
+  // Noise levels from the measured signals themselves (never from a residual, which model
+  // error at high frequency would raise): the effort's own white noise, plus the simulation's
+  // own (its quantised-encoder ripple does not line up with the measured one), or as given.
   {
-    Evaluation ev = ctx.evaluate(model, true);
-    std::vector<double> re, rd, rp;
-    for (const auto& r : ev.sets) {
-      re.insert(re.end(), r.raw_effort.begin(), r.raw_effort.end());
-      rd.insert(rd.end(), r.diff.begin(), r.diff.end());
-      rp.insert(rp.end(), r.position.begin(), r.position.end());
-    }
+    const Evaluation ev = ctx.evaluate(model, false);
+    (void)ev;
+    std::vector<double> sim_e, meas_e, meas_p, meas_d;
     double peak = 0.0;
     for (const Dataset& d : ctx.sets) {
+      const servo::AxisSignals sig = simulate(model, *d.m);
+      sim_e.insert(sim_e.end(), sig.current.begin(), sig.current.end());
+      meas_e.insert(meas_e.end(), d.m->effort_A.begin(), d.m->effort_A.end());
+      meas_p.insert(meas_p.end(), d.m->pos.begin(), d.m->pos.end());
+      meas_d.insert(meas_d.end(), d.diff.begin(), d.diff.end());
       for (double e : d.m->effort_A) peak = std::max(peak, std::abs(e));
     }
-    ctx.sigma_e = std::max(noise_level(re), 1e-4 * std::max(peak, 1e-3));
+    const double floor_e = 1e-4 * std::max(peak, 1e-3);
+    const double meas = options.effort_noise_A > 0.0 ? options.effort_noise_A : robust_noise_level(meas_e);
+    ctx.sigma_meas_e = std::max(meas, floor_e);
+    ctx.effort_peak_A = peak;
+    ctx.sigma_e = std::max(std::hypot(meas, robust_noise_level(sim_e)), floor_e);
     const double count = axis.controller.encoder_counts_per_rev;
     const double quantum = count > 0.0 ? kTwoPi * axis.drive.ratio / count : 0.0;
-    ctx.sigma_d = std::max({ctx.has_diff ? noise_level(rd) : 0.0, quantum / std::sqrt(12.0),
-                            linear_axis(axis) ? 1e-9 : 1e-8});
-    ctx.sigma_p = std::max({noise_level(rp), quantum / std::sqrt(12.0), linear_axis(axis) ? 1e-9 : 1e-8});
+    const double load_quantum = axis.controller.position_feedback == kinematics::PositionFeedback::load
+                                    ? axis.controller.load_encoder_resolution : quantum;
+    const double tiny = linear_axis(axis) ? 1e-9 : 1e-8;
+    // Load minus motor: both systems' quanta and the measured difference's own noise.
+    ctx.sigma_d = std::max({ctx.has_diff ? robust_noise_level(meas_d) : 0.0,
+                            std::hypot(quantum, load_quantum) / std::sqrt(12.0), tiny});
+    ctx.sigma_p = options.position_noise > 0.0
+                      ? options.position_noise
+                      : std::max({robust_noise_level(meas_p), load_quantum / std::sqrt(12.0), tiny});
+    out.noise_source = options.effort_noise_A > 0.0 ? "given" : "measured signals";
   }
   out.effort_noise_A = ctx.sigma_e;
   out.effort_noise_filtered_A = ctx.sigma_e * std::sqrt(std::min(1.0, 2.0 * ctx.cutoff_hz * period));
   out.load_diff_noise = ctx.has_diff ? ctx.sigma_d : 0.0;
+  out.position_noise = ctx.sigma_p;
   // Effective validation samples per channel: the effort residual is low-passed to cutoff_hz.
   const double n_val = static_cast<double>(out.validation_samples);
-  const double penalty_effort =
-      std::log(std::max(2.0, n_val * std::min(1.0, 2.0 * ctx.cutoff_hz * period)));
-  const double penalty_diff = std::log(std::max(2.0, n_val));
-  double fastest = servo::base_period_s(axis.controller);
+  const double lowpass_share = std::min(1.0, 2.0 * ctx.cutoff_hz * period);
+  const double log_n_effort = std::log(std::max(2.0, n_val * lowpass_share));
+  const double log_n_diff = std::log(std::max(2.0, n_val));
+  // The position residual is smooth at the position loop's bandwidth (kv): that many
+  // independent samples.
+  const double kv = axis.controller.position_gain_kv_per_s;
+  const double log_n_position =
+      std::log(std::max(2.0, n_val * std::min(1.0, 2.0 * std::max(kv, 1.0) / kTwoPi * period)));
+  const double fastest = servo::base_period_s(axis.controller);
 
   Evaluation base_ev = ctx.evaluate(model, true);
   analyse_residual(out, ctx, base_ev, axis);
@@ -933,7 +1207,7 @@ AxisDiagnosis diagnose_axis(const kinematics::MachineModel& machine,
   for (int round = 0; round < options.max_effects && !remaining.empty(); ++round) {
     // Noise control: the validation cost moves by this much for model changes that explain
     // nothing (the encoder and current quantisation re-arrange their noise).
-    double control_effort = 0.0, control_diff = 0.0;
+    double control_effort = 0.0, control_diff = 0.0, control_position = 0.0;
     for (int k = 1; k <= 4; ++k) {
       DriveModel m = model;
       m.servo.axis.drive.equivalent_inertia_kg_m2 *= 1.0 + (k % 2 == 0 ? 1.0 : -1.0) * 1e-4 * k;
@@ -941,43 +1215,75 @@ AxisDiagnosis diagnose_axis(const kinematics::MachineModel& machine,
       const Evaluation e = ctx.evaluate(m, false);
       control_effort = std::max(control_effort, std::abs(e.val_effort - base_ev.val_effort));
       control_diff = std::max(control_diff, std::abs(e.val_diff - base_ev.val_diff));
+      control_position = std::max(control_position, std::abs(e.val_position - base_ev.val_position));
     }
     if (round == 0) out.noise_control_cost = control_effort + control_diff;
+    // Multiple comparisons: the best of M candidates gains about 2 ln M by chance alone
+    // (Bonferroni on chi-square gains), on top of the BIC-like k ln N per parameter.
+    const double look_elsewhere = 2.0 * std::log(std::max(1.0, static_cast<double>(remaining.size())));
     std::vector<CandidateResult> results;
     std::vector<Fit> fits;
-    for (const auto& key : remaining) {
-      Fit f = fit_candidate(key, ctx, model, base_ev, fastest, period);
+    // The candidates are fitted independently of each other: one thread per core.
+    std::vector<Fit> fitted(remaining.size());
+    std::vector<Evaluation> judged(remaining.size());
+    for_each_index_in_parallel(remaining.size(), [&](std::size_t i) {
+      fitted[i] = fit_candidate(remaining[i], ctx, model, base_ev, fastest, period);
+      if (fitted[i].ok) judged[i] = ctx.evaluate(fitted[i].model, false);
+    });
+    for (std::size_t index = 0; index < remaining.size(); ++index) {
+      const std::string& key = remaining[index];
+      Fit f = std::move(fitted[index]);
       CandidateResult c;
       c.effect = key;
       c.evidence = f.evidence;
+      c.bound_note = f.bound_note;
       c.validation_cost_before = base_ev.val;
       c.validation_cost_after = base_ev.val;
       if (f.ok) {
-        const Evaluation e = ctx.evaluate(f.model, false);
+        const Evaluation& e = judged[index];
         c.parameters = f.parameters;
         c.parameter_count = f.parameter_count;
         c.validation_cost_after = e.val;
-        // Judged per evidence channel (effort; load minus motor), each against its own noise
-        // control and penalty: a channel at its noise level would only dilute the other. The
-        // score is the better channel's margin; the other channel must not get worse beyond
-        // its noise.
+        // Judged per evidence channel (effort; load minus motor; position), each against its
+        // own noise control and penalty: a channel at its noise level would only dilute the
+        // other. The score is the best channel's margin relative to that channel's cost
+        // before; no channel may get worse beyond its own margin.
         const double k = f.parameter_count;
-        const double margin_effort = base_ev.val_effort - e.val_effort -
-                                     std::max(k * penalty_effort, 3.0 * control_effort);
-        const double margin_diff =
-            ctx.has_diff ? base_ev.val_diff - e.val_diff - std::max(k * penalty_diff, 3.0 * control_diff)
-                         : -1e300;
-        const bool effort_channel = margin_effort >= margin_diff;
-        c.score = std::max(margin_effort, margin_diff);
-        const double before_c = effort_channel ? base_ev.val_effort : base_ev.val_diff;
-        const double after_c = effort_channel ? e.val_effort : e.val_diff;
-        c.relative_gain = before_c > 0.0 ? 1.0 - after_c / before_c : 0.0;
-        const bool other_holds =
-            effort_channel
-                ? (!ctx.has_diff || e.val_diff - base_ev.val_diff <= std::max(3.0 * control_diff, k * penalty_diff))
-                : e.val_effort - base_ev.val_effort <= std::max(3.0 * control_effort, k * penalty_effort);
-        if (!other_holds) c.score = std::min(c.score, -1.0);
-        c.found = c.score > 0.0 && c.relative_gain >= options.minimum_relative_gain;
+        struct Channel {
+          const char* name;
+          bool present;
+          double before, after, allowance;
+        };
+        const Channel channels[] = {
+            {"effort", true, base_ev.val_effort, e.val_effort,
+             std::max(k * log_n_effort + look_elsewhere, 3.0 * control_effort)},
+            {"load_minus_motor", ctx.has_diff, base_ev.val_diff, e.val_diff,
+             std::max(k * log_n_diff + look_elsewhere, 3.0 * control_diff)},
+            {"position", true, base_ev.val_position, e.val_position,
+             std::max(k * log_n_position + look_elsewhere, 3.0 * control_position)}};
+        double best_rel = -1e300;
+        bool worse = false;
+        for (const Channel& ch : channels) {
+          if (!ch.present || ch.before <= 0.0) continue;
+          const double margin = ch.before - ch.after - ch.allowance;
+          if (ch.after - ch.before > ch.allowance) worse = true;
+          const double gain = 1.0 - ch.after / ch.before;
+          // A channel counts when its margin is positive; the score is its relative gain net of
+          // the penalty (comparable across channels of very different noise).
+          const double rel = margin > 0.0 ? gain - ch.allowance / ch.before : margin / ch.before - 1.0;
+          if (rel > best_rel) {
+            best_rel = rel;
+            c.channel = ch.name;
+            c.relative_gain = gain;
+          }
+        }
+        c.score = worse ? std::min(best_rel, -1.0) : best_rel;
+        c.found = c.score > 0.0 && c.relative_gain >= options.minimum_relative_gain &&
+                  c.bound_note.empty();
+        // The evidence sentence carries what was measured on held-out data.
+        c.evidence += "; on held-out data the " + c.channel + " residual falls by " +
+                      fmt(100.0 * c.relative_gain, 3) + " %";
+        if (!c.bound_note.empty()) c.evidence += " (" + c.bound_note + ")";
       } else {
         c.score = -1e300;
       }
@@ -986,8 +1292,10 @@ AxisDiagnosis diagnose_axis(const kinematics::MachineModel& machine,
     }
     std::vector<std::size_t> order(results.size());
     for (std::size_t i = 0; i < order.size(); ++i) order[i] = i;
-    std::stable_sort(order.begin(), order.end(),
-                     [&](std::size_t x, std::size_t y) { return results[x].score > results[y].score; });
+    std::stable_sort(order.begin(), order.end(), [&](std::size_t x, std::size_t y) {
+      if (results[x].found != results[y].found) return results[x].found;
+      return results[x].score > results[y].score;
+    });
     // Parsimony: among found candidates whose gain on the same channel is within 2 points of
     // the best one's, prefer the one with the fewest parameters (a richer effect that explains
     // no more is not evidence of itself).
@@ -996,7 +1304,7 @@ AxisDiagnosis diagnose_axis(const kinematics::MachineModel& machine,
       std::size_t pick = 0;
       for (std::size_t j = 1; j < order.size(); ++j) {
         const CandidateResult& c = results[order[j]];
-        if (c.found && c.relative_gain >= top.relative_gain - 0.02 &&
+        if (c.found && c.channel == top.channel && c.relative_gain >= top.relative_gain - 0.02 &&
             c.parameter_count < results[order[pick]].parameter_count) {
           pick = j;
         }
@@ -1017,6 +1325,8 @@ AxisDiagnosis diagnose_axis(const kinematics::MachineModel& machine,
   out.extended = model;
   const Evaluation after = ctx.evaluate(model, true);
   out.after = summarise(ctx, after, true);
+  out.unexplained = find_unexplained(ctx, after, period, options, linear_axis(axis));
+  warn_if_noise_is_large(out.unexplained, ctx);
 
   // Residual series on the validation samples (the whole first run when held-out blocks).
   const Evaluation before_ev = ctx.evaluate(make_drive_model(machine, first.axis_index), true);

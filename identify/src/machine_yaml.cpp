@@ -37,7 +37,11 @@ void write_axis(YAML::Node node, const kinematics::Axis& axis) {
 
   YAML::Node controller = node["controller"];
   remove_prefixed(controller, "delay");
-  if (axis.controller.delay_s > 0.0) controller["delay_s"] = number(axis.controller.delay_s);
+  if (axis.controller.delay_s != 0.0) controller["delay_s"] = number(axis.controller.delay_s);
+  if (axis.controller.torque_feedforward && controller["feedforward"]) {
+    // The inertia fit keeps the feedforward's own inertia (J_eq x weight) where it was.
+    controller["feedforward"]["torque_weight"] = number(axis.controller.torque_feedforward_weight);
+  }
   if (axis.controller.current_max_A > 0.0) {
     controller["saturation"]["current_A"] = number(axis.controller.current_max_A);
   }
@@ -87,6 +91,11 @@ void write_axis(YAML::Node node, const kinematics::Axis& axis) {
     s["damping_ratio"] = number(e.compliance.damping_ratio);
     s["motor_side_inertia_kg_m2"] = number(e.compliance.motor_side_inertia_kg_m2);
     effects["compliance"] = s;
+  }
+  if (e.smooth_friction.enabled) {
+    YAML::Node s;
+    s[linear ? "speed_m_per_s" : "speed_rad_per_s"] = number(e.smooth_friction.speed);
+    effects["smooth_friction"] = s;
   }
   if (e.gravity_compensated) effects["gravity_compensated"] = true;
   if (effects.size() > 0) {

@@ -67,6 +67,15 @@ std::vector<AxisMeasurement> extract_measurements(const kinematics::MachineModel
       m.pos2 = trace.values[*pos2];
       for (double& v : m.pos2) v *= unit;
     }
+    if (const auto motor = trace.column_index(axis.name + ".pos_motor")) {
+      if (!m.pos2.empty()) {
+        throw InputError(file + ": axis " + axis.name + " has both .pos2 and .pos_motor: log the "
+                         "other measuring system once (.pos2 when the loop is closed on the "
+                         "motor encoder, .pos_motor when it is closed on a direct scale)");
+      }
+      m.pos_motor = trace.values[*motor];
+      for (double& v : m.pos_motor) v *= unit;
+    }
     result.push_back(std::move(m));
   }
   if (result.empty()) {
@@ -87,25 +96,41 @@ DriveModel make_drive_model(const kinematics::MachineModel& machine, int axis_in
 servo::AxisSignals simulate(const DriveModel& model, const AxisMeasurement& data) {
   servo::AxisInput input;
   input.kind = servo::AxisInput::Kind::position;
-  input.start_time_s = data.t.front();
-  input.period_s = data.period_s;
-  input.values = data.cmd;
+  const double h = data.period_s;
+  const std::size_t n = data.t.size();
+  // Lead-in and run-out at the end speeds: a trace cut out of a longer run starts in motion, and
+  // the model must not pay for starting from rest (nor for a one-sided last difference).
+  const std::size_t lead_in = static_cast<std::size_t>(std::ceil(0.3 / h));
+  const std::size_t run_out = 20;
+  const std::size_t span = std::min<std::size_t>(5, n - 1);
+  const double v_first = (data.cmd[span] - data.cmd[0]) / (static_cast<double>(span) * h);
+  const double v_last = (data.cmd[n - 1] - data.cmd[n - 1 - span]) / (static_cast<double>(span) * h);
+  input.values.reserve(n + lead_in + run_out);
+  for (std::size_t k = lead_in; k >= 1; --k) {
+    input.values.push_back(data.cmd.front() - v_first * h * static_cast<double>(k));
+  }
+  input.values.insert(input.values.end(), data.cmd.begin(), data.cmd.end());
+  for (std::size_t k = 1; k <= run_out; ++k) {
+    input.values.push_back(data.cmd.back() + v_last * h * static_cast<double>(k));
+  }
+  input.start_time_s = data.t.front() - h * static_cast<double>(lead_in);
+  input.period_s = h;
   if (model.offset_A != 0.0) {
     const double force = -model.offset_A * model.servo.axis.drive.torque_constant_N_m_per_A /
                          model.servo.axis.drive.ratio;
-    input.external_force.assign(data.cmd.size(), force);
+    input.external_force.assign(input.values.size(), force);
   }
   servo::SimulationOptions options;
   options.record_period_s = data.period_s;
   // Cogging is held over a plant step: sub-step so that its phase holds at speed.
   if (model.servo.axis.effects.cogging.enabled) options.plant_substeps = 8;
   servo::AxisSignals out = servo::simulate_axis(model.servo, input, options);
-  // The run ends at the last set point: one record per sample (guard against rounding).
-  const std::size_t n = data.t.size();
-  for (auto* v : {&out.t, &out.cmd, &out.pos, &out.load_pos, &out.vel, &out.current}) {
+  // The records of the trace's own samples (guard against rounding at the end).
+  for (auto* v : {&out.t, &out.cmd, &out.pos, &out.load_pos, &out.motor_pos, &out.vel, &out.current}) {
     if (v->empty()) continue;
     const double last = v->back();
-    v->resize(n, last);
+    v->resize(n + lead_in, last);
+    v->erase(v->begin(), v->begin() + static_cast<std::ptrdiff_t>(lead_in));
   }
   return out;
 }
@@ -151,6 +176,23 @@ std::vector<double> zero_phase_lowpass(const std::vector<double>& x, double peri
   std::reverse(y.begin(), y.end());
   return std::vector<double>(y.begin() + static_cast<std::ptrdiff_t>(pad),
                              y.begin() + static_cast<std::ptrdiff_t>(pad + n));
+}
+
+double robust_noise_level(const std::vector<double>& signal) {
+  // Fourth difference (binomial 1 -4 6 -4 1, gain sqrt(70) on white noise): a smooth signal
+  // (motion, friction, inertia, and any model error of the same kind) hardly enters it; the
+  // median absolute value ignores the few samples where the signal itself has a corner
+  // (a reversal, the start of an acceleration).
+  if (signal.size() < 9) return 0.0;
+  std::vector<double> d;
+  d.reserve(signal.size() - 4);
+  for (std::size_t i = 2; i + 2 < signal.size(); ++i) {
+    d.push_back(std::abs(signal[i - 2] - 4.0 * signal[i - 1] + 6.0 * signal[i] -
+                         4.0 * signal[i + 1] + signal[i + 2]));
+  }
+  auto mid = d.begin() + static_cast<std::ptrdiff_t>(d.size() / 2);
+  std::nth_element(d.begin(), mid, d.end());
+  return 1.4826 * *mid / std::sqrt(70.0);
 }
 
 double noise_level(const std::vector<double>& residual) {

@@ -48,7 +48,9 @@ json candidate_json(const CandidateResult& c) {
                 {"validation_cost_after", c.validation_cost_after},
                 {"relative", c.relative_gain},
                 {"score", c.score}}},
-              {"found", c.found}};
+              {"found", c.found},
+              {"channel", c.channel},
+              {"bound_note", c.bound_note.empty() ? json(nullptr) : json(c.bound_note)}};
 }
 
 std::string num(double v, const char* format = "%.4g") {
@@ -77,6 +79,8 @@ std::string diagnosis_json(const Diagnosis& diagnosis, const kinematics::Machine
     axis["noise"] = {{"effort_A", a.effort_noise_A},
                      {"effort_filtered_A", a.effort_noise_filtered_A},
                      {"load_minus_motor" + u, a.load_diff_noise * position_scale(lin)},
+                     {"position" + u, a.position_noise * position_scale(lin)},
+                     {"source", a.noise_source},
                      {"control_cost_change", a.noise_control_cost},
                      {"validation_cost_before", a.validation_cost_before}};
     json phases = json::array();
@@ -114,6 +118,23 @@ std::string diagnosis_json(const Diagnosis& diagnosis, const kinematics::Machine
     axis["found"] = found;
     axis["before"] = summary_json(a.before, lin);
     axis["after"] = summary_json(a.after, lin);
+    const Unexplained& x = a.unexplained;
+    const double um = lin ? 1e6 : 1.0;  // joint unit -> um (linear); rotary axes stay in rad
+    const std::string uu = lin ? "_um" : "_rad";
+    axis["unexplained"] = {{"present", x.present},
+                           {"effort_noise_units", x.effort_noise_units},
+                           {"effort_rms_A", x.effort_rms_A},
+                           {"load_minus_motor_noise_units", x.load_diff_noise_units},
+                           {"load_minus_motor_rms" + uu, x.load_diff_rms * um},
+                           {"position_noise_units", x.position_noise_units},
+                           {"position_rms" + uu, x.position_rms * um},
+                           {"t_from_s", x.t_from_s},
+                           {"t_to_s", x.t_to_s},
+                           {"phase", x.phase},
+                           {"position_from" + u, x.position_from * position_scale(lin)},
+                           {"position_to" + u, x.position_to * position_scale(lin)},
+                           {"share_of_excess", x.span_share},
+                           {"verdict", x.sentence}};
     root["axes"].push_back(axis);
   }
   return root.dump(2) + "\n";
@@ -135,7 +156,7 @@ std::string diagnosis_report(const Diagnosis& diagnosis, const kinematics::Machi
     out << "\n## Axis " << a.axis_name << " (effort from `." << a.effort_signal << "`)\n\n"
         << "Samples: " << a.fit_samples << " fit, " << a.validation_samples
         << " validation. Noise: effort " << num(a.effort_noise_A) << " A (after the low-pass "
-        << num(a.effort_noise_filtered_A) << " A)";
+        << num(a.effort_noise_filtered_A) << " A; from the " << a.noise_source << ")";
     if (a.load_diff_noise > 0.0) out << ", load minus motor " << num(a.load_diff_noise * k) << " " << pu;
     out << "; a model change that explains nothing moves the validation cost by "
         << num(a.noise_control_cost) << " (of " << num(a.validation_cost_before) << ").\n\n"
@@ -169,12 +190,13 @@ std::string diagnosis_report(const Diagnosis& diagnosis, const kinematics::Machi
           << num(c.score) << " | " << (c.found ? "yes" : "no") << " |\n";
     }
     out << "\n### Found (forward selection)\n\n";
-    if (a.found.empty()) out << "Nothing stands above the noise.\n";
+    if (a.found.empty()) out << "No effect of the catalogue stands above the noise.\n";
     int order = 1;
     for (const auto& c : a.found) {
       out << order++ << ". **" << c.effect << "**: " << c.evidence << " (validation cost -"
           << num(100.0 * c.relative_gain, "%.1f") << " %)\n";
     }
+    out << "\n### What is left\n\n" << a.unexplained.sentence << ".\n";
     out << "\n### Gain on the validation data\n\n"
         << "| | effort RMS [A] | effort peak [A] | position RMS [" << pu << "] | position peak ["
         << pu << "] | load-motor RMS [" << pu << "] | weighted RMS |\n|---|---|---|---|---|---|---|\n";

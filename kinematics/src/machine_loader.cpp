@@ -362,6 +362,15 @@ Controller read_controller(const FieldReader& controller, const Axis& axis) {
         position.quantity_or("load_encoder_resolution", resolution_units, 0.0);
     position.require_non_negative("load_encoder_resolution", result.load_encoder_resolution);
     result.position_output_delay_samples = read_delay_samples(position, "output_delay_samples");
+    result.position_output_dead_time_s = position.quantity_or("output_dead_time", kTime, -1.0);
+    if (result.position_output_dead_time_s != -1.0) {
+      position.require_non_negative("output_dead_time", result.position_output_dead_time_s);
+      if (position.has("output_delay_samples")) {
+        position.fail("give the position output delay once: output_delay_samples or "
+                      "output_dead_time_<unit>");
+      }
+      result.position_output_delay_samples = 0;
+    }
     position.reject_unknown_fields();
   }
   {
@@ -426,6 +435,12 @@ Controller read_controller(const FieldReader& controller, const Axis& axis) {
          {"first_order_lag", BalancingType::first_order_lag}},
         BalancingType::none);
     result.balancing_time_s = feedforward.quantity_or("balancing_time", kTime, 0.0);
+    result.feedforward_timing = read_choice<FeedforwardTiming>(
+        feedforward, "timing",
+        {{"interpolated", FeedforwardTiming::interpolated},
+         {"held", FeedforwardTiming::held},
+         {"held_backward", FeedforwardTiming::held_backward}},
+        FeedforwardTiming::interpolated);
     feedforward.require_non_negative("velocity_weight", result.velocity_feedforward_weight);
     feedforward.require_non_negative("torque_weight", result.torque_feedforward_weight);
     feedforward.require_non_negative("balancing_time", result.balancing_time_s);
@@ -436,7 +451,17 @@ Controller read_controller(const FieldReader& controller, const Axis& axis) {
     feedforward.reject_unknown_fields();
   }
   result.delay_s = controller.quantity_or("delay", kTime, 0.0);
-  controller.require_non_negative("delay", result.delay_s);
+  // A negative delay removes computation dead time the loops' output delays put in (a model
+  // that is slower than the drive); it cannot remove more than they hold.
+  const double removable_s =
+      result.position_output_delay_samples * result.position_period_s +
+      std::max(0.0, result.position_output_dead_time_s) +
+      result.velocity_output_delay_samples * result.velocity_period_s;
+  if (result.delay_s < -removable_s - 1e-12) {
+    controller.fail("delay " + std::to_string(result.delay_s) +
+                    " s: a negative delay removes at most the loops' output delays (" +
+                    std::to_string(removable_s) + " s here)");
+  }
   if (controller.has("saturation")) {
     const FieldReader saturation = controller.child("saturation");
     result.current_max_A = saturation.number_or("current_A", 0.0);

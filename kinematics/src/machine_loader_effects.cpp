@@ -119,6 +119,14 @@ Compliance read_compliance(const FieldReader& reader, const Axis& axis) {
 DriveEffects read_drive_effects(const FieldReader& effects, const Axis& axis) {
   DriveEffects result;
   if (effects.has("stribeck")) result.stribeck = read_stribeck(effects.child("stribeck"), axis);
+  if (effects.has("smooth_friction")) {
+    const FieldReader smooth = effects.child("smooth_friction");
+    result.smooth_friction.enabled = true;
+    result.smooth_friction.speed =
+        smooth.quantity("speed", linear(axis) ? kLinearVelocity : kRotaryVelocity);
+    smooth.require_positive("speed", result.smooth_friction.speed);
+    smooth.reject_unknown_fields();
+  }
   if (effects.has("asymmetric_friction")) {
     result.asymmetric_friction = read_asymmetric(effects.child("asymmetric_friction"), axis);
   }

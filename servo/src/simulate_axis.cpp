@@ -2,6 +2,7 @@
 // mechanics between ticks, dry friction with a stick state. See servo.hpp and README.md.
 #include <Eigen/Core>
 #include <array>
+#include <deque>
 #include <cmath>
 #include <numbers>
 
@@ -158,6 +159,8 @@ struct Parameters {
   bool stribeck = false;
   double static_friction = 0.0, stribeck_speed = 1.0, stribeck_exponent = 2.0;
   bool coulomb = false, asymmetric = false;
+  bool smooth = false;        // dry friction b tanh(omega / smooth_speed), no stick state
+  double smooth_speed = 1.0;  // [rad/s at the motor]
   double spring = 0.0, damping = 0.0, gap = 0.0;  // [N m/rad], [N m s/rad], motor rad
   bool two_mass = false, backlash = false;
   bool rigid_backlash = false;  // backlash without compliance: two bodies, rigid in contact
@@ -199,6 +202,10 @@ Parameters derive(const AxisServoModel& model) {
     p.stribeck_exponent = fx.stribeck.exponent;
   }
   p.coulomb = p.dry_positive > 0.0 || p.dry_negative > 0.0 || (p.stribeck && p.static_friction > 0.0);
+  if (fx.smooth_friction.enabled) {
+    p.smooth = true;
+    p.smooth_speed = fx.smooth_friction.speed / p.r;
+  }
   if (fx.compliance.enabled) {
     p.two_mass = true;
     p.j_motor = fx.compliance.motor_side_inertia_kg_m2 > 0.0 ? fx.compliance.motor_side_inertia_kg_m2
@@ -284,6 +291,7 @@ class AxisRun {
     n_cur_ = std::max(1L, std::lround(c_.current_period_s / base_));
     substeps_ = options.plant_substeps > 0 ? options.plant_substeps
                                            : (p_.two_mass || p_.backlash ? 8 : 1);
+    substep_ = base_ / substeps_;
     build_matrices();
   }
 
@@ -364,6 +372,7 @@ class AxisRun {
   double base_ = 0.0;
   long n_pos_ = 1, n_vel_ = 1, n_cur_ = 1;
   int substeps_ = 1;
+  double substep_ = 0.0;  // plant sub-step [s]
   Discrete<N> contact_, free_;
   State x_ = State::Zero();
   bool stuck_ = false;
@@ -502,7 +511,30 @@ void AxisRun<N>::plant_step(const Input& held) {
   const double v = x_(kVel);
   bool hold = false;
   if (p_.asymmetric) u(2) -= ((v > 0.0 ? p_.viscous_positive : p_.viscous_negative) - p_.viscous) * v;
-  if (p_.coulomb) {
+  if (p_.coulomb && p_.smooth) {
+    // Smooth dry friction, linearly implicit over the sub-step: the tanh is stiff near zero
+    // speed (slope b / w), an explicit held value would chatter there.
+    const double level = dry_level(v, std::abs(v));
+    const double th = std::tanh(v / p_.smooth_speed);
+    const double f = level * th;
+    const double slope = level * (1.0 - th * th) / p_.smooth_speed;
+    double net = u(2) - p_.viscous * v;
+    double j = p_.j_total;
+    if constexpr (kTwoBody) {
+      if (p_.two_mass) {
+        j = p_.j_load;
+        if (contact) net += p_.spring * (x_(0) - x_(3)) + p_.damping * (x_(1) - x_(4)) + u(3);
+      } else if (contact) {
+        net += p_.kt * x_(2) + u(1);
+      } else {
+        j = p_.j_load;
+      }
+    } else {
+      net += p_.kt * x_(2) + u(1);
+    }
+    const double k = substep_ * slope / j;
+    u(2) -= f + slope * (substep_ / j) * (net - f) / (1.0 + k);
+  } else if (p_.coulomb) {
     if (stuck_) {
       // Torque on the friction body without the dry friction, at rest.
       double net = u(2);
@@ -543,7 +575,7 @@ void AxisRun<N>::plant_step(const Input& held) {
       x_(0) = before(0);
       x_(1) = 0.0;
     }
-  } else if (p_.coulomb && v != 0.0 && x_(kVel) * v <= 0.0) {
+  } else if (p_.coulomb && !p_.smooth && v != 0.0 && x_(kVel) * v <= 0.0) {
     // The velocity reached zero within the step: the body stops and sticks until the torque on
     // it exceeds the static friction (no chatter around zero).
     x_(kVel) = 0.0;
@@ -596,7 +628,7 @@ AxisSignals AxisRun<N>::run() {
       x_(3) = x_(0) - delta;
     }
   }
-  stuck_ = p_.coulomb;
+  stuck_ = p_.coulomb && !p_.smooth;
 
   const double kv = c_.position_gain_kv_per_s;
   const double velocity_period = static_cast<double>(n_vel_) * base_;
@@ -642,7 +674,11 @@ AxisSignals AxisRun<N>::run() {
       c_.torque_feedforward ? c_.torque_feedforward_weight * p_.j_total / p_.r : 0.0;
   const double vff_gain = c_.velocity_feedforward ? c_.velocity_feedforward_weight : 0.0;
   const bool feedforward = vff_gain != 0.0 || tff_gain != 0.0;
-  const bool interpolate_feedforward = feedforward && options_.interpolate_feedforward;
+  const bool interpolate_feedforward =
+      feedforward && options_.interpolate_feedforward &&
+      c_.feedforward_timing == kinematics::FeedforwardTiming::interpolated;
+  const bool backward_feedforward =
+      c_.feedforward_timing == kinematics::FeedforwardTiming::held_backward;
   const double inverse_position_ticks = 1.0 / static_cast<double>(n_pos_);
 
   double velocity_integral_A =
@@ -658,6 +694,18 @@ AxisSignals AxisRun<N>::run() {
   for (DelayLine* line : {&out_p, &out_vff, &out_vff_step, &out_tff, &out_tff_step}) {
     line->reset(c_.position_output_delay_samples, 0.0);
   }
+  // Output dead time given as a time (position.output_dead_time_*): the outputs computed at a
+  // position tick take effect this many base ticks later, at any tick (e.g. the next velocity
+  // cycle), not only at a later position tick.
+  const long dead_ticks = c_.position_output_dead_time_s > 0.0
+                              ? std::lround(c_.position_output_dead_time_s / base_)
+                              : 0;
+  struct PendingOutput {
+    long due = 0;
+    double p = 0.0, vff = 0.0, vff_step = 0.0, tff = 0.0, tff_step = 0.0;
+  };
+  std::deque<PendingOutput> pending;
+  long applied_tick = 0;
   DelayLine velocity_out, current_out;
   velocity_out.reset(c_.velocity_output_delay_samples, i0);
   current_out.reset(c_.current_output_delay_samples, c_.resistance_ohm * i0);
@@ -670,7 +718,7 @@ AxisSignals AxisRun<N>::run() {
 
   AxisSignals out;
   const std::size_t records = static_cast<std::size_t>(ticks / n_record) + 1;
-  for (auto* v : {&out.t, &out.cmd, &out.pos, &out.load_pos, &out.vel, &out.current}) {
+  for (auto* v : {&out.t, &out.cmd, &out.pos, &out.load_pos, &out.motor_pos, &out.vel, &out.current}) {
     v->reserve(records);
   }
   Input u = Input::Zero();
@@ -711,6 +759,15 @@ AxisSignals AxisRun<N>::run() {
       p_term_joint = kv * deviation;
       vff_joint = vff_gain * s.v;
       tff_now = tff_gain * s.a;
+      if (backward_feedforward && feedforward) {
+        // The NC's own differences of the set points it has sent (causal): the velocity lags
+        // half a position period, the acceleration a whole one.
+        const double x1 = setpoints_.at(t_delayed - position_period).x;
+        const double x2 = setpoints_.at(t_delayed - 2.0 * position_period).x;
+        const double inv = 1.0 / position_period;
+        vff_joint = vff_gain * (s.x - x1) * inv;
+        tff_now = tff_gain * (s.x - 2.0 * x1 + x2) * inv * inv;
+      }
       if (interpolate_feedforward) {
         // The drive's fine interpolation of the feedforward: linear from this position tick's
         // value to the next one's (the set point one position period later), so the velocity
@@ -719,15 +776,32 @@ AxisSignals AxisRun<N>::run() {
         vff_step_joint = (vff_gain * next.v - vff_joint) * inverse_position_ticks;
         tff_step_now = (tff_gain * next.a - tff_now) * inverse_position_ticks;
       }
-      p_term = out_p.push(p_term_joint * inverse_r);
-      vff = out_vff.push(vff_joint * inverse_r);
-      vff_step = out_vff_step.push(vff_step_joint * inverse_r);
-      tff = out_tff.push(tff_now * inverse_kt);
-      tff_step = out_tff_step.push(tff_step_now * inverse_kt);
+      if (dead_ticks > 0) {
+        pending.push_back({k + dead_ticks, p_term_joint * inverse_r, vff_joint * inverse_r,
+                           vff_step_joint * inverse_r, tff_now * inverse_kt,
+                           tff_step_now * inverse_kt});
+      } else {
+        p_term = out_p.push(p_term_joint * inverse_r);
+        vff = out_vff.push(vff_joint * inverse_r);
+        vff_step = out_vff_step.push(vff_step_joint * inverse_r);
+        tff = out_tff.push(tff_now * inverse_kt);
+        tff_step = out_tff_step.push(tff_step_now * inverse_kt);
+        applied_tick = k;
+      }
+    }
+    while (!pending.empty() && pending.front().due <= k) {
+      const PendingOutput& o = pending.front();
+      p_term = o.p;
+      vff = o.vff;
+      vff_step = o.vff_step;
+      tff = o.tff;
+      tff_step = o.tff_step;
+      applied_tick = o.due;
+      pending.pop_front();
     }
     // Velocity loop: differenced, filtered motor encoder; PI or P; current saturation.
     if (velocity_tick) {
-      const double phase = static_cast<double>(position_phase);
+      const double phase = static_cast<double>(dead_ticks > 0 ? k - applied_tick : position_phase);
       const double omega_set =
           position_input ? p_term + vff + vff_step * phase : omega_input;
       const double bias = velocity_integral_A + tff + tff_step * phase;  // [A]
@@ -772,6 +846,7 @@ AxisSignals AxisRun<N>::run() {
       out.cmd.push_back(cmd);
       out.pos.push_back(pos);
       out.load_pos.push_back(load_position());
+      out.motor_pos.push_back(p_.r * quantise(x_(0), p_.motor_count, p_.inverse_motor_count));
       out.vel.push_back(p_.r * x_(1));
       out.current.push_back(x_(2));
       if (options_.inner_signals) {

@@ -1,6 +1,6 @@
 #pragma once
 // Axis traces: the one CSV format for set points, simulated and measured drive signals
-// (shared/spec/trace-format.md). Columns `t` [s], `<AXIS>.cmd|pos|pos2` [mm or deg],
+// (shared/spec/trace-format.md). Columns `t` [s], `<AXIS>.cmd|pos|pos2|pos_motor` [mm or deg],
 // `<AXIS>.vel` [mm/s or deg/s], `<AXIS>.cur` [A], `<AXIS>.torque` [N m], `<AXIS>.force` [N].
 // Values are kept in the file's units here: callers convert at their boundary.
 #include <optional>

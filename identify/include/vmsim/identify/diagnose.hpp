@@ -32,6 +32,20 @@ struct DiagnoseOptions {
   int max_effects = 4;
   /// Effects to leave out of the catalogue (keys of effect_keys()).
   std::vector<std::string> excluded;
+  /// White-noise level of the measured effort [A] (equivalent current); 0 = estimated from the
+  /// measured signal itself (robust scale of its fourth difference), never from a residual, so
+  /// that model error cannot raise it.
+  double effort_noise_A = 0.0;
+  /// Noise of the measured position [joint unit: m or rad]; 0 = estimated likewise, at least
+  /// the encoder's quantum / sqrt(12).
+  double position_noise = 0.0;
+  /// Samples this close to either end of a trace are left out of fit and validation [s] (the
+  /// filter's edges; the simulation itself starts in steady motion, see simulate()).
+  double edge_s = 0.02;
+  /// A residual left after the found effects is "unexplained" when its RMS on the validation
+  /// samples exceeds this many noise levels (effort: the low-passed residual against the
+  /// low-passed noise; load minus motor: raw).
+  double unexplained_noise_units = 3.0;
 };
 
 /// One candidate effect fitted on the fit data and judged on the validation data.
@@ -48,6 +62,29 @@ struct CandidateResult {
   double score = 0.0;
   bool found = false;
   std::string evidence;  ///< what the residual shows for this effect, one sentence
+  /// The channel the score was taken on: "effort", "load_minus_motor" or "position".
+  std::string channel;
+  /// Non-empty when a fitted parameter stayed on a bound of its scan (the candidate is then
+  /// rejected whatever its gain).
+  std::string bound_note;
+};
+
+/// What is left after the found effects, on the validation samples, against the noise.
+struct Unexplained {
+  bool present = false;  ///< above options.unexplained_noise_units on a channel
+  double effort_noise_units = 0.0;  ///< RMS of the low-passed residual / low-passed noise
+  double effort_rms_A = 0.0;
+  double load_diff_noise_units = 0.0;  ///< 0 without a second measuring system
+  double load_diff_rms = 0.0;          ///< [joint unit]
+  double position_noise_units = 0.0;   ///< information: the loop hides model errors here
+  double position_rms = 0.0;           ///< [joint unit]
+  /// Where the largest share of the effort residual's excess lies: a time span, its dominant
+  /// phase and the position range there.
+  double t_from_s = 0.0, t_to_s = 0.0;
+  std::string phase;
+  double position_from = 0.0, position_to = 0.0;  ///< [joint unit]
+  double span_share = 0.0;  ///< that span's share of the residual's excess energy
+  std::string sentence;     ///< the verdict, one sentence
 };
 
 /// Residual statistics of one class of samples.
@@ -80,6 +117,9 @@ struct AxisDiagnosis {
   /// The same after the zero-phase low-pass the effort residual is judged with.
   double effort_noise_filtered_A = 0.0;
   double load_diff_noise = 0.0;  ///< 0 when no .pos2
+  double position_noise = 0.0;   ///< noise of the measured position [joint unit]
+  /// "measured signals" (estimated from them) or "given" (options).
+  std::string noise_source;
   std::size_t fit_samples = 0, validation_samples = 0;
   /// Largest change of the validation cost under model changes that explain nothing (first
   /// round): what noise alone gives.
@@ -90,6 +130,7 @@ struct AxisDiagnosis {
   std::vector<CandidateResult> first_round;  ///< every candidate against the baseline, ranked
   std::vector<CandidateResult> found;        ///< in the order forward selection added them
   ResidualSummary before, after;             ///< on the validation samples
+  Unexplained unexplained;                   ///< what the found effects leave
   DriveModel extended;
   // Residual series for residuals.csv (validation data or the whole trace).
   std::vector<double> t, effort_before, effort_after, position_before, position_after;

@@ -25,6 +25,9 @@ struct AxisMeasurement {
   std::vector<double> cmd;    ///< position set point [joint unit]
   std::vector<double> pos;    ///< measured position (the loop's encoder) [joint unit]
   std::vector<double> pos2;   ///< load-side position [joint unit]; empty when not logged
+  /// Motor encoder times r [joint unit] where the loop is closed on a direct scale (`.pos` is
+  /// then that scale); empty when not logged.
+  std::vector<double> pos_motor;
   std::vector<double> effort_A;  ///< effort as equivalent current [A]
   std::string effort_signal;  ///< "cur", "torque" or "force"
 };
@@ -47,7 +50,9 @@ struct DriveModel {
 DriveModel make_drive_model(const kinematics::MachineModel& machine, int axis_index);
 
 /// Closed-loop simulation of `model` driven by the measured set points, recorded on the
-/// measurement's grid. Throws vmsim::InputError when the trace period is not a whole multiple of
+/// measurement's grid. A trace that starts or ends in motion is simulated with a lead-in and a
+/// run-out at the speed of its first and last samples (0.3 s and 20 samples), so that the model
+/// is in steady motion at the first sample and the last set point has two-sided differences. Throws vmsim::InputError when the trace period is not a whole multiple of
 /// the drive's fastest loop period.
 servo::AxisSignals simulate(const DriveModel& model, const AxisMeasurement& data);
 
@@ -59,6 +64,12 @@ std::vector<double> zero_phase_lowpass(const std::vector<double>& x, double peri
 /// White-noise level of a residual [its unit]: RMS of the second difference / sqrt(6) (the
 /// smooth part of a residual hardly enters a second difference).
 double noise_level(const std::vector<double>& residual);
+
+/// White-noise level of a measured signal itself [its unit], independent of any model: robust
+/// scale (1.4826 x median absolute value) of its fourth difference / sqrt(70). Quantisation below
+/// the noise counts as noise; a signal quantised far coarser than its noise gives about q/sqrt(12)
+/// only where it changes (callers add the quantum's own share).
+double robust_noise_level(const std::vector<double>& signal);
 
 // ---------------------------------------------------------------------------------------------
 // Identification (vmsim identify)

@@ -63,7 +63,16 @@ struct Compliance {
   double motor_side_inertia_kg_m2 = 0.0;
 };
 
+/// Dry friction without a stick state: b tanh(v / speed) (the dry level of the drive, or of the
+/// asymmetric friction and Stribeck curve, times the tanh). What a drive whose friction has no
+/// break-away (rolling elements, a lubricated screw) shows around zero speed.
+struct SmoothFriction {
+  bool enabled = false;
+  double speed = 0.0;  ///< tanh width [joint unit / s], > 0
+};
+
 struct DriveEffects {
+  SmoothFriction smooth_friction;
   StribeckFriction stribeck;
   AsymmetricFriction asymmetric_friction;
   Backlash backlash;

@@ -55,6 +55,12 @@ enum class VelocityControllerType { P, PI };
 enum class CurrentLoopModel { ideal, first_order, PI };
 enum class BalancingType { none, dead_time, first_order_lag };
 enum class FineInterpolation { linear, cubic };
+/// How the drive applies the NC's feedforward between two position-loop ticks: interpolated
+/// linearly (central differences of the set points, the drive's fine interpolation), held (the
+/// same values held over the position period), or held_backward (held, computed by the NC from
+/// the set points already sent: backward differences, the velocity half a period late, the
+/// acceleration one period late).
+enum class FeedforwardTiming { interpolated, held, held_backward };
 enum class PositionFeedback { motor, load };
 
 /// Cascade controller of one axis drive (second paper, Sec. 2.1; a Siemens 840D-like structure).
@@ -72,6 +78,10 @@ struct Controller {
   /// Resolution of the load-side encoder [joint unit]; 0 = ideal.
   double load_encoder_resolution = 0.0;
   int position_output_delay_samples = 1;
+  /// `position.output_dead_time_<s|ms|us>`: the position controller's output dead time as a
+  /// time (a whole multiple of the fastest loop period: a drive that takes the NC's output at its
+  /// next velocity cycle), replacing output_delay_samples; < 0 = not given.
+  double position_output_dead_time_s = -1.0;
   // Velocity loop.
   VelocityControllerType velocity_type = VelocityControllerType::PI;
   double velocity_gain_N_m_s_per_rad = 0.0;  ///< Kp of the speed controller (motor side)
@@ -97,6 +107,8 @@ struct Controller {
   double velocity_feedforward_weight = 1.0;
   bool torque_feedforward = false;
   double torque_feedforward_weight = 1.0;
+  /// `feedforward.timing` in the machine file.
+  FeedforwardTiming feedforward_timing = FeedforwardTiming::interpolated;
   /// Balancing of the feedforward: the position set point is delayed so that both paths line up.
   BalancingType balancing_type = BalancingType::none;
   double balancing_time_s = 0.0;

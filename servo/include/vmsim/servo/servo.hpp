@@ -104,6 +104,8 @@ struct AxisSignals {
   std::vector<double> cmd;        ///< set point at t (fine interpolation, no delay)
   std::vector<double> pos;        ///< position from the encoder the loop is closed on
   std::vector<double> load_pos;   ///< actual load (table) position
+  /// Motor encoder (quantised) times r: what a `.pos_motor` column logs [joint unit].
+  std::vector<double> motor_pos;
   std::vector<double> vel;        ///< actual motor speed times r [joint unit / s]
   std::vector<double> current;    ///< actual torque-producing current [A]
   // Inner signals (filled when SimulationOptions::inner_signals):
