@@ -236,24 +236,49 @@ std::vector<Token> lex(std::string_view line, const Site& site) {
   return tokens;
 }
 
+/// Character classes of the fast path (is_plain): most characters of a plain block (digits,
+/// blanks, '.', '-') need one table look-up.
+enum CharClass : unsigned char { kPlainChar, kLetterChar, kMacroChar, kCommentChar, kEndChar };
+
+constexpr std::array<unsigned char, 256> char_classes() {
+  std::array<unsigned char, 256> classes{};
+  for (int c = 'A'; c <= 'Z'; ++c) classes[static_cast<std::size_t>(c)] = kLetterChar;
+  for (int c = 'a'; c <= 'z'; ++c) classes[static_cast<std::size_t>(c)] = kLetterChar;
+  for (const char c : {'#', '[', '<', 'O', 'o'}) {
+    classes[static_cast<unsigned char>(c)] = kMacroChar;
+  }
+  classes[static_cast<unsigned char>('(')] = kCommentChar;
+  classes[static_cast<unsigned char>(';')] = kEndChar;
+  return classes;
+}
+constexpr std::array<unsigned char, 256> kCharClasses = char_classes();
+
 /// True when the line has nothing for the macro language: no '#', '[', '<', O word, keyword of
 /// two or more letters, M98/M99 or G65/G66/G67 (comments skipped). Such a line goes to the block
 /// interpreter unchanged.
 bool is_plain(std::string_view line) {
   const std::size_t n = line.size();
+  const auto class_of = [&](std::size_t k) {
+    return kCharClasses[static_cast<unsigned char>(line[k])];
+  };
   for (std::size_t i = 0; i < n; ++i) {
-    const char c = line[i];
-    if (c == '(') {
-      const std::size_t close = line.find(')', i);
-      if (close == std::string_view::npos) return true;  // the interpreter reports it
-      i = close;
-      continue;
+    switch (class_of(i)) {
+      case kPlainChar: continue;
+      case kMacroChar: return false;
+      case kEndChar: return true;
+      case kCommentChar: {
+        const std::size_t close = line.find(')', i);
+        if (close == std::string_view::npos) return true;  // the interpreter reports it
+        i = close;
+        continue;
+      }
+      default: break;
     }
-    if (c == ';') return true;
-    if (c == '#' || c == '[' || c == '<' || c == 'O' || c == 'o') return false;
-    if (!std::isalpha(static_cast<unsigned char>(c))) continue;
-    if (i + 1 < n && std::isalpha(static_cast<unsigned char>(line[i + 1]))) return false;
-    const char upper = static_cast<char>(std::toupper(static_cast<unsigned char>(c)));
+    // A letter: a keyword has two or more; M98 M99 G65-G67 call subprograms.
+    if (i + 1 < n && class_of(i + 1) != kPlainChar) {
+      if (class_of(i + 1) != kCommentChar && class_of(i + 1) != kEndChar) return false;
+    }
+    const char upper = static_cast<char>(line[i] & ~0x20);
     if (upper != 'M' && upper != 'G') continue;
     std::size_t k = i + 1;
     while (k < n && (line[k] == ' ' || line[k] == '\t')) ++k;
