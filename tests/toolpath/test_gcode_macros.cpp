@@ -357,6 +357,9 @@ TEST(GcodeMacros, ErrorsNameTheFileLineColumnAndWord) {
       {"G0 X0 Y0 Z0\nG1 F100 X[LN[0]]\n", "part.nc:2:11:", "not positive"},
       {"G0 X0 Y0 Z0\n#1 = [10 ** 400]\n", "part.nc:2:7:", "too large"},
       {"G0 X0 Y0 Z0\nGOTO 50\n", "part.nc:2:1: 'GOTO'", "no block N50"},
+      // GOTO stays within its program: N10 of O2 is not a target for O1.
+      {"G0 X0 Y0 Z0\nM98 P1\nM30\nO1\nGOTO 10\nM99\nO2\nN10 M99\n", "part.nc:5:1: 'GOTO'",
+       "no block N10 in this program"},
       {"G0 X0 Y0 Z0\nM98 P1234\n", "part.nc:2:1: 'M98'", "no subprogram O1234"},
       {"G0 X0 Y0 Z0\nG65 P77 A1\n", "part.nc:2:1: 'G65'", "no macro program O77"},
       {"G0 X0 Y0 Z0\no<nowhere> call\n", "part.nc:2:1: 'o'", "no subroutine o<nowhere>"},

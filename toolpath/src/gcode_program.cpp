@@ -299,6 +299,7 @@ bool is_plain(std::string_view line) {
 /// What a line holds for the control flow (found once, the first time a jump needs it).
 struct LineInfo {
   long program_number = -1;  ///< Fanuc O number starting a program
+  int program = 0;           ///< how many Fanuc O lines up to here (the program it belongs to)
   int do_id = 0;             ///< Fanuc WHILE [..] DO m / DO m
   int end_id = 0;            ///< Fanuc END m
   bool m99 = false;          ///< M99 (end of a Fanuc subprogram)
@@ -1052,11 +1053,7 @@ class Program {
 
   /// True when line i belongs to the program (Fanuc O block to O block) the frame runs.
   bool in_current_program(std::size_t i) const {
-    const std::size_t from = std::min(i, line_), to = std::max(i, line_);
-    for (std::size_t j = from + 1; j <= to; ++j) {
-      if (src().info[j].program_number >= 0) return false;
-    }
-    return true;
+    return src().info[i].program == src().info[line_].program;
   }
 
   // --- Calls ----------------------------------------------------------------------------------
@@ -1533,7 +1530,12 @@ class Program {
       src().starts.push_back(p + 1);
     }
     src().info.resize(src().starts.size());
-    for (std::size_t i = 0; i < src().starts.size(); ++i) index_line(i);
+    int program = 0;
+    for (std::size_t i = 0; i < src().starts.size(); ++i) {
+      index_line(i);
+      if (src().info[i].program_number >= 0) ++program;
+      src().info[i].program = program;
+    }
   }
 
   void index_line(std::size_t i) {
