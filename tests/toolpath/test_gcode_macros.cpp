@@ -357,6 +357,9 @@ TEST(GcodeMacros, ErrorsNameTheFileLineColumnAndWord) {
       {"G0 X0 Y0 Z0\nG1 F100 X[LN[0]]\n", "part.nc:2:11:", "not positive"},
       {"G0 X0 Y0 Z0\n#1 = [10 ** 400]\n", "part.nc:2:7:", "too large"},
       {"G0 X0 Y0 Z0\nGOTO 50\n", "part.nc:2:1: 'GOTO'", "no block N50"},
+      // GOTO stays within its program: N10 of O2 is not a target for O1.
+      {"G0 X0 Y0 Z0\nM98 P1\nM30\nO1\nGOTO 10\nM99\nO2\nN10 M99\n", "part.nc:5:1: 'GOTO'",
+       "no block N10 in this program"},
       {"G0 X0 Y0 Z0\nM98 P1234\n", "part.nc:2:1: 'M98'", "no subprogram O1234"},
       {"G0 X0 Y0 Z0\nG65 P77 A1\n", "part.nc:2:1: 'G65'", "no macro program O77"},
       {"G0 X0 Y0 Z0\no<nowhere> call\n", "part.nc:2:1: 'o'", "no subroutine o<nowhere>"},
@@ -521,6 +524,36 @@ namespace {
 TEST(GcodeMacros, AProgramEndingWithM99IsTheMainProgramWhenNoneEndsWithM30) {
   // A file of one program that ends with M99 (it would loop on the control): it runs once.
   expect_same_points(gcode("O0001\nG0 X0 Y0 Z0\nG1 X1 F100\nM99\n"),
+                     gcode("G0 X0 Y0 Z0\nG1 X1 F100\n"));
+}
+
+}  // namespace
+}  // namespace vmsim::toolpath
+
+namespace vmsim::toolpath {
+namespace {
+
+TEST(GcodeMacros, ReturnedValuesRepeatedMacroCallsAndM99InTheMainProgram) {
+  // LinuxCNC: return [v] / endsub [v] leave v in #<_value>.
+  expect_same_points(gcode("o<half> sub\n"
+                           "o1 if [#1 LT 0]\n"
+                           "  o<half> return [0]\n"
+                           "o1 endif\n"
+                           "o<half> endsub [#1 / 2]\n"
+                           "G0 X0 Y0 Z0\n"
+                           "o<half> call [7]\n"
+                           "G1 X#<_value> F100\n"
+                           "o<half> call [-7]\n"
+                           "G1 Y[#<_value> + 1]\n"
+                           "M2\n"),
+                     gcode("G0 X0 Y0 Z0\nG1 X3.5 F100\nG1 Y1\n"));
+  // Fanuc G65 L3: three runs, each from the arguments again (#1 counts up inside, from A1).
+  expect_same_points(gcode("G0 X0 Y0 Z0\nG65 P10 L3 A1\nM30\n"
+                           "O10\n#1 = #1 + 1\n#100 = #100 + #1\nG1 X#100 F100\nM99\n"),
+                     gcode("G0 X0 Y0 Z0\nG1 X2 F100\nX4\nX6\n"));
+  // M99 in the main program ends it (the control would start again): the blocks after it are
+  // not run.
+  expect_same_points(gcode("G0 X0 Y0 Z0\nG1 X1 F100\nM99\nG1 X5\nM30\n"),
                      gcode("G0 X0 Y0 Z0\nG1 X1 F100\n"));
 }
 

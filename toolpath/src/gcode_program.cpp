@@ -236,24 +236,49 @@ std::vector<Token> lex(std::string_view line, const Site& site) {
   return tokens;
 }
 
+/// Character classes of the fast path (is_plain): most characters of a plain block (digits,
+/// blanks, '.', '-') need one table look-up.
+enum CharClass : unsigned char { kPlainChar, kLetterChar, kMacroChar, kCommentChar, kEndChar };
+
+constexpr std::array<unsigned char, 256> char_classes() {
+  std::array<unsigned char, 256> classes{};
+  for (int c = 'A'; c <= 'Z'; ++c) classes[static_cast<std::size_t>(c)] = kLetterChar;
+  for (int c = 'a'; c <= 'z'; ++c) classes[static_cast<std::size_t>(c)] = kLetterChar;
+  for (const char c : {'#', '[', '<', 'O', 'o'}) {
+    classes[static_cast<unsigned char>(c)] = kMacroChar;
+  }
+  classes[static_cast<unsigned char>('(')] = kCommentChar;
+  classes[static_cast<unsigned char>(';')] = kEndChar;
+  return classes;
+}
+constexpr std::array<unsigned char, 256> kCharClasses = char_classes();
+
 /// True when the line has nothing for the macro language: no '#', '[', '<', O word, keyword of
 /// two or more letters, M98/M99 or G65/G66/G67 (comments skipped). Such a line goes to the block
 /// interpreter unchanged.
 bool is_plain(std::string_view line) {
   const std::size_t n = line.size();
+  const auto class_of = [&](std::size_t k) {
+    return kCharClasses[static_cast<unsigned char>(line[k])];
+  };
   for (std::size_t i = 0; i < n; ++i) {
-    const char c = line[i];
-    if (c == '(') {
-      const std::size_t close = line.find(')', i);
-      if (close == std::string_view::npos) return true;  // the interpreter reports it
-      i = close;
-      continue;
+    switch (class_of(i)) {
+      case kPlainChar: continue;
+      case kMacroChar: return false;
+      case kEndChar: return true;
+      case kCommentChar: {
+        const std::size_t close = line.find(')', i);
+        if (close == std::string_view::npos) return true;  // the interpreter reports it
+        i = close;
+        continue;
+      }
+      default: break;
     }
-    if (c == ';') return true;
-    if (c == '#' || c == '[' || c == '<' || c == 'O' || c == 'o') return false;
-    if (!std::isalpha(static_cast<unsigned char>(c))) continue;
-    if (i + 1 < n && std::isalpha(static_cast<unsigned char>(line[i + 1]))) return false;
-    const char upper = static_cast<char>(std::toupper(static_cast<unsigned char>(c)));
+    // A letter: a keyword has two or more; M98 M99 G65-G67 call subprograms.
+    if (i + 1 < n && class_of(i + 1) != kPlainChar) {
+      if (class_of(i + 1) != kCommentChar && class_of(i + 1) != kEndChar) return false;
+    }
+    const char upper = static_cast<char>(line[i] & ~0x20);
     if (upper != 'M' && upper != 'G') continue;
     std::size_t k = i + 1;
     while (k < n && (line[k] == ' ' || line[k] == '\t')) ++k;
@@ -274,6 +299,7 @@ bool is_plain(std::string_view line) {
 /// What a line holds for the control flow (found once, the first time a jump needs it).
 struct LineInfo {
   long program_number = -1;  ///< Fanuc O number starting a program
+  int program = 0;           ///< how many Fanuc O lines up to here (the program it belongs to)
   int do_id = 0;             ///< Fanuc WHILE [..] DO m / DO m
   int end_id = 0;            ///< Fanuc END m
   bool m99 = false;          ///< M99 (end of a Fanuc subprogram)
@@ -1027,11 +1053,7 @@ class Program {
 
   /// True when line i belongs to the program (Fanuc O block to O block) the frame runs.
   bool in_current_program(std::size_t i) const {
-    const std::size_t from = std::min(i, line_), to = std::max(i, line_);
-    for (std::size_t j = from + 1; j <= to; ++j) {
-      if (src().info[j].program_number >= 0) return false;
-    }
-    return true;
+    return src().info[i].program == src().info[line_].program;
   }
 
   // --- Calls ----------------------------------------------------------------------------------
@@ -1508,7 +1530,12 @@ class Program {
       src().starts.push_back(p + 1);
     }
     src().info.resize(src().starts.size());
-    for (std::size_t i = 0; i < src().starts.size(); ++i) index_line(i);
+    int program = 0;
+    for (std::size_t i = 0; i < src().starts.size(); ++i) {
+      index_line(i);
+      if (src().info[i].program_number >= 0) ++program;
+      src().info[i].program = program;
+    }
   }
 
   void index_line(std::size_t i) {
