@@ -290,4 +290,12 @@ ChainInputs load_chain_inputs(const ChainInputOptions& options) {
   return inputs;
 }
 
+std::vector<bool> rapid_ends(const ChainInputs& inputs) {
+  std::vector<bool> rapid(inputs.path.size(), false);
+  for (std::size_t i = 0; i < rapid.size(); ++i) {
+    rapid[i] = inputs.toolpath.points[inputs.toolpath_point[i]].kind == toolpath::MotionKind::rapid;
+  }
+  return rapid;
+}
+
 }  // namespace vmsim::app

@@ -75,6 +75,9 @@ void apply_machine_setup(const kinematics::MachineModel& machine,
 /// moves feed.fixed_m_per_s where > 0, else the programmed feed (G94 F; G93: the chord length
 /// times the inverse time) times feed.programmed_factor. `path` is solve_path_kinematics of
 /// inputs.path. Throws vmsim::InputError naming the block where a cutting move has no feed.
+/// Per path point of inputs.path: the motion that ends there is a rapid (G0, APT RAPID).
+std::vector<bool> rapid_ends(const ChainInputs& inputs);
+
 std::vector<double> point_feeds_m_per_s(const ChainInputs& inputs,
                                         const kinematics::PathKinematics& path,
                                         const FeedSetting& feed);

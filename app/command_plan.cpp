@@ -120,6 +120,7 @@ int run_plan(const PlanOptions& options, const CommandContext& context) {
   // The programmed feeds (G94 F, G93 inverse time); rapids and turns about a fixed tip on the
   // axes' own limits.
   fo.point_feed_m_per_s = point_feeds_m_per_s(inputs, path, FeedSetting{});
+  fo.rapid_end = rapid_ends(inputs);
   const planner::FeedratePlan plan = planner::plan_feedrate(inputs.machine, path, fo);
   const auto& prof = plan.profile;
   const auto& axes = inputs.machine.axes;

@@ -219,6 +219,7 @@ Run simulate_run(const Context& context, const std::string& name, const FeedSett
     // override); rapids and turns about a fixed tip keep no feed limit and go as fast as the
     // axes allow, identically in both runs.
     plan_options.point_feed_m_per_s = point_feeds;
+    plan_options.rapid_end = rapid_ends(context.inputs);
     try {
       run.plan = planner::plan_feedrate(machine, context.path, plan_options);
       if (!plan_options.third_order) {
@@ -242,10 +243,7 @@ Run simulate_run(const Context& context, const std::string& name, const FeedSett
   // the programmed path (through the direct kinematics, independently of the planner's spline).
   run.checks.push_back(check_setpoints_within_travel(machine, context.inputs.path, context.path.s_m,
                                                      run.plan.setpoints, context.inputs.block_names, name));
-  std::vector<bool> rapid_end(context.inputs.path.size());
-  for (std::size_t i = 0; i < rapid_end.size(); ++i) {
-    rapid_end[i] = context.inputs.toolpath.points[context.inputs.toolpath_point[i]].kind == toolpath::MotionKind::rapid;
-  }
+  const std::vector<bool> rapid_end = rapid_ends(context.inputs);
   run.checks.push_back(check_setpoints_on_path(machine, context.inputs.path, rapid_end, context.path.s_m,
                                                context.inputs.tool_length_m, run.plan.setpoints,
                                                context.inputs.block_names, name,

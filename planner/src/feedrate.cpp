@@ -775,6 +775,7 @@ FeedratePlan plan_feedrate(const kinematics::MachineModel& machine,
   PathFidelityOptions fidelity;
   fidelity.tolerance_m = options.path_tolerance_m;
   fidelity.axis_tolerance_rad = options.path_axis_tolerance_rad;
+  fidelity.free_end = options.rapid_end;
   RefinedPath refined = refine_path(machine, path, fidelity);
   const std::size_t added = refined.graded_points + refined.refined_points;
   FeedratePlan plan;

@@ -66,6 +66,8 @@ struct Working {
   Polyline programmed;
   std::vector<std::size_t> source_point;
   std::vector<bool> singular;  ///< per point: inside a singular zone
+  std::vector<bool> free_end;  ///< per point: the segment ending here is free (a rapid)
+  bool free_segment(std::size_t i) const { return i + 1 < free_end.size() && free_end[i + 1]; }
 };
 
 /// Whether the tool axis turns between path points i and i + 1 (direct kinematics of q).
@@ -116,6 +118,8 @@ void set_programmed_end_slopes(const kinematics::MachineModel& machine, Working&
   const std::size_t n = w.path.s_m.size();
   auto slope = [&](std::size_t i, bool at_start) {
     const double h = w.path.s_m[i + 1] - w.path.s_m[i];
+    // A rapid: the axes' straight line (there is no programmed line in W to follow).
+    if (w.free_segment(i)) return Eigen::VectorXd((w.path.q.col(idx(i + 1)) - w.path.q.col(idx(i))) / h);
     const double delta = std::min(0.01 * h, 1e-4);
     const double f1 = delta / h, f2 = 2.0 * delta / h;
     const Eigen::VectorXd q0 = w.path.q.col(idx(at_start ? i : i + 1));
@@ -169,6 +173,8 @@ std::vector<bool> insert_points(const kinematics::MachineModel& machine, Working
   next.programmed.axis.resize(m);
   next.source_point.resize(m);
   next.singular.resize(m);
+  const bool has_free = w.free_end.size() == n;
+  if (has_free) next.free_end.assign(m, false);  // points are never added in a free segment
   std::vector<bool> inserted(m, false);
   std::vector<std::size_t> new_index(n);
   std::size_t k = 0;  // next output column
@@ -186,6 +192,7 @@ std::vector<bool> insert_points(const kinematics::MachineModel& machine, Working
     next.programmed.axis[k] = w.programmed.axis[i];
     next.source_point[k] = w.source_point[i];
     next.singular[k] = w.singular[i];
+    if (has_free) next.free_end[k] = w.free_end[i];
     ++k;
   };
   for (std::size_t i = 0; i < n; ++i) {
@@ -325,6 +332,7 @@ RefinedPath refine_path(const kinematics::MachineModel& machine, const kinematic
     return result;
   }
   w.programmed = programmed_polyline(machine, path);
+  if (options.free_end.size() == n0) w.free_end = options.free_end;
   w.singular.assign(n0, false);
   for (const auto& zone : path.singular_zones) {
     for (std::size_t i = zone.first_point; i <= zone.last_point && i < n0; ++i) w.singular[i] = true;
@@ -358,6 +366,7 @@ RefinedPath refine_path(const kinematics::MachineModel& machine, const kinematic
         // Only where the ratio is large: grading a mildly uneven spacing changed sample part 1's
         // spline (and its duration by 8 %) where it already followed the path within 0.5 um.
         if (s[i + 1] - s[i] <= kGradingTrigger * std::min(size[i - first], size[i + 1 - first])) continue;
+        if (w.free_segment(i)) continue;  // a rapid is not held to a line
         std::vector<double> f = graded_cuts(s[i + 1] - s[i], size[i - first], size[i + 1 - first], options.spacing_ratio);
         if (!f.empty()) {
           result.graded_points += f.size();
@@ -388,6 +397,7 @@ RefinedPath refine_path(const kinematics::MachineModel& machine, const kinematic
     std::size_t worst_segment = 0;
     for (std::size_t i = 0; i < segments; ++i) {
       if (!dirty[i]) continue;  // (paths whose rotary axes turn in a singular zone are not refined)
+      if (w.free_segment(i)) continue;  // a rapid: as on an NC, not held to the programmed line
       // In a singular zone where the tool axis turns, the IKT holds the free rotary axis and
       // reaches the tool axis only to within its singular angle: midpoints swing that axis and
       // do not converge (path 2). Where the tool axis stands still (a 3-axis path along C) the

@@ -5,7 +5,10 @@
 // X, Y and Z, outside cycles, macros and reference returns), not by vmsim's G-code reader.
 #include <gtest/gtest.h>
 
+#include <Eigen/Core>
+
 #include <cmath>
+#include <limits>
 #include <filesystem>
 #include <fstream>
 #include <map>
@@ -37,39 +40,43 @@ std::string read_text(const fs::path& path) {
   return text.str();
 }
 
-/// The set-point rows of a kinematics trace: line -> axis values of the last row of that line.
+/// The rows of a kinematics trace (one per path point, in path order) and their columns.
 struct TraceRows {
   std::vector<std::string> columns;
-  std::map<int, std::vector<double>> last_row_of_line;
+  std::vector<std::vector<double>> rows;
+  std::map<int, std::vector<std::size_t>> rows_of_line;  ///< source line -> row indices
 };
 
 TraceRows read_trace(const fs::path& path) {
-  TraceRows rows;
+  TraceRows trace;
   std::ifstream in(path);
   std::string line;
+  int line_column = -1;
   while (std::getline(in, line)) {
     if (line.empty() || line[0] == '#') continue;
     std::vector<std::string> fields;
     std::stringstream split(line);
     for (std::string field; std::getline(split, field, ',');) fields.push_back(field);
-    if (rows.columns.empty()) {
-      rows.columns = fields;
+    if (trace.columns.empty()) {
+      trace.columns = fields;
+      for (std::size_t c = 0; c < fields.size(); ++c) {
+        if (fields[c] == "line") line_column = static_cast<int>(c);
+      }
       continue;
     }
     std::vector<double> values;
     for (const std::string& field : fields) values.push_back(std::stod(field));
-    int line_column = -1;
-    for (std::size_t c = 0; c < rows.columns.size(); ++c) {
-      if (rows.columns[c] == "line") line_column = static_cast<int>(c);
+    if (line_column >= 0) {
+      trace.rows_of_line[static_cast<int>(values[static_cast<std::size_t>(line_column)])].push_back(trace.rows.size());
     }
-    if (line_column >= 0) rows.last_row_of_line[static_cast<int>(values[static_cast<std::size_t>(line_column)])] = values;
+    trace.rows.push_back(std::move(values));
   }
-  return rows;
+  return trace;
 }
 
-int column_of(const TraceRows& rows, const std::string& name) {
-  for (std::size_t c = 0; c < rows.columns.size(); ++c) {
-    if (rows.columns[c] == name) return static_cast<int>(c);
+int column_of(const TraceRows& trace, const std::string& name) {
+  for (std::size_t c = 0; c < trace.columns.size(); ++c) {
+    if (trace.columns[c] == name) return static_cast<int>(c);
   }
   return -1;
 }
@@ -152,14 +159,19 @@ struct Case {
   const char* folder;
   const char* program;
   double work_zero_z_mm;  ///< the part file's G54 z
+  /// How close the path passes each programmed point [mm]: the trace's decimals (1 um) under
+  /// exact stop; where the program blends its corners (G64 P0.01, G5.1 Q1 at the reader's
+  /// 10 um, G187 E0.05) the blend passes the corner at up to tolerance / sin(half the corner's
+  /// angle): 1.5 tolerance for the 90 deg corners these programs have.
+  double pass_within_mm;
 };
 
 const Case kCases[] = {
-    {"fusion360_mm", "program.nc", 30},      {"fusion360_inch", "program.nc", 30},
-    {"mastercam", "program.nc", 30},         {"powermill", "program.tap", 30},
-    {"nx", "program.ptp", 30},               {"freecad_linuxcnc", "program.ngc", 30},
-    {"haas", "program.nc", 30},              {"linuxcnc_macros", "program.ngc", 30},
-    {"fanuc_macro_b", "program.nc", 30},     {"five_axis_tcp", "program.nc", 0},
+    {"fusion360_mm", "program.nc", 30, 1e-3},        {"fusion360_inch", "program.nc", 30, 1e-3},
+    {"mastercam", "program.nc", 30, 1e-3},           {"powermill", "program.tap", 30, 1e-3},
+    {"nx", "program.ptp", 30, 0.015},                {"freecad_linuxcnc", "program.ngc", 30, 0.015},
+    {"haas", "program.nc", 30, 0.075},               {"linuxcnc_macros", "program.ngc", 30, 0.015},
+    {"fanuc_macro_b", "program.nc", 30, 1e-3},       {"five_axis_tcp", "program.nc", 0, 1e-3},
 };
 
 class PostedProgram : public ::testing::TestWithParam<Case> {};
@@ -171,25 +183,37 @@ TEST_P(PostedProgram, RunsUnmodifiedAndTheAxesGoWhereTheProgramPutsThem) {
   const test::RunResult kinematics =
       test::run_vmsim("kinematics --part " + part.string() + " --out " + (out / "k.csv").string());
   ASSERT_EQ(kinematics.exit_code, 0) << kinematics.output;
-  const test::RunResult plan = test::run_vmsim("plan --no-plot --part " + part.string() + " --out " +
+  // Second-order planning (simulate-part's default): third-order planning still fails on some of
+  // these programs (an LP infeasible or a row layout disagreement near short arcs; the note of
+  // issue 19 has the list).
+  const test::RunResult plan = test::run_vmsim("plan --no-plot --no-third-order --part " + part.string() + " --out " +
                                                (out / "plan").string());
   ASSERT_EQ(plan.exit_code, 0) << plan.output;
 
-  const TraceRows rows = read_trace(out / "k.csv");
-  const int x_column = column_of(rows, "X.cmd"), y_column = column_of(rows, "Y.cmd"),
-            z_column = column_of(rows, "Z.cmd");
+  const TraceRows trace = read_trace(out / "k.csv");
+  const int x_column = column_of(trace, "X.cmd"), y_column = column_of(trace, "Y.cmd"),
+            z_column = column_of(trace, "Z.cmd");
   ASSERT_GE(x_column, 0);
+  ASSERT_GE(y_column, 0);
   ASSERT_GE(z_column, 0);
   std::size_t checked = 0;
   for (const KnownPosition& known : known_positions(read_text(kCorpus / c.folder / c.program))) {
-    const auto row = rows.last_row_of_line.find(known.line);
-    if (row == rows.last_row_of_line.end()) continue;  // a block that adds no point (no motion)
-    const std::vector<double>& values = row->second;
-    // 1 um: the trace's decimals; inch values are exact multiples of 25.4 um.
-    EXPECT_NEAR(values[static_cast<std::size_t>(x_column)], known.x_mm, 1e-3) << c.folder << " line " << known.line;
-    EXPECT_NEAR(values[static_cast<std::size_t>(y_column)], known.y_mm, 1e-3) << c.folder << " line " << known.line;
-    EXPECT_NEAR(values[static_cast<std::size_t>(z_column)], known.z_mm + c.work_zero_z_mm - kTipAboveWAtZ0Mm, 1e-3)
-        << c.folder << " line " << known.line;
+    const auto rows = trace.rows_of_line.find(known.line);
+    if (rows == trace.rows_of_line.end()) continue;  // a block that adds no point (no motion)
+    // The machine axes of the programmed point, and the closest the path comes to it: over the
+    // block's rows and the next row (a blend may hand the corner to the next block).
+    const Eigen::Vector3d expected(known.x_mm, known.y_mm, known.z_mm + c.work_zero_z_mm - kTipAboveWAtZ0Mm);
+    double closest = std::numeric_limits<double>::infinity();
+    std::vector<std::size_t> candidates = rows->second;
+    if (rows->second.back() + 1 < trace.rows.size()) candidates.push_back(rows->second.back() + 1);
+    for (std::size_t r : candidates) {
+      const std::vector<double>& v = trace.rows[r];
+      const Eigen::Vector3d axes(v[static_cast<std::size_t>(x_column)], v[static_cast<std::size_t>(y_column)],
+                                 v[static_cast<std::size_t>(z_column)]);
+      closest = std::min(closest, (axes - expected).norm());
+    }
+    EXPECT_LE(closest, c.pass_within_mm) << c.folder << " line " << known.line << ": expected machine axes "
+                                         << expected.transpose();
     ++checked;
   }
   // Programs in TCP mode or driven by macros have few plain blocks; the others have many.
@@ -210,8 +234,8 @@ TEST(PostedProgramFiveAxis, RotaryAxesAreTheProgrammedWords) {
   const test::RunResult kinematics =
       test::run_vmsim("kinematics --part " + part.string() + " --out " + (out / "k.csv").string());
   ASSERT_EQ(kinematics.exit_code, 0) << kinematics.output;
-  const TraceRows rows = read_trace(out / "k.csv");
-  const int a_column = column_of(rows, "A.cmd"), c_column = column_of(rows, "C.cmd");
+  const TraceRows trace = read_trace(out / "k.csv");
+  const int a_column = column_of(trace, "A.cmd"), c_column = column_of(trace, "C.cmd");
   ASSERT_GE(a_column, 0);
   ASSERT_GE(c_column, 0);
   std::istringstream lines(read_text(kCorpus / "five_axis_tcp/program.nc"));
@@ -223,10 +247,11 @@ TEST(PostedProgramFiveAxis, RotaryAxesAreTheProgrammedWords) {
     ++line;
     std::smatch match;
     if (!std::regex_search(text, match, words)) continue;
-    const auto row = rows.last_row_of_line.find(line);
-    if (row == rows.last_row_of_line.end()) continue;
-    EXPECT_NEAR(row->second[static_cast<std::size_t>(a_column)], std::stod(match[1].str()), 1e-4) << "line " << line;
-    EXPECT_NEAR(row->second[static_cast<std::size_t>(c_column)], std::stod(match[2].str()), 1e-4) << "line " << line;
+    const auto rows = trace.rows_of_line.find(line);
+    if (rows == trace.rows_of_line.end()) continue;
+    const std::vector<double>& last = trace.rows[rows->second.back()];
+    EXPECT_NEAR(last[static_cast<std::size_t>(a_column)], std::stod(match[1].str()), 1e-4) << "line " << line;
+    EXPECT_NEAR(last[static_cast<std::size_t>(c_column)], std::stod(match[2].str()), 1e-4) << "line " << line;
     ++checked;
   }
   EXPECT_GE(checked, 1000u);

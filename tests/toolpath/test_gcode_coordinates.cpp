@@ -467,3 +467,29 @@ TEST(GcodePostedForms, NxAndOtherPostExtensionsAreGcode) {
 
 }  // namespace
 }  // namespace vmsim::toolpath
+
+namespace vmsim::toolpath {
+namespace {
+
+// Found by the posted corpus: Mastercam posts `T1 M6` then `G0 G90 G54 X-20. Y0.` and only then
+// `G43 H1 Z25.`; the Z of that first motion is where the tool change left it (the machine's
+// home), not the work zero (which, without the tool length, put the tool 60 mm into the part).
+TEST(GcodePostedForms, AnAxisNotProgrammedYetIsAtTheReferencePointWithASetUp) {
+  ReaderOptions options;
+  options.work_offsets_mm = {{"G54", Eigen::Vector3d(0, 0, -100)}};
+  options.g28_reference_mm = Eigen::Vector3d(0, 0, 0);
+  options.default_tool_length_mm = 50.0;
+  const Toolpath path = parse_gcode("G21 G90 G54\nT1 M6\nG0 X10 Y20\nG43 H1 Z5\n", "start.nc", options);
+  ASSERT_EQ(path.points.size(), 2u);
+  EXPECT_NEAR(path.points[0].tip_W_m.z(), 0.0, 1e-12);  // the gauge point at machine Z0 (no G43 yet)
+  EXPECT_NEAR(path.points[0].tip_W_m.x(), 10e-3, 1e-12);
+  EXPECT_NEAR(path.points[1].tip_W_m.z(), -95e-3, 1e-12);  // the work zero + 5 mm
+  ASSERT_FALSE(path.warnings.empty());
+  EXPECT_NE(path.warnings.front().message.find("G28 reference point"), std::string::npos);
+  // Without a set-up, the program's 0 as before.
+  const Toolpath plain = parse_gcode("G21 G90\nG0 X10 Y20\n", "plain.nc");
+  EXPECT_NEAR(plain.points[0].tip_W_m.z(), 0.0, 1e-12);
+}
+
+}  // namespace
+}  // namespace vmsim::toolpath

@@ -718,9 +718,17 @@ class GcodeReader {
   Eigen::Vector3d from_frame(const Eigen::Vector3d& f_mm) const {
     return rotated(f_mm - frame_base(), -1.0);
   }
-  /// The frame position, an axis never programmed taken at the program's 0.
+  /// Where an axis never programmed is taken to be: with a set-up (work offsets) and outside
+  /// tool-centre-point mode, at the G28 reference point (the machine's home, where a tool change
+  /// leaves the axes: Mastercam posts `T1 M6` then `G0 G90 G54 X.. Y..` and only then
+  /// `G43 H1 Z..`); else at the program's 0 (the meaning without a set-up).
+  Eigen::Vector3d start_frame_position() const {
+    if (tcp_ == Tcp::off && !options_.work_offsets_mm.empty()) return options_.g28_reference_mm;
+    return to_frame(Eigen::Vector3d::Zero());
+  }
+  /// The frame position, an axis never programmed taken at start_frame_position().
   Eigen::Vector3d filled_frame_position() const {
-    const Eigen::Vector3d zero = to_frame(Eigen::Vector3d::Zero());
+    const Eigen::Vector3d zero = start_frame_position();
     Eigen::Vector3d f;
     for (std::size_t k = 0; k < 3; ++k) {
       f[static_cast<Eigen::Index>(k)] = position_[k].value_or(zero[static_cast<Eigen::Index>(k)]);
@@ -1201,16 +1209,18 @@ class GcodeReader {
     }
   }
 
-  /// The current frame position [mm]; an axis not programmed yet is taken at the program's 0,
-  /// with a warning unless this block gives its absolute position.
+  /// The current frame position [mm]; an axis not programmed yet is taken at
+  /// start_frame_position(), with a warning unless this block gives its absolute position.
   Eigen::Vector3d known_frame_position(const std::array<const Word*, 3>& xyz, bool absolute) {
-    const Eigen::Vector3d zero = to_frame(Eigen::Vector3d::Zero());
+    const Eigen::Vector3d zero = start_frame_position();
+    const bool at_reference = tcp_ == Tcp::off && !options_.work_offsets_mm.empty();
     Eigen::Vector3d f;
     for (std::size_t k = 0; k < 3; ++k) {
       if (!position_[k]) {
         if (!(xyz[k] && absolute)) {
-          warn(std::string("axis ") + "XYZ"[k] +
-               " has no programmed position before this motion: taken as 0");
+          warn(std::string("axis ") + "XYZ"[k] + " has no programmed position before this motion: taken " +
+               (at_reference ? "at the G28 reference point (the machine's home, where a tool change leaves it)"
+                             : "as 0"));
         }
         position_[k] = zero[static_cast<Eigen::Index>(k)];
       }

@@ -577,12 +577,12 @@ G64 P0.01
 G54
 #<depth> = -2.0
 #<radius> = 20
-#<feed> = 600
+#<_feed> = 600
 o100 sub
   (spot one hole: #1 x, #2 y, #3 depth)
   G0 X#1 Y#2
   G0 Z2
-  G1 Z#3 F[#<feed> / 3]
+  G1 Z#3 F[#<_feed> / 3]
   G0 Z5
 o100 endsub
 T1 M6
@@ -599,14 +599,14 @@ o101 endwhile
 G0 X#3 Y0
 G1 Z-1 F200
 o102 while [#2 LE 360]
-  G1 X[#3 * COS[#2]] Y[#3 * SIN[#2]] F#<feed>
+  G1 X[#3 * COS[#2]] Y[#3 * SIN[#2]] F#<_feed>
   #2 = [#2 + 2]
 o102 endwhile
 G0 Z10
 o103 if [#3 GT 20]
   G0 X-30 Y-30
   G1 Z-1 F200
-  G1 X30 F#<feed>
+  G1 X30 F#<_feed>
   Y30
   X-30
   Y-30

@@ -184,6 +184,11 @@ struct FeedrateOptions {
   /// Programmed feed per path point [m/s] for the motion that ends there (0 = none, e.g. a
   /// rapid); empty = none. Ignored when feed_m_per_s > 0.
   std::vector<double> point_feed_m_per_s;
+  /// Per path point: the motion that ends there is a rapid (G0, APT RAPID); empty = none. A
+  /// rapid is not held to the programmed line (as on an NC, G0 moves each axis on its own: a
+  /// rotary turn outside tool-centre-point mode is linear in the axes, not a line in W), so the
+  /// path fidelity refinement leaves its segment alone.
+  std::vector<bool> rapid_end;
   /// Largest planning grid step [m]: longer path segments are subdivided (with third-order
   /// limits, finer near the stops). 0 = automatic (the path length / 4000).
   double max_grid_step_m = 0.0;

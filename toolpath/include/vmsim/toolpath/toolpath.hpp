@@ -118,8 +118,10 @@
 //     - Changing offset, G52/G92, G43/G49 or G68 does not move the machine: an axis not named in
 //       the next motion stays where it is. Switching into or out of tool-centre-point mode keeps
 //       the program numbers (the reader cannot invert the machine).
-//  - Before the first motion, an axis not yet programmed is taken at the program's 0, with a
-//    warning.
+//  - Before the first motion, an axis not yet programmed is taken at the G28 reference point
+//    (the machine's home, where a tool change leaves the axes) when work offsets are set up and
+//    outside tool-centre-point mode (a post that positions X Y before its G43 H Z move), else at
+//    the program's 0; with a warning.
 //  - Canned cycles G73 G74 G76 G81 G82 G83 G84 G85 G86 G89 (modal until G80 or another motion
 //    G-code; after G80 the G0 .. G3 in force before the cycle is back, as on a Fanuc, where the
 //    cycles are a modal group of their own; X Y the hole, Z the bottom, R the R level, Q the peck, P the dwell (no motion), K or
