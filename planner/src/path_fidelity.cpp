@@ -67,7 +67,12 @@ struct Working {
   std::vector<std::size_t> source_point;
   std::vector<bool> singular;  ///< per point: inside a singular zone
   std::vector<bool> free_end;  ///< per point: the segment ending here is free (a rapid)
-  bool free_segment(std::size_t i) const { return i + 1 < free_end.size() && free_end[i + 1]; }
+  /// A rapid is free, except a turn of the tool about its fixed tip (under tool-centre-point
+  /// control the NC holds the tip on rapids too).
+  bool free_segment(std::size_t i) const {
+    const bool turns_in_place = i + 1 < path.turns_in_place.size() && path.turns_in_place[i + 1];
+    return i + 1 < free_end.size() && free_end[i + 1] && !turns_in_place;
+  }
 };
 
 /// Whether the tool axis turns between path points i and i + 1 (direct kinematics of q).

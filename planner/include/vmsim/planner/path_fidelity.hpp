@@ -49,8 +49,9 @@ struct PathFidelityOptions {
   /// (at least the IKT's singular_angle_rad inside singular zones, where the IKT reaches the axis
   /// only to within that angle).
   double axis_tolerance_rad = 1e-4;
-  /// Per path point: the segment that ends there is free (a rapid): not checked nor refined,
-  /// its end slopes those of the axes' straight line (FeedrateOptions::rapid_end). Empty: none.
+  /// Per path point: the segment that ends there is free (a rapid that does not turn the tool
+  /// about a fixed tip): not checked nor refined, its end slopes those of the axes' straight line
+  /// (FeedrateOptions::rapid_end). Empty: none.
   std::vector<bool> free_end;
   /// Largest ratio of neighbouring segment lengths the grading leaves (> 1).
   double spacing_ratio = 1.5;
