@@ -118,10 +118,8 @@ int run(const CommandOptions& command, const CommandContext& context) {
   std::size_t shown = 0;
   for (const auto& mark : report["marks"]) {
     if (shown++ == 5) break;
-    std::string places;
-    for (const auto& place : mark["place"]) places += (places.empty() ? "" : ", ") + place_in_words(place.get<std::string>());
-    std::string axes;
-    for (const auto& axis : mark["responsible_axes"]) axes += (axes.empty() ? "" : ",") + axis.get<std::string>();
+    const std::string places = joined(mark["place"], ", ", true);
+    const std::string axes = joined(mark["responsible_axes"], ",", false);
     char line[400];
     std::snprintf(line, sizeof line, "  %-6s %7.2f um, %8.3f mm2, at s = %.2f mm (%s)%s%s%s",
                   mark["kind"].get<std::string>().c_str(), mark["depth_um"].get<double>(),

@@ -163,16 +163,8 @@ void marks_section(std::ostringstream& html, const Json& report) {
              << html_escape(mark.value("block_text", "")) << "</code>";
       }
       html << "</td><td>";
-      std::string places;
-      for (const auto& place : mark.value("place", Json::array())) {
-        places += (places.empty() ? "" : ", ") + place_in_words(place.get<std::string>());
-      }
-      html << html_escape(places) << "</td><td>";
-      std::string axes;
-      for (const auto& axis : mark.value("responsible_axes", Json::array())) {
-        axes += (axes.empty() ? "" : ", ") + axis.get<std::string>();
-      }
-      html << html_escape(axes) << "</td><td>";
+      html << html_escape(joined(mark.value("place", Json::array()), ", ", true)) << "</td><td>"
+           << html_escape(joined(mark.value("responsible_axes", Json::array()), ", ", false)) << "</td><td>";
       if (mark.contains("thumbnail")) {
         const std::string image = html_escape(mark["thumbnail"].get<std::string>());
         html << "<a href=\"" << image << "\"><img class=\"thumbnail\" src=\"" << image << "\" alt=\"close-up of mark "
@@ -252,11 +244,7 @@ void method_section(std::ostringstream& html, const Json& report) {
       const Json& deepest = method["deepest_mark"];
       html << fixed(deepest.value("depth_um", 0.0), 2) << "</td><td>" << fixed(deepest.value("s_mm", 0.0), 2)
            << "</td><td>";
-      std::string places;
-      for (const auto& place : deepest.value("place", Json::array())) {
-        places += (places.empty() ? "" : ", ") + place_in_words(place.get<std::string>());
-      }
-      html << html_escape(places);
+      html << html_escape(joined(deepest.value("place", Json::array()), ", ", true));
     } else {
       html << "-</td><td>-</td><td>";
     }

@@ -52,6 +52,14 @@ std::string csv_field(const std::string& text) {
   return quoted + "\"";
 }
 
+
+}  // namespace
+
+double min_mark_area_mm2(double grid_um, double tool_diameter_mm) {
+  const double grid_mm = grid_um * 1e-3;
+  return std::max(25.0 * grid_mm * grid_mm, std::pow(tool_diameter_mm / 20.0, 2));
+}
+
 std::string joined(const Json& list, const char* separator, bool in_words) {
   std::string text;
   if (!list.is_array()) return text;
@@ -60,13 +68,6 @@ std::string joined(const Json& list, const char* separator, bool in_words) {
     text += (text.empty() ? "" : separator) + word;
   }
   return text;
-}
-
-}  // namespace
-
-double min_mark_area_mm2(double grid_um, double tool_diameter_mm) {
-  const double grid_mm = grid_um * 1e-3;
-  return std::max(25.0 * grid_mm * grid_mm, std::pow(tool_diameter_mm / 20.0, 2));
 }
 
 std::string place_in_words(const std::string& place) {

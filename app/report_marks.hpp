@@ -47,4 +47,8 @@ std::string marks_csv(const nlohmann::json& curated);
 /// of curvature").
 std::string place_in_words(const std::string& place);
 
+/// A list of texts (a mark's "place" or "responsible_axes") joined by `separator`, each place
+/// kind in words when `in_words`.
+std::string joined(const nlohmann::json& list, const char* separator, bool in_words);
+
 }  // namespace vmsim::app
