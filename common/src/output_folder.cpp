@@ -155,6 +155,19 @@ bool process_alive(long pid) {
   return ::kill(static_cast<pid_t>(pid), 0) == 0 || errno == EPERM;
 }
 
+/// Written into every staging folder as soon as it is made: what marks it as vmsim's.
+constexpr const char* kStagingMarkerFile = ".vmsim-staging";
+
+/// A real folder (not a link) that vmsim made: a staging folder (its marker), a result or a
+/// retired result (kResultMarkerFile), or empty (a retired empty target).
+bool made_by_vmsim(const fs::path& folder) {
+  std::error_code error;
+  if (!fs::is_directory(fs::symlink_status(folder, error))) return false;
+  if (fs::is_empty(folder, error) && !error) return true;
+  return fs::is_regular_file(fs::symlink_status(folder / kStagingMarkerFile, error)) ||
+         fs::is_regular_file(fs::symlink_status(folder / kResultMarkerFile, error));
+}
+
 // Removes the entries `<prefix><pid>` in `folder` whose process is no longer alive.
 void remove_stale_entries(const fs::path& folder, const std::vector<std::string>& prefixes) {
   std::error_code error;
@@ -165,9 +178,10 @@ void remove_stale_entries(const fs::path& folder, const std::vector<std::string>
       const std::string digits = name.substr(prefix.size());
       if (digits.find_first_not_of("0123456789") != std::string::npos || digits.size() > 9) continue;
       if (process_alive(std::stol(digits))) continue;
-      // Only a real folder of that name (a link is not followed nor removed): vmsim made it.
+      // Only a folder vmsim made (a link is not followed nor removed; a folder of that name
+      // that is not vmsim's stays).
       std::error_code ignored;
-      if (!fs::is_directory(fs::symlink_status(it->path(), ignored))) continue;
+      if (!made_by_vmsim(it->path())) continue;
       fs::remove_all(it->path(), ignored);
     }
   }
@@ -265,12 +279,13 @@ OutputFolder::OutputFolder(const std::string& target, const std::vector<std::str
   remove_stale_entries(parent, {staging_prefix(target_), retired_prefix(target_)});
 
   staging_ = parent / (staging_prefix(target_) + pid_text());
-  fs::remove_all(staging_, error);  // an earlier process with this pid
+  if (made_by_vmsim(staging_)) fs::remove_all(staging_, error);  // an earlier process with this pid
   if (::mkdir(staging_.c_str(), 0777) != 0) {
     throw InputError(shown + ": cannot write the results beside it (creating " + staging_.string() +
                      " failed: " + reason(errno) + "); give an output folder in a writable place");
   }
   register_cleanup(staging_);
+  write_whole_file(staging_ / kStagingMarkerFile, "vmsim is writing results here (a staging folder)\n");
 }
 
 OutputFolder::~OutputFolder() {
@@ -289,6 +304,7 @@ std::string OutputFolder::path_of(const std::string& file_name) const { return (
 
 void OutputFolder::commit() {
   if (committed_) return;
+  fs::remove(staging_ / kStagingMarkerFile);  // a result from here on (its own marker below)
   write_whole_file(staging_ / kResultMarkerFile,
                    "vmsim result: written by `vmsim " + origin_.command + "` (vmsim " + origin_.version +
                        ").\nvmsim replaces this folder as a whole when it writes its results here "

@@ -169,12 +169,30 @@ TEST(OutputFolder, StagingFoldersOfDeadProcessesAreRemovedByTheNextRun) {
   const fs::path other = folder / (".other.vmsim-staging-" + std::to_string(child));
   for (const fs::path& staging : {dead, alive, other}) {
     fs::create_directory(staging);
+    write_text(staging / ".vmsim-staging", "");  // as OutputFolder makes them
     write_text(staging / "a.txt", "half");
   }
   write_result(folder / "out", {{"a.txt", "a"}});
   EXPECT_FALSE(fs::exists(dead));
   EXPECT_TRUE(fs::exists(alive / "a.txt"));
   EXPECT_TRUE(fs::exists(other / "a.txt"));  // another target's
+}
+
+// A folder of the staging name that vmsim did not make (no staging or result marker) is the
+// user's: never removed, even when its "pid" is dead or is this process's.
+TEST(OutputFolder, AFolderWithAStagingNameThatIsNotVmsimsStays) {
+  const fs::path folder = test::fresh_temp_folder("output_foreign_staging");
+  const pid_t child = ::fork();
+  if (child == 0) ::_exit(0);
+  ASSERT_GT(child, 0);
+  ::waitpid(child, nullptr, 0);
+  const fs::path dead = folder / (".out.vmsim-staging-" + std::to_string(child));
+  fs::create_directory(dead);
+  write_text(dead / "mine.txt", "the user's");
+  write_result(folder / "out", {{"a.txt", "a"}});
+  EXPECT_TRUE(fs::exists(dead / "mine.txt"));
+  // The result holds no staging marker.
+  EXPECT_FALSE(fs::exists(folder / "out" / ".vmsim-staging"));
 }
 
 // SIGTERM while the results are being written: the staging folder goes, the process ends by
