@@ -264,6 +264,12 @@ enum class MotionKind {
   arc,     ///< a point on a G2/G3 arc (tessellated; see ReaderOptions::arc_chord_tolerance_m)
 };
 
+/// Jerk limitation asked by the program: Siemens BRISK (acceleration steps: the planner's second
+/// order) or SOFT (jerk limited: third order).
+enum class JerkMode { unspecified, brisk, soft };
+/// Velocity feedforward asked by the program (Siemens FFWON / FFWOF).
+enum class FeedforwardMode { unspecified, on, off };
+
 /// One point of the tool path: the pose reached at the end of a motion.
 struct PathPoint {
   Eigen::Vector3d tip_W_m = Eigen::Vector3d::Zero();        ///< tool tip (APT CL point)
@@ -288,6 +294,14 @@ struct PathPoint {
   /// G187 with its tolerance); NaN where the program says nothing (the part file or the command
   /// line decides).
   double corner_tolerance_m = kNotProgrammed;
+  /// NC modes the program asks for where this motion ends (Siemens SOFT/BRISK, FFWON/FFWOF,
+  /// COMPCAD; Heidenhain's jerk filter, ...); "unspecified" / NaN where the program says nothing
+  /// (the part file or the command line decides).
+  JerkMode jerk_mode = JerkMode::unspecified;
+  FeedforwardMode feedforward = FeedforwardMode::unspecified;
+  /// Compressor (Siemens COMPCAD / COMPCURV / COMPON): short-segment polylines smoothed within
+  /// this tolerance [m]; 0 = compressor off (COMPOF), NaN = not programmed.
+  double compressor_tolerance_m = kNotProgrammed;
 };
 
 /// A warning that names where it comes from (an unknown APT record, an ignored G-code word).
