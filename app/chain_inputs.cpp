@@ -286,6 +286,11 @@ ChainInputs load_chain_inputs(const ChainInputOptions& options) {
                            point.block,
                            programmed_rotary_axes(inputs.machine, point, inputs.tool_length_m)});
     inputs.toolpath_point.push_back(i);
+    const double programmed_m = point.corner_tolerance_m;
+    double contour_m = options.corner_tolerance_override || std::isnan(programmed_m) ? options.corner_tolerance_m
+                                                                                      : programmed_m;
+    if (point.kind == toolpath::MotionKind::rapid || !(contour_m > 0.0)) contour_m = 0.0;
+    inputs.contour_tolerance_m.push_back(contour_m);
   }
   return inputs;
 }

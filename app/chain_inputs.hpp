@@ -44,6 +44,12 @@ struct ChainInputs {
   std::vector<kinematics::PathPose> path;
   /// For each point of `path`, the index of the tool path point it came from.
   std::vector<std::size_t> toolpath_point;
+  /// For each point of `path`: the contour tolerance the NC works to on the motion that ends
+  /// there [m] (G64 P, G5.1 ... or the command line's --corner-tolerance-mm; 0: exact stop, a
+  /// rapid, or no blending). The NC may leave the programmed polyline by that much there, so
+  /// the planner's path fidelity and the set-point check allow it
+  /// (FeedrateOptions::point_path_tolerance_m).
+  std::vector<double> contour_tolerance_m;
   /// "file:line" (and " N<number>" where the block has one) for each tool path block.
   std::vector<std::string> block_names;
   /// Warnings for the user (reader warnings, merged points), each naming its file and line.

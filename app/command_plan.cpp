@@ -121,6 +121,7 @@ int run_plan(const PlanOptions& options, const CommandContext& context) {
   // axes' own limits.
   fo.point_feed_m_per_s = point_feeds_m_per_s(inputs, path, FeedSetting{});
   fo.rapid_end = rapid_ends(inputs);
+  fo.point_path_tolerance_m = inputs.contour_tolerance_m;
   const planner::FeedratePlan plan = planner::plan_feedrate(inputs.machine, path, fo);
   const auto& prof = plan.profile;
   const auto& axes = inputs.machine.axes;
@@ -219,7 +220,10 @@ int run_plan(const PlanOptions& options, const CommandContext& context) {
   // Path fidelity (planner/path_fidelity.hpp): points added on the programmed path, and the
   // set points' largest distance from it.
   if (plan.path_fidelity_checked) {
+    double contour_tolerance_max_m = 0.0;  // where the program allows more (G64 P, G5.1)
+    for (const double t : inputs.contour_tolerance_m) contour_tolerance_max_m = std::max(contour_tolerance_max_m, t);
     summary["path_fidelity"] = {{"tolerance_um", fo.path_tolerance_m * 1e6},
+                                {"largest_contour_tolerance_um", contour_tolerance_max_m * 1e6},
                                 {"points_added", plan.points_added},
                                 {"largest_deviation_um", plan.path_deviation_max_m * 1e6},
                                 {"largest_deviation_s_mm", plan.path_deviation_s_m * 1e3},

@@ -220,6 +220,7 @@ Run simulate_run(const Context& context, const std::string& name, const FeedSett
     // axes allow, identically in both runs.
     plan_options.point_feed_m_per_s = point_feeds;
     plan_options.rapid_end = rapid_ends(context.inputs);
+    plan_options.point_path_tolerance_m = context.inputs.contour_tolerance_m;
     try {
       run.plan = planner::plan_feedrate(machine, context.path, plan_options);
       if (!plan_options.third_order) {
@@ -247,7 +248,8 @@ Run simulate_run(const Context& context, const std::string& name, const FeedSett
   run.checks.push_back(check_setpoints_on_path(machine, context.inputs.path, rapid_end, context.path.s_m,
                                                context.inputs.tool_length_m, run.plan.setpoints,
                                                context.inputs.block_names, name,
-                                               context.options.setpoint_path_tolerance_m));
+                                               context.options.setpoint_path_tolerance_m,
+                                               context.inputs.contour_tolerance_m));
   for (const ValidityCheck& check : run.checks) {
     context.progress(check_line(check));
     if (check.status == CheckStatus::failed) {

@@ -70,13 +70,16 @@ ValidityCheck check_setpoints_on_path(const kinematics::MachineModel& machine,
                                       const std::vector<double>& path_s_m, double tool_length_m,
                                       const planner::SetPoints& setpoints,
                                       const std::vector<std::string>& block_names,
-                                      const std::string& run_name, double tolerance_m) {
+                                      const std::string& run_name, double tolerance_m,
+                                      const std::vector<double>& contour_tolerance_m) {
   ValidityCheck check{"setpoints_on_path." + run_name,
                       run_name + " set points on the programmed path (tool tip to the polyline through the "
                                  "path points)",
                       0.0, tolerance_m * 1e6, "um", CheckStatus::passed, ""};
   if (path.size() < 2 || setpoints.q.cols() == 0) return check;
-  double worst_m = 0.0, worst_s_m = 0.0;
+  double worst_m = 0.0, worst_s_m = 0.0, worst_limit_m = tolerance_m;
+  double worst_ratio = 0.0;  // distance / limit: the place nearest its limit is the one reported
+  bool contour_limit_used = false;
   for (Eigen::Index k = 0; k < setpoints.q.cols(); ++k) {
     const double s = setpoints.s_m[static_cast<std::size_t>(k)];
     const Eigen::Vector3d tip = kinematics::forward_kinematics(machine, setpoints.q.col(k), tool_length_m).tip_W_m;
@@ -87,15 +90,27 @@ ValidityCheck check_setpoints_on_path(const kinematics::MachineModel& machine,
     for (std::size_t j = (i > 0 ? i - 1 : 0); j <= std::min(i + 1, path.size() - 2); ++j) {
       distance = std::min(distance, distance_to_segment(tip, path[j].pose.tip_W_m, path[j + 1].pose.tip_W_m));
     }
-    if (!(distance <= worst_m)) {  // NaN counts as the worst
+    const double limit_m = i + 1 < contour_tolerance_m.size() ? std::max(tolerance_m, contour_tolerance_m[i + 1])
+                                                                : tolerance_m;
+    const double ratio = distance / limit_m;
+    if (!(ratio <= worst_ratio)) {  // NaN counts as the worst
+      worst_ratio = std::isnan(ratio) ? std::numeric_limits<double>::infinity() : ratio;
       worst_m = std::isnan(distance) ? std::numeric_limits<double>::infinity() : distance;
       worst_s_m = s;
+      worst_limit_m = limit_m;
     }
+    contour_limit_used = contour_limit_used || limit_m > tolerance_m;
   }
   check.value = worst_m * 1e6;
-  check.detail = "largest at " + where_on_path(path, path_s_m, block_names, worst_s_m) +
+  check.limit = worst_limit_m * 1e6;
+  check.detail = (contour_limit_used ? "nearest its limit" : "largest") + std::string(" at ") +
+                 where_on_path(path, path_s_m, block_names, worst_s_m) +
+                 (worst_limit_m > tolerance_m ? " (the limit there is the program's contour tolerance, G64 P / "
+                                                "G5.1 / --corner-tolerance-mm; elsewhere " +
+                                                    rounded(tolerance_m * 1e6, 3) + " um)"
+                                              : std::string()) +
                  " (rapid moves not checked: the axes move on their own there)";
-  if (!(worst_m <= tolerance_m)) check.status = CheckStatus::failed;
+  if (!(worst_m <= worst_limit_m)) check.status = CheckStatus::failed;
   return check;
 }
 

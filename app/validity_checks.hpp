@@ -34,14 +34,18 @@ struct ValidityCheck {
 /// programmed polyline through the path points, measured to the segment that holds the set
 /// point's s and to its two neighbours. Fails above `tolerance_m`. Set points on a rapid move
 /// (`rapid_end[i]`: the segment ending at path point i is a rapid) are not checked: there the NC
-/// moves each axis on its own, and the tip does not follow a line.
+/// moves each axis on its own, and the tip does not follow a line. Where the program allows
+/// more (`contour_tolerance_m`, per path point: the contour tolerance on the motion that ends
+/// there, ChainInputs::contour_tolerance_m; empty: none), the limit there is that tolerance: the
+/// place reported is the one nearest its limit.
 ValidityCheck check_setpoints_on_path(const kinematics::MachineModel& machine,
                                       const std::vector<kinematics::PathPose>& path,
                                       const std::vector<bool>& rapid_end,
                                       const std::vector<double>& path_s_m, double tool_length_m,
                                       const planner::SetPoints& setpoints,
                                       const std::vector<std::string>& block_names,
-                                      const std::string& run_name, double tolerance_m);
+                                      const std::string& run_name, double tolerance_m,
+                                      const std::vector<double>& contour_tolerance_m = {});
 
 /// Every set point of every axis with end stops against the axis's travel. The figure is the
 /// smallest margin left (negative: how far beyond); fails when any set point is outside.

@@ -776,6 +776,7 @@ FeedratePlan plan_feedrate(const kinematics::MachineModel& machine,
   fidelity.tolerance_m = options.path_tolerance_m;
   fidelity.axis_tolerance_rad = options.path_axis_tolerance_rad;
   fidelity.free_end = options.rapid_end;
+  fidelity.segment_tolerance_m = options.point_path_tolerance_m;
   RefinedPath refined = refine_path(machine, path, fidelity);
   const std::size_t added = refined.graded_points + refined.refined_points;
   FeedratePlan plan;

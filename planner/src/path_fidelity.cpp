@@ -67,6 +67,13 @@ struct Working {
   std::vector<std::size_t> source_point;
   std::vector<bool> singular;  ///< per point: inside a singular zone
   std::vector<bool> free_end;  ///< per point: the segment ending here is free (a rapid)
+  std::vector<double> input_tolerance_m;  ///< per input point: the allowance of its segment
+  /// The allowance of segment i (between points i and i + 1): that of the input segment it is
+  /// part of (an added point's source is the end of the input segment it splits).
+  double tolerance_m(std::size_t i, double default_m) const {
+    if (input_tolerance_m.empty() || i + 1 >= source_point.size()) return default_m;
+    return std::max(default_m, input_tolerance_m[source_point[i + 1]]);
+  }
   /// A rapid is free, except a turn of the tool about its fixed tip (under tool-centre-point
   /// control the NC holds the tip on rapids too).
   bool free_segment(std::size_t i) const {
@@ -174,6 +181,7 @@ std::vector<bool> insert_points(const kinematics::MachineModel& machine, Working
   const bool has_turns = old.turns_in_place.size() == n;
   if (has_turns) out.turns_in_place.assign(m, false);
   Working next;
+  next.input_tolerance_m = w.input_tolerance_m;  // per input point: unchanged by insertions
   next.programmed.tip.resize(m);
   next.programmed.axis.resize(m);
   next.source_point.resize(m);
@@ -300,6 +308,9 @@ void PathFidelityOptions::validate() const {
   if (!(spacing_ratio > 1.0) || !std::isfinite(spacing_ratio)) bad("spacing_ratio", spacing_ratio, "must be > 1");
   if (max_rounds < 0) bad("max_rounds", max_rounds, "must be >= 0");
   if (samples_per_segment < 1) bad("samples_per_segment", samples_per_segment, "must be >= 1");
+  for (const double t : segment_tolerance_m) {
+    if (!(t >= 0.0) || !std::isfinite(t)) bad("segment_tolerance_m", t, "must be >= 0 and finite");
+  }
 }
 
 std::string path_point_label(const kinematics::PathKinematics& path, std::size_t point) {
@@ -338,6 +349,7 @@ RefinedPath refine_path(const kinematics::MachineModel& machine, const kinematic
   }
   w.programmed = programmed_polyline(machine, path);
   if (options.free_end.size() == n0) w.free_end = options.free_end;
+  if (options.segment_tolerance_m.size() == n0) w.input_tolerance_m = options.segment_tolerance_m;
   w.singular.assign(n0, false);
   for (const auto& zone : path.singular_zones) {
     for (std::size_t i = zone.first_point; i <= zone.last_point && i < n0; ++i) w.singular[i] = true;
@@ -386,9 +398,9 @@ RefinedPath refine_path(const kinematics::MachineModel& machine, const kinematic
   // 2. Check and refine. After a round only the segments near the added points are checked
   // again (a C2 cubic's response to a changed point decays by about 0.27 per point); a full
   // check closes the loop.
-  const double target_m = 0.8 * options.tolerance_m;  // margin for the peaks between the samples
+  constexpr double kTargetFraction = 0.8;  // margin for the peaks between the samples
   const double singular_axis_rad = std::max(options.axis_tolerance_rad, path.inverse.singular_angle_rad);
-  const double target_axis_rad = 0.8 * options.axis_tolerance_rad;
+  const double target_axis_rad = kTargetFraction * options.axis_tolerance_rad;
   constexpr std::size_t kWindow = 16;
   std::vector<bool> dirty(w.path.s_m.size() - 1, true);
   bool full_check = true;
@@ -398,7 +410,7 @@ RefinedPath refine_path(const kinematics::MachineModel& machine, const kinematic
     const std::size_t segments = w.path.s_m.size() - 1;
     std::vector<std::pair<std::size_t, std::vector<double>>> cuts;
     PathDeviation worst;
-    double worst_excess = 0.0, worst_tip_m = 0.0, worst_axis_rad = 0.0;
+    double worst_excess = 0.0, worst_tip_m = 0.0, worst_axis_rad = 0.0, worst_tolerance_m = 0.0;
     std::size_t worst_segment = 0;
     for (std::size_t i = 0; i < segments; ++i) {
       if (!dirty[i]) continue;  // (paths whose rotary axes turn in a singular zone are not refined)
@@ -415,10 +427,14 @@ RefinedPath refine_path(const kinematics::MachineModel& machine, const kinematic
       }
       const bool singular = w.singular[i] || w.singular[i + 1];
       const double axis_target = singular ? singular_axis_rad : target_axis_rad;
+      const double target_m = kTargetFraction * w.tolerance_m(i, options.tolerance_m);
       const double excess = std::max(d.tip_m / target_m, d.axis_rad / axis_target);
       if (excess > 1.0) {
         cuts.push_back({i, {0.5}});
-        if (excess > worst_excess) worst_excess = excess, worst_segment = i, worst_tip_m = d.tip_m, worst_axis_rad = d.axis_rad;
+        if (excess > worst_excess) {
+          worst_excess = excess, worst_segment = i, worst_tip_m = d.tip_m, worst_axis_rad = d.axis_rad;
+          worst_tolerance_m = w.tolerance_m(i, options.tolerance_m);
+        }
       }
     }
     if (cuts.empty()) {
@@ -438,7 +454,7 @@ RefinedPath refine_path(const kinematics::MachineModel& machine, const kinematic
           path_point_label(w.path, i + 1) + ", s = " + format_double(w.path.s_m[i] * 1e3) + " mm) the axis "
           "positions still leave the programmed path by " + format_double(worst_excess) +
           " times the allowance (tip " + format_double(worst_tip_m * 1e6) + " um of " +
-          format_double(options.tolerance_m * 1e6) + ", tool axis " +
+          format_double(worst_tolerance_m * 1e6) + ", tool axis " +
           format_double(worst_axis_rad * 180.0 / 3.14159265358979323846) + " deg of " +
           format_double(options.axis_tolerance_rad * 180.0 / 3.14159265358979323846) + " deg) after " +
           std::to_string(result.rounds) + " rounds of added points";

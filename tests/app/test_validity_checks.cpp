@@ -64,6 +64,30 @@ TEST(ValidityChecks, ASetPointOffThePathFailsWithItsDistanceAndBlock) {
             app::CheckStatus::passed);
 }
 
+TEST(ValidityChecks, TheProgramsContourToleranceIsTheLimitWhereItIsLarger) {
+  StraightMove move;
+  move.setpoints.q(1, 60) += 7e-6;  // 7 um off the line, on the motion that ends at point 1
+  auto check_with = [&](std::vector<double> contour_tolerance_m) {
+    return app::check_setpoints_on_path(move.machine, move.path, move.rapid_end, move.path_s_m, kToolLength,
+                                        move.setpoints, move.block_names, "production", 5e-6,
+                                        contour_tolerance_m);
+  };
+  // G64 P0.01 on that motion: the NC itself may leave the polyline by 10 um there.
+  const app::ValidityCheck within = check_with({0.0, 10e-6});
+  EXPECT_EQ(within.status, app::CheckStatus::passed) << app::check_line(within);
+  EXPECT_NEAR(within.value, 7.0, 1e-6);
+  EXPECT_NEAR(within.limit, 10.0, 1e-9);
+  EXPECT_NE(within.detail.find("contour tolerance"), std::string::npos) << within.detail;
+  // A tolerance below the default changes nothing; none given: the default limit.
+  EXPECT_EQ(check_with({0.0, 2e-6}).status, app::CheckStatus::failed);
+  EXPECT_EQ(check_with({}).status, app::CheckStatus::failed);
+  // 12 um off is beyond the program's tolerance too.
+  move.setpoints.q(1, 60) += 5e-6;
+  const app::ValidityCheck beyond = check_with({0.0, 10e-6});
+  EXPECT_EQ(beyond.status, app::CheckStatus::failed);
+  EXPECT_NEAR(beyond.value, 12.0, 1e-6);
+}
+
 TEST(ValidityChecks, ANaNSetPointFails) {
   StraightMove move;
   move.setpoints.q(0, 3) = std::nan("");

@@ -203,6 +203,9 @@ struct FeedrateOptions {
   /// distance [m] of the programmed segment (points are added on the programmed path until the
   /// spline does), as an NC's linear interpolation does to within its rounding.
   double path_tolerance_m = PathFidelityOptions{}.tolerance_m;
+  /// Per path point: the program's contour tolerance [m] for the segment ending there where it
+  /// allows more than path_tolerance_m (PathFidelityOptions::segment_tolerance_m). Empty: none.
+  std::vector<double> point_path_tolerance_m;
   /// ... and the tool axis within this angle [rad] of the programmed one (great-circle
   /// interpolation between the points).
   double path_axis_tolerance_rad = PathFidelityOptions{}.axis_tolerance_rad;

@@ -53,6 +53,11 @@ struct PathFidelityOptions {
   /// about a fixed tip): not checked nor refined, its end slopes those of the axes' straight line
   /// (FeedrateOptions::rapid_end). Empty: none.
   std::vector<bool> free_end;
+  /// Per path point: the allowance [m] for the segment that ends there where the program allows
+  /// more than tolerance_m (a contour tolerance: G64 P, G5.1, CYCLE832 ...: the NC itself may
+  /// leave the programmed polyline by that much there). The larger of the two is used. Empty:
+  /// tolerance_m everywhere.
+  std::vector<double> segment_tolerance_m;
   /// Largest ratio of neighbouring segment lengths the grading leaves (> 1).
   double spacing_ratio = 1.5;
   /// Rounds of "check, insert midpoints" before giving up (each halves the offending segments).
