@@ -230,6 +230,23 @@ ChainInputs load_chain_inputs(const ChainInputOptions& options) {
         kinematics::forward_kinematics(machine, axes_from_words(machine, words), tool_length_m);
     return toolpath::AxisWordPose{pose.tip_W_m, pose.axis_W};
   };
+  // Leaving TCP mode: the linear axes under the last tip, with the rotary axes at their words.
+  reader.tip_to_axis_words = [&machine, tool_length_m](const Eigen::Vector3d& tip_W_m, const Eigen::Vector3d& axis_W,
+                                                       const auto& rotary_words) -> std::optional<Eigen::Vector3d> {
+    const Eigen::VectorXd q_given = axes_from_words(machine, rotary_words);
+    const std::optional<kinematics::InverseResult> solved = kinematics::inverse_kinematics_given_rotary(
+        machine, {tip_W_m, axis_W}, q_given, q_given, tool_length_m, 1e-6);
+    if (!solved) return std::nullopt;
+    Eigen::Vector3d machine_mm;
+    for (int k = 0; k < 3; ++k) {
+      const int index = machine.axis_index(std::string(1, "XYZ"[k]));
+      if (index < 0 || machine.axes[static_cast<std::size_t>(index)].type != kinematics::AxisType::linear) {
+        return std::nullopt;
+      }
+      machine_mm[k] = solved->q[index] * 1e3;
+    }
+    return machine_mm;
+  };
   apply_machine_setup(machine, setup, tool_length_m, reader, options.part_path);
   inputs.toolpath = toolpath::read_toolpath(toolpath_path, reader);
   if (inputs.toolpath.points.empty()) {

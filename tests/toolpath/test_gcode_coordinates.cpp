@@ -9,6 +9,7 @@
 #include <filesystem>
 #include <fstream>
 #include <numbers>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -113,6 +114,32 @@ TEST(GcodeCoordinates, OutsideTcpTheTableTurnsThePointAwayUnderTcpTheOffsetTurns
   plain.work_offsets_mm.clear();
   path = gcode("G54 G0 X0 Y0 Z-100 C0\nG43.4 G1 X1 Y2 Z3 C0 F100\n", plain);
   expect_tips(path, {{0, 0, 320}, {1, 2, 3}});
+}
+
+TEST(GcodeCoordinates, LeavingTcpTheMachineAxesAreWhereTheLastTipPutThem) {
+  // The machine's inverse for its C angle: tip_B = Rz(C) tip_W, machine = tip_B - (0, 0, 420).
+  ReaderOptions options = table_machine_options();
+  options.tip_to_axis_words = [](const Eigen::Vector3d& tip_W_m, const Eigen::Vector3d&,
+                                 const std::vector<std::pair<char, double>>& rotary_words) {
+    double c_deg = 0.0;
+    for (const auto& [letter, value] : rotary_words) {
+      if (letter == 'C') c_deg = value;
+    }
+    const double c = c_deg * std::numbers::pi / 180.0;
+    const Eigen::Vector3d tip_mm = tip_W_m * 1e3;
+    return std::optional<Eigen::Vector3d>(Eigen::Vector3d(
+        std::cos(c) * tip_mm.x() - std::sin(c) * tip_mm.y(),
+        std::sin(c) * tip_mm.x() + std::cos(c) * tip_mm.y(),
+        tip_mm.z() - (kGaugeHeightMm - kToolLengthMm)));
+  };
+  // Under G43.4 the tip is at (11, 20, 35) in W with C at 90; G49 leaves the machine axes at
+  // (-20, 11, -385), so the retract `G0 Z100` (machine Z = 100 - 470 = -370, no tool length
+  // now) lifts the tip straight above that point: (11, 20, 50). Keeping the program's X1 Y0 as
+  // machine words would throw the tip to Rz(-90) (11, 20) = (20, -11).
+  const std::string program = "G54 G43.4 H1 G0 X1 Y0 Z5 C0\nG1 C90 F100\nG49\nG0 Z100\n";
+  expect_tips(gcode(program, options), {{11, 20, 35}, {11, 20, 35}, {11, 20, 50}});
+  // Without the machine's inverse the program numbers are kept (the documented fallback).
+  expect_tips(gcode(program, table_machine_options()), {{11, 20, 35}, {11, 20, 35}, {20, -11, 50}});
 }
 
 TEST(GcodeCoordinates, ReferenceReturnAndMachineCoordinates) {

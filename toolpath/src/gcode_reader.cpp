@@ -474,14 +474,22 @@ class GcodeReader {
     // Tool length compensation and tool-centre-point modes (one modal group on the control).
     if (tcp) {
       const Tcp old_tcp = tcp_;
-      // Across a switch into or out of tool-centre-point mode the program numbers are kept: the
-      // two modes' coordinates differ by the machine's kinematics, which the reader cannot invert.
+      // Leaving tool-centre-point mode the machine axes are where the last tip put them (the
+      // machine's inverse, when given); otherwise, and switching into it, the program numbers are
+      // kept: the two modes' coordinates differ by the machine's kinematics.
       const auto program = program_position();
+      const std::optional<Eigen::Vector3d> machine_mm =
+          old_tcp != Tcp::off && *tcp == Tcp::off ? machine_axes_at_tip() : std::nullopt;
       tcp_ = *tcp;
       g43_ = g43;
       h_mm_ = 0.0;
       if (g43) h_mm_ = tool_length_of(h_word, *g43_word);
-      if ((old_tcp == Tcp::off) != (tcp_ == Tcp::off)) set_program_position(program);
+      if (machine_mm) {
+        // Outside tool-centre-point mode the frame position is the machine axes.
+        for (std::size_t k = 0; k < 3; ++k) position_[k] = (*machine_mm)[static_cast<Eigen::Index>(k)];
+      } else if ((old_tcp == Tcp::off) != (tcp_ == Tcp::off)) {
+        set_program_position(program);
+      }
     } else if (h_word && tcp_ == Tcp::off && g43_) {
       h_mm_ = tool_length_of(h_word, *h_word);
     }
@@ -1268,6 +1276,20 @@ class GcodeReader {
         "rotary_words_to_tool_axis", [&] { return options_.rotary_words_to_tool_axis(words); });
     return detail::unit_tool_axis(v, file_, line_, column,
                                   line_text_ + " (through rotary_words_to_tool_axis)");
+  }
+
+  /// Under tool-centre-point mode with the tip known: the machine's linear axes there
+  /// (ReaderOptions::tip_to_axis_words), nullopt without the callback or an answer.
+  std::optional<Eigen::Vector3d> machine_axes_at_tip() const {
+    if (!options_.tip_to_axis_words || !position_[0] || !position_[1] || !position_[2]) return std::nullopt;
+    const Eigen::Vector3d tip_W_m = Eigen::Vector3d(*position_[0], *position_[1], *position_[2]) * kMetresPerMillimetre;
+    const std::vector<std::pair<char, double>> words = rotary_words(rotary_deg_);
+    const std::optional<Eigen::Vector3d> machine_mm =
+        located_call("tip_to_axis_words", [&] { return options_.tip_to_axis_words(tip_W_m, axis_W_, words); });
+    if (machine_mm && !machine_mm->allFinite()) {
+      fail(0, "tip_to_axis_words gave machine axes that are not finite for '" + line_text_ + "'");
+    }
+    return machine_mm;
   }
 
   /// The tool pose of frame position f_mm (see "Coordinate systems") and rotary words

@@ -116,8 +116,11 @@
 //       (X, Y) (the plane's two axes; omitted: the current position) in the current plane,
 //       applied to absolute and incremental targets and arcs; G69 cancels.
 //     - Changing offset, G52/G92, G43/G49 or G68 does not move the machine: an axis not named in
-//       the next motion stays where it is. Switching into or out of tool-centre-point mode keeps
-//       the program numbers (the reader cannot invert the machine).
+//       the next motion stays where it is. Leaving tool-centre-point mode (G49, TRAFOOF), the
+//       machine axes are where the last tip and rotary words put them
+//       (ReaderOptions::tip_to_axis_words: the `G49` / `G28 G91 Z0.` a 5-axis post writes at
+//       the end retracts from there); switching into it, or without that callback, keeps the
+//       program numbers.
 //  - Before the first motion, an axis not yet programmed is taken at the G28 reference point
 //    (the machine's home, where a tool change leaves the axes) when work offsets are set up and
 //    outside tool-centre-point mode (a post that positions X Y before its G43 H Z move), else at
@@ -330,6 +333,12 @@ struct AxisWordPose {
 };
 using AxisWordsToPose = std::function<AxisWordPose(const std::vector<std::pair<char, double>>&)>;
 
+/// A tool pose in W (tip [m], unit axis) and the rotary axis words in force (A B C [deg]) to
+/// the linear machine axis words X Y Z [mm] that put the tip there (the machine's inverse
+/// kinematics with those rotary axes); std::nullopt where none does.
+using TipToAxisWords = std::function<std::optional<Eigen::Vector3d>(
+    const Eigen::Vector3d& tip_W_m, const Eigen::Vector3d& axis_W, const std::vector<std::pair<char, double>>&)>;
+
 /// Rotary axis words (A B C in deg, under G43.4 or TRAORI) to a unit tool axis in W.
 using RotaryWordsToToolAxis =
     std::function<Eigen::Vector3d(const std::vector<std::pair<char, double>>&)>;
@@ -387,6 +396,11 @@ struct ReaderOptions {
   AxisWordsToPose axis_words_to_pose;
   /// Needed only for G43.4 / TRAORI blocks that give A B C rather than a tool vector.
   RotaryWordsToToolAxis rotary_words_to_tool_axis;
+  /// Leaving tool-centre-point mode (G49 after G43.4 / G43.5, TRAFOOF): where the machine axes
+  /// are (the control knows them; the program's X Y Z were the tip). Without it, or where it
+  /// gives none, the program numbers are kept across the switch (an axis not named next is then
+  /// taken at its tip coordinate, which a machine with rotary axes turned does not share).
+  TipToAxisWords tip_to_axis_words;
   /// Expansion limits, checked before the points are made: the points one block may expand to
   /// (an arc's tessellation, a long rotary turn's steps), and the points of the whole path. A
   /// path point costs about 100 bytes in the reader and about 1 kB further down the chain (axis
