@@ -311,6 +311,12 @@ struct ReaderWarning {
   std::string message;
 };
 
+/// An axis-parallel box in W [m].
+struct BoxW {
+  Eigen::Vector3d min_W_m = Eigen::Vector3d::Zero();
+  Eigen::Vector3d max_W_m = Eigen::Vector3d::Zero();
+};
+
 struct Toolpath {
   /// The first point is the start pose (APT FROM, or the first programmed position).
   std::vector<PathPoint> points;
@@ -319,6 +325,9 @@ struct Toolpath {
   /// Tool from APT CUTTER where given: diameter and corner radius [m].
   std::optional<double> cutter_diameter_m;
   std::optional<double> cutter_corner_radius_m;
+  /// The stock the program declares (Heidenhain BLK FORM 0.1 / 0.2), in W; simulate-part takes it
+  /// where the part file gives no stock.
+  std::optional<BoxW> stock_box;
 };
 
 /// Machine axis words (G-code X Y Z A B C without tool-centre-point programming) to a pose in
@@ -419,7 +428,7 @@ Toolpath parse_gcode(const std::string& text, const std::string& file_name_for_m
                      const ReaderOptions& options = {});
 
 /// Picks the reader by extension: .apt .cl .cls -> APT; .nc .ngc .gcode .mpf .tap .iso .ptp .eia
-/// .cnc -> G-code.
+/// .cnc -> G-code; .h -> Heidenhain TNC conversational (heidenhain_reader.hpp).
 Toolpath read_toolpath(const std::string& path, const ReaderOptions& options = {});
 
 }  // namespace vmsim::toolpath
