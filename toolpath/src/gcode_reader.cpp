@@ -660,6 +660,9 @@ class GcodeReader {
                               ijk[2] ? ijk[2]->value : 0.0);
       axis_W_ = detail::unit_tool_axis(v, file_, line_, first_of({ijk[0], ijk[1], ijk[2]})->column,
                                        line_text_);
+      // The tool vector leaves the rotary axes to the machine: the words of an earlier G43.4
+      // block no longer say where they are (a later turn must not start from them).
+      rotary_deg_ = {};
     } else if (any_abc && (tcp_ == Tcp::g43_4 || tcp_ == Tcp::traori)) {
       axis_W_ = tool_axis_of(rotary_words(rotary_deg_), first_of({abc[0], abc[1], abc[2]})->column);
     }

@@ -155,7 +155,8 @@
 //    axis is +Z (a 3-axis program); a rotary word, or a motion after a tilted TCP axis, is then
 //    an error that says a machine is needed.
 //  - Rotary words through a machine (axis words, or G43.4 / TRAORI A B C): each point carries the
-//    words in force (PathPoint::rotary_words_deg), and a point whose words differ from the
+//    words in force (PathPoint::rotary_words_deg; a tool vector, G43.5 I J K, makes them
+//    unknown), and a point whose words differ from the
 //    previous one's is kept even where its pose is the same (C0 -> C360 is a real turn). A G0/G1
 //    block that turns a word by 180 deg or more is split into equal steps of at most 90 deg in
 //    axis space (as the NC interpolates the axes), since the chain follows poses and the inverse
