@@ -1015,9 +1015,12 @@ Json simulate_part(const SimulatePartOptions& options, const ProgressSink& progr
     context.stock = {context.part.stock_mesh->bounds(), &*context.part.stock_mesh};
   } else if (context.part.stock) {
     context.stock = {{context.part.stock->min_W_m, context.part.stock->max_W_m}, nullptr};
+  } else if (const auto& box = context.inputs.toolpath.stock_box) {
+    context.stock = {{box->min_W_m, box->max_W_m}, nullptr};  // the program's (Heidenhain BLK FORM)
   } else {
     throw InputError(options.part_path +
-                     ": simulate-part needs a stock (stock: {box: {min_mm, max_mm}} or {stl: <file>})");
+                     ": simulate-part needs a stock (stock: {box: {min_mm, max_mm}} or {stl: <file>}, "
+                     "or a BLK FORM in a Heidenhain program)");
   }
   context.tool = removal_tool(context.part.tool);
   context.point_tools = point_tools(context.part, context.inputs);

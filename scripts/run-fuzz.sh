@@ -35,7 +35,7 @@ parallel=${VMSIM_FUZZ_PARALLEL:-2}
 timeout=${VMSIM_FUZZ_TIMEOUT:-10}
 max_len=${VMSIM_FUZZ_MAX_LEN:-16384}
 jobs=${VMSIM_JOBS:-$(nproc)}
-read -r -a targets <<< "${VMSIM_FUZZ_TARGETS:-gcode apt trace machine_yaml part_file stl urdf}"
+read -r -a targets <<< "${VMSIM_FUZZ_TARGETS:-gcode heidenhain apt trace machine_yaml part_file stl urdf}"
 read -r -a extra_args <<< "${VMSIM_FUZZ_ARGS:-}"
 started=$SECONDS
 
@@ -83,6 +83,7 @@ seed_samples() {
   local target=$1
   case $target in
     gcode) find tests/data samples -name '*.nc' -o -name '*.mpf' -o -name '*.ngc' ;;
+    heidenhain) find tests/data samples -name '*.h' ;;
     apt) find tests/data samples -name '*.apt' -o -name '*.cl' -o -name '*.cls' ;;
     machine_yaml) find samples/machines -name '*.yaml' ;;
     urdf) find samples/machines -name '*.urdf' ;;

@@ -168,6 +168,7 @@ CornerBlendResult blend_corners(const Toolpath& path, const CornerBlendOptions& 
   result.toolpath.warnings = path.warnings;
   result.toolpath.cutter_diameter_m = path.cutter_diameter_m;
   result.toolpath.cutter_corner_radius_m = path.cutter_corner_radius_m;
+  result.toolpath.stock_box = path.stock_box;
   const std::vector<PathPoint>& points = path.points;
   std::vector<PathPoint>& out = result.toolpath.points;
   const std::size_t n = points.size();

@@ -39,8 +39,7 @@ struct Word {
   char letter() const { return address.size() == 1 ? address[0] : '\0'; }
 };
 
-/// End points closer than this [mm] in the arc plane make a full circle (I J K form).
-constexpr double kFullCircleDistanceMm = 1e-9;
+using detail::kFullCircleDistanceMm;
 /// A motion that turns a rotary axis word by this much or more [deg] is split into steps of at
 /// most kRotaryStepDeg: the chain follows poses, and from one pose to the next the inverse
 /// kinematics takes the nearest solution, so a turn of 180 deg or more (C0 -> C360) would vanish.
@@ -669,6 +668,9 @@ class GcodeReader {
                               ijk[2] ? ijk[2]->value : 0.0);
       axis_W_ = detail::unit_tool_axis(v, file_, line_, first_of({ijk[0], ijk[1], ijk[2]})->column,
                                        line_text_);
+      // The tool vector leaves the rotary axes to the machine: the words of an earlier G43.4
+      // block no longer say where they are (a later turn must not start from them).
+      rotary_deg_ = {};
     } else if (any_abc && (tcp_ == Tcp::g43_4 || tcp_ == Tcp::traori)) {
       axis_W_ = tool_axis_of(rotary_words(rotary_deg_), first_of({abc[0], abc[1], abc[2]})->column);
     }
@@ -1434,24 +1436,15 @@ class GcodeReader {
         fail(*r_word, "an R-form arc cannot be a full circle (end = start): use I J K");
       }
       if (r == 0.0) fail(*r_word, "zero arc radius");
-      double h2 = r * r - 0.25 * d * d;
-      if (h2 < 0.0) {
-        const double tolerance_mm = arc_radius_tolerance_mm(0.5 * d);
-        if (0.5 * d - r > tolerance_mm) {
-          fail(*r_word, "the radius is smaller than half the distance from start to end (" +
-                            format_mm(0.5 * d) + " mm) by " + format_mm(0.5 * d - r) +
-                            " mm, more than the tolerance of " + format_mm(tolerance_mm) +
-                            " mm" +
-                            arc_tolerance_source());
-        }
-        h2 = 0.0;
+      double short_by_mm = 0.0;
+      c = detail::arc_centre_from_radius(s, e, r_word->value * mm_per_unit_, ccw, &short_by_mm);
+      const double tolerance_mm = arc_radius_tolerance_mm(0.5 * d);
+      if (short_by_mm > tolerance_mm) {
+        fail(*r_word, "the radius is smaller than half the distance from start to end (" +
+                          format_mm(0.5 * d) + " mm) by " + format_mm(short_by_mm) +
+                          " mm, more than the tolerance of " + format_mm(tolerance_mm) + " mm" +
+                          arc_tolerance_source());
       }
-      const Eigen::Vector2d chord = (e - s) / d;
-      const Eigen::Vector2d left(-chord.y(), chord.x());
-      // A counter-clockwise arc of at most 180 deg has its centre left of the chord;
-      // a negative R asks for the arc of more than 180 deg, whose centre is on the other side.
-      const double side = (ccw ? 1.0 : -1.0) * (r_word->value > 0.0 ? 1.0 : -1.0);
-      c = 0.5 * (s + e) + side * std::sqrt(h2) * left;
     }
     double r_start = (s - c).norm();
     double r_end = (e - c).norm();
@@ -1469,37 +1462,15 @@ class GcodeReader {
     if (!full_circle && r_start != r_end) {
       // Within the tolerance the control moves the centre onto the perpendicular bisector of
       // start and end (the nearest such point), so that the arc is a circle through both.
-      const Eigen::Vector2d chord = (e - s).normalized();
-      const Eigen::Vector2d normal(-chord.y(), chord.x());
-      const Eigen::Vector2d middle = 0.5 * (s + e);
-      c = middle + (c - middle).dot(normal) * normal;
+      c = detail::centre_on_bisector(s, e, c);
       r_start = (s - c).norm();
       r_end = r_start;
     }
     const double a0 = std::atan2(s.y() - c.y(), s.x() - c.x());
-    const double a1 = std::atan2(e.y() - c.y(), e.x() - c.x());
-    constexpr double two_pi = 2.0 * std::numbers::pi;
-    double sweep = 0.0;
-    if (full_circle) {
-      sweep = ccw ? two_pi : -two_pi;
-    } else if (ccw) {
-      sweep = a1 - a0;
-      while (sweep <= 0.0) sweep += two_pi;
-      while (sweep > two_pi) sweep -= two_pi;
-    } else {
-      sweep = a1 - a0;
-      while (sweep >= 0.0) sweep -= two_pi;
-      while (sweep < -two_pi) sweep += two_pi;
-    }
-
-    // Chord error of a segment of angle delta on radius r: r (1 - cos(delta / 2)).
+    const double sweep = detail::arc_sweep_rad(s, e, c, ccw, full_circle);
     const double r_max = std::max(r_start, r_end);
     const double tolerance_mm = options_.arc_chord_tolerance_m / kMetresPerMillimetre;
-    double max_delta = std::numbers::pi / 2.0;
-    if (tolerance_mm < r_max) {
-      max_delta = std::min(max_delta, 2.0 * std::acos(1.0 - tolerance_mm / r_max));
-    }
-    const double segments_real = std::ceil(std::abs(sweep) / max_delta);
+    const double segments_real = detail::arc_chord_count(r_max, sweep, tolerance_mm);
     const std::string what =
         "the arc (radius " + detail::format_number(r_max) + " mm, " +
         detail::format_number(std::abs(sweep) * 180.0 / std::numbers::pi) +

@@ -3,6 +3,7 @@
 #include <filesystem>
 
 #include "vmsim/common/errors.hpp"
+#include "vmsim/toolpath/heidenhain_reader.hpp"
 #include "vmsim/toolpath/toolpath.hpp"
 
 namespace vmsim::toolpath {
@@ -20,10 +21,12 @@ Toolpath read_toolpath(const std::string& path, const ReaderOptions& options) {
       extension == ".cnc") {
     return read_gcode(path, options);
   }
+  // .h: Heidenhain TNC conversational (Klartext) programs.
+  if (extension == ".h") return read_heidenhain(path, options);
   throw InputError(located_message(
       path, 0, 0,
       "unknown tool path extension '" + extension +
-          "': use .apt/.cl/.cls for APT/CL or .nc/.ngc/.gcode/.mpf/.tap/.iso/.ptp/.eia/.cnc for G-code"));
+          "': use .apt/.cl/.cls for APT/CL or .nc/.ngc/.gcode/.mpf/.tap/.iso/.ptp/.eia/.cnc for G-code or .h for Heidenhain TNC conversational"));
 }
 
 }  // namespace vmsim::toolpath

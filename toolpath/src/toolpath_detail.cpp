@@ -1,10 +1,12 @@
 #include "toolpath_detail.hpp"
 
+#include <algorithm>
 #include <cctype>
 #include <charconv>
 #include <cmath>
 #include <cstdio>
 #include <limits>
+#include <numbers>
 #include <filesystem>
 #include <fstream>
 #include <system_error>
@@ -227,6 +229,55 @@ void require_motion(const Toolpath& path, const std::string& file) {
     throw InputError(located_message(file, 0, 0,
                                      "no motion: the tool path programs no tool position"));
   }
+}
+
+Eigen::Vector2d arc_centre_from_radius(const Eigen::Vector2d& s, const Eigen::Vector2d& e,
+                                       double radius_mm, bool ccw, double* short_by_mm) {
+  const double r = std::abs(radius_mm);
+  const double d = (e - s).norm();
+  double h2 = r * r - 0.25 * d * d;
+  if (short_by_mm) *short_by_mm = h2 < 0.0 ? 0.5 * d - r : 0.0;
+  if (h2 < 0.0) h2 = 0.0;
+  const Eigen::Vector2d chord = (e - s) / d;
+  const Eigen::Vector2d left(-chord.y(), chord.x());
+  // A counter-clockwise arc of at most 180 deg has its centre left of the chord; a negative
+  // radius asks for the arc of more than 180 deg, whose centre is on the other side.
+  const double side = (ccw ? 1.0 : -1.0) * (radius_mm > 0.0 ? 1.0 : -1.0);
+  return 0.5 * (s + e) + side * std::sqrt(h2) * left;
+}
+
+Eigen::Vector2d centre_on_bisector(const Eigen::Vector2d& s, const Eigen::Vector2d& e,
+                                   const Eigen::Vector2d& c) {
+  const Eigen::Vector2d chord = (e - s).normalized();
+  const Eigen::Vector2d normal(-chord.y(), chord.x());
+  const Eigen::Vector2d middle = 0.5 * (s + e);
+  return middle + (c - middle).dot(normal) * normal;
+}
+
+double arc_sweep_rad(const Eigen::Vector2d& s, const Eigen::Vector2d& e, const Eigen::Vector2d& c,
+                     bool ccw, bool full_circle) {
+  constexpr double two_pi = 2.0 * std::numbers::pi;
+  if (full_circle) return ccw ? two_pi : -two_pi;
+  const double a0 = std::atan2(s.y() - c.y(), s.x() - c.x());
+  const double a1 = std::atan2(e.y() - c.y(), e.x() - c.x());
+  double sweep = a1 - a0;
+  if (ccw) {
+    while (sweep <= 0.0) sweep += two_pi;
+    while (sweep > two_pi) sweep -= two_pi;
+  } else {
+    while (sweep >= 0.0) sweep -= two_pi;
+    while (sweep < -two_pi) sweep += two_pi;
+  }
+  return sweep;
+}
+
+double arc_chord_count(double radius_mm, double sweep_rad, double chord_tolerance_mm) {
+  // Chord error of a chord of angle delta on radius r: r (1 - cos(delta / 2)).
+  double max_delta = std::numbers::pi / 2.0;
+  if (chord_tolerance_mm < radius_mm) {
+    max_delta = std::min(max_delta, 2.0 * std::acos(1.0 - chord_tolerance_mm / radius_mm));
+  }
+  return std::max(1.0, std::ceil(std::abs(sweep_rad) / max_delta));
 }
 
 }  // namespace vmsim::toolpath::detail

@@ -95,6 +95,33 @@ void require_room_for_points(const Toolpath& path, std::size_t more, const Reade
 /// Throws InputError naming the file when the path has no point.
 void require_motion(const Toolpath& path, const std::string& file);
 
+// --- Arcs (G2/G3; Heidenhain C, CR, CT, RND), in the arc plane's two axes [mm] ------------------
+
+/// End points closer than this [mm] in the arc plane make a full circle (centre forms).
+inline constexpr double kFullCircleDistanceMm = 1e-9;
+
+/// The centre of the arc of radius |radius_mm| from s to e, turning counter-clockwise when
+/// `ccw`: the arc of at most 180 deg for radius_mm > 0, of more for radius_mm < 0. Where |radius|
+/// is smaller than half the chord the centre is the chord's middle and *short_by_mm gets how
+/// much smaller (0 otherwise): the caller accepts it within its tolerance or fails. s != e.
+Eigen::Vector2d arc_centre_from_radius(const Eigen::Vector2d& s, const Eigen::Vector2d& e,
+                                       double radius_mm, bool ccw, double* short_by_mm);
+
+/// The point of the perpendicular bisector of s and e nearest to c: the centre of a circle
+/// through both, as a control corrects a centre whose start and end radii differ a little.
+Eigen::Vector2d centre_on_bisector(const Eigen::Vector2d& s, const Eigen::Vector2d& e,
+                                   const Eigen::Vector2d& c);
+
+/// The angle swept from s to e about c [rad]: in (0, 2 pi] counter-clockwise, in [-2 pi, 0)
+/// clockwise; +-2 pi for a full circle.
+double arc_sweep_rad(const Eigen::Vector2d& s, const Eigen::Vector2d& e, const Eigen::Vector2d& c,
+                     bool ccw, bool full_circle);
+
+/// The number of chords (at least 1, as a double: it may be huge) that keep the chord error of
+/// an arc of radius radius_mm sweeping sweep_rad within chord_tolerance_mm; chords span at most
+/// 90 deg.
+double arc_chord_count(double radius_mm, double sweep_rad, double chord_tolerance_mm);
+
 /// Runs `reader.read(text)`. Every failure of a reader is about its input: an exception that is
 /// not already one of vmsim's located errors (an InfeasibleError comes from a caller's callback,
 /// a word outside the travel) becomes an InputError at the reader's current line.

@@ -158,7 +158,8 @@
 //    axis is +Z (a 3-axis program); a rotary word, or a motion after a tilted TCP axis, is then
 //    an error that says a machine is needed.
 //  - Rotary words through a machine (axis words, or G43.4 / TRAORI A B C): each point carries the
-//    words in force (PathPoint::rotary_words_deg), and a point whose words differ from the
+//    words in force (PathPoint::rotary_words_deg; a tool vector, G43.5 I J K, makes them
+//    unknown), and a point whose words differ from the
 //    previous one's is kept even where its pose is the same (C0 -> C360 is a real turn). A G0/G1
 //    block that turns a word by 180 deg or more is split into equal steps of at most 90 deg in
 //    axis space (as the NC interpolates the axes), since the chain follows poses and the inverse
@@ -314,6 +315,12 @@ struct ReaderWarning {
   std::string message;
 };
 
+/// An axis-parallel box in W [m].
+struct BoxW {
+  Eigen::Vector3d min_W_m = Eigen::Vector3d::Zero();
+  Eigen::Vector3d max_W_m = Eigen::Vector3d::Zero();
+};
+
 struct Toolpath {
   /// The first point is the start pose (APT FROM, or the first programmed position).
   std::vector<PathPoint> points;
@@ -322,6 +329,9 @@ struct Toolpath {
   /// Tool from APT CUTTER where given: diameter and corner radius [m].
   std::optional<double> cutter_diameter_m;
   std::optional<double> cutter_corner_radius_m;
+  /// The stock the program declares (Heidenhain BLK FORM 0.1 / 0.2), in W; simulate-part takes it
+  /// where the part file gives no stock.
+  std::optional<BoxW> stock_box;
 };
 
 /// Machine axis words (G-code X Y Z A B C without tool-centre-point programming) to a pose in
@@ -433,7 +443,7 @@ Toolpath parse_gcode(const std::string& text, const std::string& file_name_for_m
                      const ReaderOptions& options = {});
 
 /// Picks the reader by extension: .apt .cl .cls -> APT; .nc .ngc .gcode .mpf .tap .iso .ptp .eia
-/// .cnc -> G-code.
+/// .cnc -> G-code; .h -> Heidenhain TNC conversational (heidenhain_reader.hpp).
 Toolpath read_toolpath(const std::string& path, const ReaderOptions& options = {});
 
 }  // namespace vmsim::toolpath

@@ -1,0 +1,107 @@
+#pragma once
+// Heidenhain TNC conversational (Klartext) programs, as CAM posts write them for the iTNC 530,
+// TNC 620/640 and TNC7 (hyperMILL, NX, PowerMill): read into the canonical motion of
+// toolpath.hpp, with the common rules written there (errors "file:line:column: 'word': what",
+// UTF-8 text, number ranges and sizes, arcs tessellated within ReaderOptions::
+// arc_chord_tolerance_m, the expansion limits, the callbacks' errors placed at the block).
+//
+// The model of the control assumed here (what is emulated, what is approximated):
+//  - Blocks: one per line, an optional leading block number (SourceBlock::block_number), words
+//    separated by blanks; `;` starts a comment; a line starting with `*` (a structure block) is
+//    skipped; `/` (block delete) skips the block with a warning. BEGIN PGM <name> MM|INCH sets
+//    the unit (INCH: lengths in inch, F in 0.1 inch/min as on the TNC); END PGM, M2 and M30 end
+//    the program. Words are upper case as the TNC writes them (lower case is read too).
+//  - Coordinates: X Y Z A B C absolute, IX IY IZ IA IB IC incremental from the last programmed
+//    position; an axis not given keeps its position. Numbers as posts write them (+10.5, -.5,
+//    10), or a Q parameter with a sign (X+Q1, X-Q1, FQ5, F+Q5).
+//  - Q parameters: Q, QL, QR numbered 0 .. 1999, set by `Q1 = <formula>` (+ - * / ^, parentheses,
+//    SIN COS TAN ASIN ACOS ATAN (deg) SQRT SQ ABS INT (toward zero) FRAC NEG SGN LN LOG EXP PI)
+//    and by FN 0 .. 8 and FN 13 (=, +, -, *, DIV, SQRT, SIN, COS, LEN, ANG). Reading one never
+//    set in the program is an error (the control would use what an earlier program left: not
+//    simulated); so is Q120 .. Q122 (the axis angles PLANE STAY computes: the control's
+//    kinematics). Jumps (FN 9 .. 12), labels and program calls (LBL, CALL LBL, CALL PGM) are
+//    errors.
+//  - Tools: TOOL CALL <n> Z S<rpm> F<feed> DL<mm> DR<mm>: tool n (PathPoint::tool_number; a
+//    tool called by "name" gives -1 with a warning), its length from ReaderOptions::
+//    tool_length_mm (else default_tool_length_mm, else 0: without a machine the length cancels out), F the FAUTO
+//    feed, DL a length allowance: the real tip stays DL short of the programmed point along the
+//    tool axis (DL > 0 leaves material), DR the radius allowance used by LN (below). Tool axis Z
+//    only (TOOL CALL n X / Y is an error). TOOL DEF is accepted (preselection).
+//  - BLK FORM 0.1 Z X Y Z (MIN point) and BLK FORM 0.2 X Y Z (MAX point, or IX IY IZ from MIN),
+//    in the coordinates of the preset: Toolpath::stock_box in W. BLK FORM CYLINDER / ROTATION:
+//    a warning, no stock.
+//  - Frames. The preset (the TNC's reference point) is ReaderOptions::work_offsets_mm
+//    [initial_work_offset] (the part file's set-up; none: the identity, as for G-code), its W
+//    place machine_axes_W * offset + machine_zero_W_mm. Program coordinates p map to preset
+//    coordinates q = d0 + R (d1 + p): d0 the datum shift programmed outside a tilted plane
+//    (CYCL DEF 7.0 DATUM SHIFT / 7.1 X / 7.2 Y / 7.3 Z, or TRANS DATUM AXIS; absolute values
+//    replace the axes given, IX adds; TRANS DATUM RESET clears), R the tilted working plane,
+//    d1 a datum shift programmed inside it (in the tilted axes; PLANE RESET drops it). A frame
+//    change does not move the machine: the next motion starts where the tool is.
+//     - PLANE SPATIAL SPA SPB SPC (R = Rz(SPC) Ry(SPB) Rx(SPA): rotations about the fixed axes
+//       in the order A, B, C), PLANE EULER EULPR EULNU EULROT (Rz Rx Rz), PLANE VECTOR BX BY
+//       BZ NX NY NZ (tilted Z along N, X along B made perpendicular to N), PLANE RELATIV SPA |
+//       SPB | SPC (one more rotation about the tilted axis), PLANE RESET. Positioning TURN or
+//       MOVE: a point that turns the tool about its tip to the plane's Z axis (R e_z in W; at
+//       the F given, else in rapid), the rotary axes then being the chain's choice (SEQ, TABLE
+//       ROT / COORD ROT and DIST are accepted but not emulated: the inverse kinematics takes
+//       the solution nearest the previous pose); STAY: no motion, the next block's rotary words
+//       orient the tool. MB <mm> first retracts that far along the tool axis in rapid; MB MAX
+//       (to the travel limit) is skipped with a warning. PLANE PROJECTED / POINTS / AXIAL and
+//       CYCL DEF 19 are errors.
+//  - Poses. Outside M128 and outside a tilted plane, X Y Z (after the frame) are the tool tip
+//    compensated by the tool length along the machine's Z: the machine axes are
+//    preset + q + (0, 0, L + DL), and the pose of the machine axes X Y Z A B C comes through
+//    ReaderOptions::axis_words_to_pose (the table turns the point, as on a TNC without M128);
+//    without a machine, rotary words are an error. Under M128 / FUNCTION TCPM (F TCP AXIS POS;
+//    M129 / FUNCTION RESET TCPM cancel) or in a tilted plane, q is the tip in the work system
+//    fixed on the table: tip_W = preset in W + q + DL * axis, the axis from the block's rotary
+//    words through ReaderOptions::rotary_words_to_tool_axis, from LN's TX TY TZ (turned by R),
+//    or the axis in force. Rotary words carry over to PathPoint::rotary_words_deg; a block that
+//    turns one by 180 deg or more is split into steps of at most 90 deg (as for G-code).
+//  - M91 / M92 (in their block only; outside M128 and tilted planes, as on the TNC): the given
+//    axes are machine axis positions from the machine datum (M91) or from
+//    ReaderOptions::g28_reference_mm (M92: the machine maker's reference, taken as the home);
+//    no tool length compensation. Axes not yet known at the first motion: an M91 / M92 block
+//    makes the named axes known and the pose comes once all three are; any other block takes
+//    them at the G28 reference (with a set-up, outside M128) or at the program's 0, with a
+//    warning.
+//  - Motions. L X Y Z A B C [R0] [F | FMAX | FAUTO] [M...]: a line (FMAX: a rapid for this
+//    block only; F modal, > 0; a feed motion before any F is an error). RL / RR / R+ / R-
+//    (radius compensation) and FU / FZ (feed per revolution / tooth) are errors. LN X Y Z NX NY
+//    NZ [TX TY TZ]: a line whose tip is shifted by DR along the unit surface normal N; TX TY TZ
+//    (the tool vector) need M128 / TCPM. Circles in the working plane X/Y, helices with Z:
+//     - CC X Y: the centre (pole; an axis left out keeps the current position, IX IY from it;
+//       CC X Z / CC Y Z put the next C in the plane Z/X / Y/Z, with DR+ turning from Z to X /
+//       from Y to Z as G18 / G19);
+//     - C X Y DR+|DR-: an arc about CC (DR+ counter-clockwise), end = start a full circle; start
+//       and end radii may differ within ReaderOptions::arc_radius_tolerance_mm / _inch /
+//       arc_radius_relative_tolerance, the centre then moved onto the bisector (as for G2/G3);
+//     - CR X Y R DR: radius R (R > 0 the arc of at most 180 deg, R < 0 of more);
+//     - CT X Y: the arc tangent to the previous contour element at its end;
+//     - RND R: a rounding arc of radius R tangent to the lines before and after it; CHF L: a
+//       chamfer cutting L off each of the two lines. Both between two straight lines in the
+//       working plane (the line before ends at the corner: its point moves to the tangent point);
+//       next to an arc, an error. F on RND / CHF: their own feed.
+//    LP / CP (polar), APPR / DEP and FK (free contour programming) are errors.
+//  - NC modes: CYCL DEF 32.0 TOLERANCE / 32.1 T<mm>: PathPoint::corner_tolerance_m (T > 0: the
+//    corners are blended within T; T 0: exact stop; 32.1 without T: NaN, the machine's own);
+//    32.2 HSC-MODE and TA (rotary tolerance) are accepted, not emulated. Jerk limitation and
+//    feedforward are the machine's on a TNC (no program word sets them): unspecified.
+//  - Accepted and ignored: M functions other than M2 M30 M91 M92 M128 M129 (spindle, coolant,
+//    M126 shortest path, ...; M140 retract is an error), STOP, CYCL DEF 9 (dwell), FUNCTION MODE
+//    MILL. Any other keyword or cycle (drilling cycles, CYCL CALL) is an error: it may change
+//    the geometry.
+#include <string>
+
+#include "vmsim/toolpath/toolpath.hpp"
+
+namespace vmsim::toolpath {
+
+/// Reads a Heidenhain TNC conversational program (.h). Throws vmsim::InputError naming the file,
+/// line, column and word; also when the file cannot be read or programs no motion.
+Toolpath read_heidenhain(const std::string& path, const ReaderOptions& options = {});
+Toolpath parse_heidenhain(const std::string& text, const std::string& file_name_for_messages,
+                          const ReaderOptions& options = {});
+
+}  // namespace vmsim::toolpath

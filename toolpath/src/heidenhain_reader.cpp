@@ -1,0 +1,1748 @@
+// Heidenhain TNC conversational (Klartext) reader: the subset and the model of the control
+// documented in vmsim/toolpath/heidenhain_reader.hpp.
+#include "vmsim/toolpath/heidenhain_reader.hpp"
+
+#include <Eigen/Geometry>
+#include <algorithm>
+#include <array>
+#include <cctype>
+#include <cmath>
+#include <map>
+#include <numbers>
+#include <optional>
+#include <string>
+#include <string_view>
+#include <utility>
+#include <vector>
+
+#include "toolpath_detail.hpp"
+#include "vmsim/common/errors.hpp"
+
+namespace vmsim::toolpath {
+namespace {
+
+using detail::kMetresPerMillimetre;
+using detail::kSecondsPerMinute;
+
+constexpr double kDegPerRad = 180.0 / std::numbers::pi;
+constexpr double kSplitRotaryTurnDeg = 180.0;
+constexpr double kRotaryStepDeg = 90.0;
+constexpr int kMaxWarnings = 1000;
+constexpr int kMaxQParameter = 1999;
+/// Directions and collinearity [mm]: below this a line has no direction in the plane.
+constexpr double kTinyMm = 1e-9;
+
+/// One blank-separated token of a block, as written.
+struct Token {
+  std::string text;   ///< as written
+  std::string upper;  ///< upper case
+  int column = 0;     ///< 1-based
+};
+
+/// A word of a motion or definition block: an address and its value ("X+10", "IX-5", "DR+",
+/// "FMAX", "X+Q1").
+struct Word {
+  std::string address;  ///< upper case, without the incremental I ("X" for "IX+5")
+  bool incremental = false;
+  std::optional<double> value;  ///< nullopt for "FMAX", "R0" has 0
+  int sign_only = 0;            ///< "DR+" / "DR-": +1 / -1
+  const Token* token = nullptr;
+};
+
+using Vec3 = Eigen::Vector3d;
+using Vec2 = Eigen::Vector2d;
+using RotaryDeg = std::array<std::optional<double>, 3>;
+
+Eigen::Matrix3d rotation_x(double deg) {
+  return Eigen::AngleAxisd(deg / kDegPerRad, Vec3::UnitX()).toRotationMatrix();
+}
+Eigen::Matrix3d rotation_y(double deg) {
+  return Eigen::AngleAxisd(deg / kDegPerRad, Vec3::UnitY()).toRotationMatrix();
+}
+Eigen::Matrix3d rotation_z(double deg) {
+  return Eigen::AngleAxisd(deg / kDegPerRad, Vec3::UnitZ()).toRotationMatrix();
+}
+
+/// The in-plane axes (u, v) and the normal w of an arc plane, right-handed: DR+ turns u to v.
+using PlaneAxes = std::array<int, 3>;
+constexpr PlaneAxes kPlaneXY{0, 1, 2}, kPlaneZX{2, 0, 1}, kPlaneYZ{1, 2, 0};
+
+class HeidenhainReader {
+ public:
+  HeidenhainReader(const std::string& file, const ReaderOptions& options)
+      : file_(file), options_(options) {}
+
+  int current_line() const { return line_; }
+
+  Toolpath read(std::string_view text) {
+    if (!(options_.arc_chord_tolerance_m >= 1e-12) ||
+        !std::isfinite(options_.arc_chord_tolerance_m)) {
+      throw InputError("ReaderOptions::arc_chord_tolerance_m must be at least 1e-12 m and "
+                       "finite, got " + detail::format_number(options_.arc_chord_tolerance_m));
+    }
+    const auto it = options_.work_offsets_mm.find(options_.initial_work_offset);
+    if (it != options_.work_offsets_mm.end()) {
+      preset_machine_mm_ = it->second;
+      preset_W_mm_ = options_.machine_axes_W * it->second + options_.machine_zero_W_mm;
+    } else if (!options_.work_offsets_mm.empty() || options_.initial_work_offset != "G54") {
+      throw InputError("ReaderOptions::initial_work_offset " + options_.initial_work_offset +
+                       " is not in the work offset table (the TNC's preset)");
+    }
+    text = detail::without_byte_order_mark(text);
+    detail::require_utf8_text(text, file_);
+    std::size_t start = 0;
+    while (start <= text.size() && !ended_) {
+      std::size_t end = text.find('\n', start);
+      if (end == std::string_view::npos) end = text.size();
+      std::string_view line = text.substr(start, end - start);
+      if (!line.empty() && line.back() == '\r') line.remove_suffix(1);
+      ++line_;
+      block(line);
+      start = end + 1;
+    }
+    if (pending_corner_) {
+      line_ = pending_corner_->line;
+      fail(pending_corner_->column, std::string(pending_corner_->chamfer ? "CHF" : "RND") +
+                                        " at the end of the program: no element follows it");
+    }
+    detail::require_motion(path_, file_);
+    return std::move(path_);
+  }
+
+ private:
+  // --- Messages -------------------------------------------------------------------------------
+
+  [[noreturn]] void fail(int column, const std::string& message) const {
+    throw InputError(located_message(file_, line_, column, message));
+  }
+  [[noreturn]] void fail(const Token& token, const std::string& message) const {
+    fail(token.column, "'" + token.text + "': " + message);
+  }
+  [[noreturn]] void fail(const Word& word, const std::string& message) const {
+    fail(*word.token, message);
+  }
+  void warn(const std::string& message) {
+    ++warning_count_;
+    if (warning_count_ < kMaxWarnings) {
+      path_.warnings.push_back(ReaderWarning{file_, line_, message});
+    } else if (warning_count_ == kMaxWarnings) {
+      path_.warnings.push_back(ReaderWarning{
+          file_, line_,
+          "more than " + std::to_string(kMaxWarnings) + " warnings: the rest are not listed"});
+    }
+  }
+  void require_within(const Token& token, double value, double min, double max,
+                      const std::string& what, const std::string& unit) const {
+    if (!(value >= min && value <= max)) {
+      fail(token, what + " " + detail::format_number(value) + (unit.empty() ? "" : " " + unit) +
+                      " is outside [" + detail::format_number(min) + ", " +
+                      detail::format_number(max) + "]" + (unit.empty() ? "" : " " + unit));
+    }
+  }
+
+  // --- Tokens and numbers ---------------------------------------------------------------------
+
+  std::vector<Token> tokens_of(std::string_view line) const {
+    std::vector<Token> tokens;
+    std::size_t i = 0;
+    while (i < line.size()) {
+      const char c = line[i];
+      if (c == ';') break;
+      if (std::isspace(static_cast<unsigned char>(c))) {
+        ++i;
+        continue;
+      }
+      const std::size_t start = i;
+      if (c == '"') {
+        const std::size_t close = line.find('"', i + 1);
+        if (close == std::string_view::npos) fail(static_cast<int>(i) + 1, "'\"' is not closed on its line");
+        i = close + 1;
+      } else {
+        while (i < line.size() && !std::isspace(static_cast<unsigned char>(line[i])) &&
+               line[i] != ';') {
+          ++i;
+        }
+      }
+      if (tokens.size() == detail::kMaxWordsPerBlock) {
+        fail(static_cast<int>(start) + 1, "more than " + std::to_string(detail::kMaxWordsPerBlock) +
+                                              " words in one block");
+      }
+      Token token;
+      token.text = std::string(line.substr(start, i - start));
+      token.upper = detail::to_upper(token.text);
+      token.column = static_cast<int>(start) + 1;
+      tokens.push_back(std::move(token));
+    }
+    return tokens;
+  }
+
+  /// A Q parameter name ("Q12", "QL3", "QR0") at the start of `text`: its key and length.
+  static std::optional<std::pair<std::string, std::size_t>> q_name(std::string_view text) {
+    if (text.empty() || text[0] != 'Q') return std::nullopt;
+    std::size_t i = 1;
+    if (i < text.size() && (text[i] == 'L' || text[i] == 'R')) ++i;
+    const std::size_t digits_start = i;
+    while (i < text.size() && std::isdigit(static_cast<unsigned char>(text[i]))) ++i;
+    if (i == digits_start || i - digits_start > 6) return std::nullopt;
+    return std::make_pair(std::string(text.substr(0, i)), i);
+  }
+
+  double q_value(const std::string& name, const Token& token) const {
+    const auto [prefix, number] = split_q(name);
+    if (number > kMaxQParameter) {
+      fail(token, name + " is beyond the Q parameters (0 .. " + std::to_string(kMaxQParameter) + ")");
+    }
+    const auto it = q_.find(name);
+    if (it == q_.end()) {
+      if (prefix == "Q" && number >= 120 && number <= 122) {
+        fail(token, name + " holds an axis angle the control computes for PLANE STAY (its "
+                           "kinematics): not simulated; position the rotary axes with numbers "
+                           "or use PLANE ... TURN");
+      }
+      fail(token, name + " is read before the program sets it (a value left by another program "
+                         "is not simulated)");
+    }
+    return it->second;
+  }
+  static std::pair<std::string, long> split_q(const std::string& name) {
+    std::size_t i = 1;
+    if (i < name.size() && (name[i] == 'L' || name[i] == 'R')) ++i;
+    return {name.substr(0, i), std::stol(name.substr(i))};
+  }
+
+  /// A value as written in a word: a number, or a Q parameter with an optional sign.
+  std::optional<double> value_of(std::string_view text, const Token& token) const {
+    std::size_t i = 0;
+    double sign = 1.0;
+    if (i < text.size() && (text[i] == '+' || text[i] == '-')) {
+      sign = text[i] == '-' ? -1.0 : 1.0;
+      ++i;
+    }
+    if (i < text.size() && (text[i] == 'Q' || text[i] == 'q')) {
+      const std::string rest = detail::to_upper(text.substr(i));
+      const auto name = q_name(rest);
+      if (!name || name->second != rest.size()) fail(token, "malformed Q parameter");
+      return sign * q_value(name->first, token);
+    }
+    std::string problem;
+    const std::optional<double> value = detail::parse_decimal(text, &problem);
+    if (!value) fail(token, text.empty() ? "the address has no value" : problem);
+    return value;
+  }
+
+  /// The words of a block after its keyword(s).
+  std::vector<Word> words_of(const std::vector<Token>& tokens, std::size_t first) const {
+    std::vector<Word> words;
+    for (std::size_t k = first; k < tokens.size(); ++k) {
+      const Token& token = tokens[k];
+      const std::string& u = token.upper;
+      std::size_t i = 0;
+      while (i < u.size() && std::isalpha(static_cast<unsigned char>(u[i]))) ++i;
+      Word word;
+      word.token = &token;
+      std::string letters = u.substr(0, i);
+      std::string value = token.text.substr(i);
+      // "FQ5", "XQ1": an address followed directly by a Q parameter.
+      if (letters.size() >= 2 && value.size() > 0 &&
+          std::isdigit(static_cast<unsigned char>(value[0]))) {
+        for (const char* q : {"QL", "QR", "Q"}) {
+          const std::string qs(q);
+          if (letters.size() > qs.size() && letters.compare(letters.size() - qs.size(), qs.size(), qs) == 0) {
+            value = letters.substr(letters.size() - qs.size()) + value;
+            letters = letters.substr(0, letters.size() - qs.size());
+            break;
+          }
+        }
+      }
+      if (letters == "DR" && value.size() >= 2 && value[0] == '2' && (value[1] == '+' || value[1] == '-')) {
+        letters = "DR2";  // TOOL CALL's DR2 (the corner radius allowance)
+        value = value.substr(1);
+      }
+      if (letters.size() == 2 && letters[0] == 'I' && std::string("XYZABC").find(letters[1]) != std::string::npos) {
+        word.incremental = true;
+        letters = letters.substr(1);
+      }
+      word.address = letters;
+      if (value == "+" || value == "-") {
+        word.sign_only = value == "+" ? 1 : -1;
+      } else if (!value.empty()) {
+        word.value = value_of(value, token);
+      }
+      words.push_back(std::move(word));
+    }
+    return words;
+  }
+
+  // --- Q parameter formulas -------------------------------------------------------------------
+
+  /// Evaluates a formula (`Q1 = ...` right-hand side) starting at `text[at]`; columns for
+  /// messages are 1-based in the line.
+  class Formula {
+   public:
+    Formula(const HeidenhainReader& reader, std::string_view line, std::size_t at)
+        : reader_(reader), line_(line), i_(at) {}
+    double evaluate() {
+      const double value = expression();
+      skip();
+      if (i_ < line_.size() && line_[i_] != ';') error("unexpected '" + std::string(1, line_[i_]) + "'");
+      return value;
+    }
+
+   private:
+    [[noreturn]] void error(const std::string& what) const {
+      reader_.fail(static_cast<int>(i_) + 1, "in the formula '" + detail::trim(line_) + "': " + what);
+    }
+    void skip() {
+      while (i_ < line_.size() && std::isspace(static_cast<unsigned char>(line_[i_]))) ++i_;
+    }
+    bool take(char c) {
+      skip();
+      if (i_ < line_.size() && line_[i_] == c) {
+        ++i_;
+        return true;
+      }
+      return false;
+    }
+    double checked(double v) const {
+      if (!std::isfinite(v)) error("the result is not a finite number");
+      return v;
+    }
+    double expression() {
+      double value = term();
+      while (true) {
+        if (take('+')) {
+          value = checked(value + term());
+        } else if (take('-')) {
+          value = checked(value - term());
+        } else {
+          return value;
+        }
+      }
+    }
+    double term() {
+      double value = power();
+      while (true) {
+        if (take('*')) {
+          value = checked(value * power());
+        } else if (take('/')) {
+          const std::size_t at = i_;
+          const double divisor = power();
+          if (divisor == 0.0) {
+            i_ = at;
+            error("division by zero");
+          }
+          value = checked(value / divisor);
+        } else {
+          return value;
+        }
+      }
+    }
+    double power() {
+      const double base = unary();
+      if (take('^')) return checked(std::pow(base, power()));
+      return base;
+    }
+    double unary() {
+      if (take('+')) return unary();
+      if (take('-')) return -unary();
+      return primary();
+    }
+    double primary() {
+      skip();
+      if (i_ >= line_.size()) error("the formula ends early");
+      const char c = line_[i_];
+      if (c == '(') {
+        ++i_;
+        const double value = expression();
+        if (!take(')')) error("')' expected");
+        return value;
+      }
+      if (std::isdigit(static_cast<unsigned char>(c)) || c == '.') {
+        const std::size_t start = i_;
+        while (i_ < line_.size() &&
+               (std::isdigit(static_cast<unsigned char>(line_[i_])) || line_[i_] == '.')) {
+          ++i_;
+        }
+        std::string problem;
+        const auto value = detail::parse_decimal(line_.substr(start, i_ - start), &problem);
+        if (!value) {
+          i_ = start;
+          error(problem);
+        }
+        return *value;
+      }
+      if (!std::isalpha(static_cast<unsigned char>(c))) error("unexpected '" + std::string(1, c) + "'");
+      const std::size_t start = i_;
+      while (i_ < line_.size() && std::isalnum(static_cast<unsigned char>(line_[i_]))) ++i_;
+      const std::string name = detail::to_upper(line_.substr(start, i_ - start));
+      if (const auto q = q_name(name); q && q->second == name.size()) {
+        Token token{std::string(line_.substr(start, i_ - start)), name, static_cast<int>(start) + 1};
+        return reader_.q_value(q->first, token);
+      }
+      if (name == "PI") return std::numbers::pi;
+      const double x = unary();
+      const auto domain = [&](bool ok) {
+        if (!ok) {
+          i_ = start;
+          error(name + " of " + detail::format_number(x) + " is not defined");
+        }
+      };
+      if (name == "SIN") return std::sin(x / kDegPerRad);
+      if (name == "COS") return std::cos(x / kDegPerRad);
+      if (name == "TAN") return checked(std::tan(x / kDegPerRad));
+      if (name == "ASIN") return domain(x >= -1.0 && x <= 1.0), std::asin(x) * kDegPerRad;
+      if (name == "ACOS") return domain(x >= -1.0 && x <= 1.0), std::acos(x) * kDegPerRad;
+      if (name == "ATAN") return std::atan(x) * kDegPerRad;
+      if (name == "SQRT") return domain(x >= 0.0), std::sqrt(x);
+      if (name == "SQ") return checked(x * x);
+      if (name == "ABS") return std::abs(x);
+      if (name == "INT") return std::trunc(x);
+      if (name == "FRAC") return x - std::trunc(x);
+      if (name == "NEG") return -x;
+      if (name == "SGN") return x > 0.0 ? 1.0 : (x < 0.0 ? -1.0 : 0.0);
+      if (name == "LN") return domain(x > 0.0), std::log(x);
+      if (name == "LOG") return domain(x > 0.0), std::log10(x);
+      if (name == "EXP") return checked(std::exp(x));
+      i_ = start;
+      error("unknown function " + name);
+    }
+    const HeidenhainReader& reader_;
+    std::string_view line_;
+    std::size_t i_;
+  };
+
+  /// `Q1 = formula` (the target token starts the block) and `FN n: Q1 = ...`.
+  void q_assignment(std::string_view line, const Token& target, std::size_t equals_at,
+                    std::optional<int> fn) {
+    const auto name = q_name(target.upper);
+    if (!name || name->second != target.upper.size()) fail(target, "malformed Q parameter");
+    if (split_q(name->first).second > kMaxQParameter) {
+      fail(target, "beyond the Q parameters (0 .. " + std::to_string(kMaxQParameter) + ")");
+    }
+    std::string rhs(line.substr(equals_at + 1));
+    if (const std::size_t semicolon = rhs.find(';'); semicolon != std::string::npos) rhs.resize(semicolon);
+    // FN forms as formulas: DIV is '/', LEN and ANG take two operands.
+    std::string formula = rhs;
+    if (fn) {
+      std::string upper = detail::to_upper(rhs);
+      const auto replace_word = [&](const std::string& word, const std::string& by) {
+        const std::size_t at = upper.find(word);
+        if (at == std::string::npos) return false;
+        formula.replace(at, word.size(), by);
+        upper.replace(at, word.size(), by);
+        return true;
+      };
+      switch (*fn) {
+        case 0: case 1: case 2: case 3: case 5: case 6: case 7: break;
+        case 4:
+          if (!replace_word("DIV", "/")) fail(target, "FN 4 needs 'DIV'");
+          break;
+        case 8: {  // a LEN b = sqrt(a^2 + b^2)
+          const std::size_t at = upper.find("LEN");
+          if (at == std::string::npos) fail(target, "FN 8 needs 'LEN'");
+          formula = "SQRT((" + rhs.substr(0, at) + ")^2+(" + rhs.substr(at + 3) + ")^2)";
+          break;
+        }
+        case 13: {  // a ANG b = atan2(b, a) in degrees
+          const std::size_t at = upper.find("ANG");
+          if (at == std::string::npos) fail(target, "FN 13 needs 'ANG'");
+          const double x = Formula(*this, rhs.substr(0, at), 0).evaluate();
+          const double y = Formula(*this, rhs.substr(at + 3), 0).evaluate();
+          q_[name->first] = std::atan2(y, x) * kDegPerRad;
+          return;
+        }
+        default: break;
+      }
+    }
+    // Columns of messages: the formula's own text where it was not rewritten.
+    if (formula == rhs) {
+      q_[name->first] = Formula(*this, line, equals_at + 1).evaluate();
+    } else {
+      q_[name->first] = Formula(*this, formula, 0).evaluate();
+    }
+  }
+
+  // --- Blocks ---------------------------------------------------------------------------------
+
+  void block(std::string_view line) {
+    line_text_ = detail::trim(line);
+    std::vector<Token> tokens = tokens_of(line);
+    if (tokens.empty()) return;
+    std::size_t first = 0;
+    block_number_ = -1;
+    if (std::all_of(tokens[0].text.begin(), tokens[0].text.end(),
+                    [](char c) { return std::isdigit(static_cast<unsigned char>(c)); })) {
+      require_within(tokens[0], std::stod(tokens[0].text.substr(0, 12)), 0.0,
+                     detail::kMaxIgnoredWordValue, "block number", "");
+      block_number_ = std::stol(tokens[0].text);
+      first = 1;
+    }
+    if (first >= tokens.size()) return;
+    const Token& head = tokens[first];
+    if (head.text[0] == '*') return;  // structure block ("* - ROUGHING")
+    if (head.text[0] == '/') {
+      warn("block skipped: block delete '/' is taken as switched on");
+      return;
+    }
+    const std::string& k = head.upper;
+    const auto next_is = [&](std::size_t at, const char* word) {
+      return at < tokens.size() && tokens[at].upper == word;
+    };
+
+    if (k == "BEGIN" || k == "END") {
+      if (!next_is(first + 1, "PGM")) fail(head, "expected " + k + " PGM");
+      for (std::size_t t = first + 2; t < tokens.size(); ++t) {
+        if (tokens[t].upper == "MM") mm_per_unit_ = 1.0;
+        if (tokens[t].upper == "INCH") mm_per_unit_ = detail::kMillimetresPerInch;
+      }
+      if (k == "END") ended_ = true;
+      return;
+    }
+    if (k == "BLK") {
+      if (!next_is(first + 1, "FORM")) fail(head, "expected BLK FORM");
+      blank_form(tokens, first + 2, head);
+      return;
+    }
+    if (k == "TOOL") {
+      if (next_is(first + 1, "DEF")) return;
+      if (!next_is(first + 1, "CALL")) fail(head, "expected TOOL CALL or TOOL DEF");
+      tool_call(tokens, first + 2);
+      return;
+    }
+    if (k == "CYCL") {
+      cycle(tokens, first);
+      return;
+    }
+    if (k == "PLANE") {
+      plane(tokens, first + 1, head);
+      return;
+    }
+    if (k == "TRANS") {
+      if (!next_is(first + 1, "DATUM")) fail(head, "only TRANS DATUM is supported");
+      if (next_is(first + 2, "RESET")) {
+        set_datum_shift({}, head, true);
+        return;
+      }
+      if (!next_is(first + 2, "AXIS")) fail(head, "expected TRANS DATUM AXIS or TRANS DATUM RESET");
+      set_datum_shift(words_of(tokens, first + 3), head, false);
+      return;
+    }
+    if (k == "FUNCTION") {
+      function(tokens, first + 1, head);
+      return;
+    }
+    if (k == "STOP") return;
+    if (k == "FN") {
+      fn_block(line, tokens, first);
+      return;
+    }
+    if (const auto q = q_name(k); q && (q->second == k.size() || k[q->second] == '=')) {
+      const std::size_t equals = line.find('=', static_cast<std::size_t>(head.column - 1));
+      if (equals == std::string_view::npos) fail(head, "expected 'Q.. = formula'");
+      Token target = head;
+      target.upper = q->first;
+      target.text = head.text.substr(0, q->second);
+      q_assignment(line, target, equals, std::nullopt);
+      return;
+    }
+    if (k == "L" || k == "LN" || k == "C" || k == "CR" || k == "CT" || k == "CC" || k == "RND" ||
+        k == "CHF") {
+      motion_block(k, head, tokens, first + 1);
+      return;
+    }
+    if (k[0] == 'M' && k.size() > 1 && std::isdigit(static_cast<unsigned char>(k[1]))) {
+      motion_block("M", head, tokens, first);  // M functions alone
+      return;
+    }
+    if (k == "LP" || k == "CP") fail(head, "polar coordinates are not supported: output X Y Z");
+    if (k == "APPR" || k == "DEP") fail(head, "approach / departure contours are not supported");
+    if (k.rfind("FL", 0) == 0 || k.rfind("FC", 0) == 0 || k.rfind("FPOL", 0) == 0) {
+      fail(head, "FK free contour programming is not supported");
+    }
+    if (k == "LBL" || k == "CALL") {
+      fail(head, "labels, subprograms and program calls are not supported");
+    }
+    fail(head, "unsupported block (it may change the geometry)");
+  }
+
+  void fn_block(std::string_view line, const std::vector<Token>& tokens, std::size_t first) {
+    const Token& head = tokens[first];
+    if (first + 1 >= tokens.size()) fail(head, "FN needs its number");
+    std::string number = tokens[first + 1].upper;
+    std::size_t target_index = first + 2;
+    if (!number.empty() && number.back() == ':') number.pop_back();
+    if (number.empty() || !std::all_of(number.begin(), number.end(), [](char c) {
+          return std::isdigit(static_cast<unsigned char>(c));
+        }) || number.size() > 3) {
+      fail(tokens[first + 1], "expected the FN number (FN 0: ...)");
+    }
+    const int fn = std::stoi(number);
+    if (fn >= 9 && fn <= 12) fail(head, "conditional jumps (FN 9 .. 12) are not supported");
+    if (!((fn >= 0 && fn <= 8) || fn == 13)) {
+      fail(head, "FN " + number + " is not supported (FN 0 .. 8 and 13 assign Q parameters)");
+    }
+    if (target_index < tokens.size() && tokens[target_index].upper == ":") ++target_index;
+    if (target_index >= tokens.size()) fail(head, "FN without its Q parameter");
+    const Token& target_token = tokens[target_index];
+    const auto q = q_name(target_token.upper);
+    if (!q) fail(target_token, "expected a Q parameter");
+    const std::size_t equals = line.find('=', static_cast<std::size_t>(target_token.column - 1));
+    if (equals == std::string_view::npos) fail(target_token, "expected 'Q.. = ...'");
+    Token target = target_token;
+    target.upper = q->first;
+    target.text = target_token.text.substr(0, q->second);
+    std::string rhs_upper = detail::to_upper(line.substr(equals + 1));
+    // FN 5 .. 7: a function of one operand, written "SQRT Q2", "SIN+30".
+    if (fn == 5 || fn == 6 || fn == 7) {
+      const char* names[] = {"SQRT", "SIN", "COS"};
+      const std::string function = names[fn - 5];
+      const std::size_t at = rhs_upper.find(function);
+      if (at == std::string::npos) fail(target, "FN " + number + " needs '" + function + "'");
+      const std::string operand(line.substr(equals + 1 + at + function.size()));
+      const std::string rewritten = function + "(" + operand.substr(0, operand.find(';')) + ")";
+      q_[q->first] = Formula(*this, rewritten, 0).evaluate();
+      return;
+    }
+    q_assignment(line, target, equals, fn);
+  }
+
+  // --- BLK FORM, TOOL CALL, FUNCTION ----------------------------------------------------------
+
+  void blank_form(const std::vector<Token>& tokens, std::size_t at, const Token& head) {
+    if (at >= tokens.size()) fail(head, "BLK FORM needs 0.1 or 0.2 and its point");
+    const std::string& kind = tokens[at].upper;
+    if (kind == "CYLINDER" || kind == "ROTATION" || kind == "FILE") {
+      warn("BLK FORM " + tokens[at].text + " is not read: no stock from the program");
+      return;
+    }
+    if (kind != "0.1" && kind != "0.2") fail(tokens[at], "expected BLK FORM 0.1 or 0.2");
+    std::size_t first_word = at + 1;
+    if (kind == "0.1" && first_word < tokens.size() &&
+        (tokens[first_word].upper == "X" || tokens[first_word].upper == "Y" ||
+         tokens[first_word].upper == "Z")) {
+      if (tokens[first_word].upper != "Z") fail(tokens[first_word], "tool axis X / Y is not supported");
+      ++first_word;
+    }
+    Vec3 p = Vec3::Zero();
+    std::array<bool, 3> given{};
+    for (const Word& word : words_of(tokens, first_word)) {
+      const int axis = linear_axis(word.address);
+      if (axis < 0 || !word.value) fail(word, "expected X Y Z of the blank's corner");
+      if (word.incremental && kind == "0.1") fail(word, "BLK FORM 0.1 is absolute");
+      const double v = *word.value * mm_per_unit_;
+      require_within(*word.token, v, -detail::kMaxCoordinateMm, detail::kMaxCoordinateMm, "length", "mm");
+      if (word.incremental) {
+        if (!blank_min_mm_) fail(word, "incremental BLK FORM 0.2 without 0.1 before it");
+        p[axis] = (*blank_min_mm_)[axis] + v;
+      } else {
+        p[axis] = v;
+      }
+      given[static_cast<std::size_t>(axis)] = true;
+    }
+    if (!(given[0] && given[1] && given[2])) fail(head, "BLK FORM " + kind + " needs X, Y and Z");
+    if (kind == "0.1") {
+      blank_min_mm_ = p;
+      return;
+    }
+    if (!blank_min_mm_) fail(head, "BLK FORM 0.2 without BLK FORM 0.1 before it");
+    for (int k = 0; k < 3; ++k) {
+      if (!(p[k] > (*blank_min_mm_)[k])) {
+        fail(head, std::string("BLK FORM: the MAX point's ") + "XYZ"[k] +
+                       " is not above the MIN point's (" + detail::format_number(p[k]) + " <= " +
+                       detail::format_number((*blank_min_mm_)[k]) + " mm)");
+      }
+    }
+    BoxW box;
+    box.min_W_m = (preset_W_mm_ + *blank_min_mm_) * kMetresPerMillimetre;
+    box.max_W_m = (preset_W_mm_ + p) * kMetresPerMillimetre;
+    path_.stock_box = box;
+  }
+
+  void tool_call(const std::vector<Token>& tokens, std::size_t at) {
+    require_no_pending_corner(tokens[at - 1]);
+    std::optional<int> tool;
+    std::size_t k = at;
+    if (k < tokens.size() && tokens[k].text[0] == '"') {
+      warn("tool " + tokens[k].text + " called by name: its number is not known (the part's tool)");
+      tool = -1;
+      ++k;
+    } else if (k < tokens.size() && std::isdigit(static_cast<unsigned char>(tokens[k].text[0]))) {
+      std::string problem;
+      const auto number = detail::parse_decimal(tokens[k].text, &problem);
+      if (!number) fail(tokens[k], problem);
+      require_within(tokens[k], *number, 0.0, detail::kMaxIgnoredWordValue, "tool number", "");
+      if (*number != std::round(*number)) fail(tokens[k], "the tool number must be whole");
+      tool = static_cast<int>(std::lround(*number));
+      ++k;
+    }
+    if (k < tokens.size() && (tokens[k].upper == "X" || tokens[k].upper == "Y")) {
+      fail(tokens[k], "tool axis " + tokens[k].text + " is not supported (tool axis Z)");
+    }
+    if (k < tokens.size() && tokens[k].upper == "Z") ++k;
+    std::optional<double> dl, dr;
+    for (const Word& word : words_of(tokens, k)) {
+      const std::string& a = word.address;
+      if (!word.value) fail(word, "expected a value");
+      if (a == "S") {
+        require_within(*word.token, *word.value, 0.0, detail::kMaxSpindleRevPerMin, "spindle speed", "rev/min");
+      } else if (a == "F") {
+        auto_feed_m_per_s_ = feed_from(word);
+      } else if (a == "DL" || a == "DR" || a == "DR2") {
+        const double v = *word.value * mm_per_unit_;
+        require_within(*word.token, v, -detail::kMaxToleranceMm, detail::kMaxToleranceMm, "allowance", "mm");
+        if (a == "DL") dl = v;
+        if (a == "DR") dr = v;
+      } else {
+        fail(word, "unsupported word in TOOL CALL");
+      }
+    }
+    if (tool) {
+      // A new tool: its allowances are those of this call (0 where not given).
+      tool_number_ = *tool;
+      dl_mm_ = dl.value_or(0.0);
+      dr_mm_ = dr.value_or(0.0);
+      tool_length_mm_ = 0.0;
+      if (*tool >= 0) {
+        if (const auto it = options_.tool_length_mm.find(*tool); it != options_.tool_length_mm.end()) {
+          tool_length_mm_ = it->second;
+        } else if (options_.default_tool_length_mm) {
+          tool_length_mm_ = *options_.default_tool_length_mm;
+        }
+        // Else no tool data (a reading without a machine): length 0, the gauge point is the tip;
+        // it cancels out of the pose (machine Z = q + L, tip = gauge - L).
+      } else if (options_.default_tool_length_mm) {
+        tool_length_mm_ = *options_.default_tool_length_mm;
+      }
+      // The axes do not move at a tool change in the program's terms: the next motion starts
+      // from the position known before (the machine compensates the new length there).
+    } else {
+      if (dl) dl_mm_ = *dl;
+      if (dr) dr_mm_ = *dr;
+    }
+  }
+
+  void function(const std::vector<Token>& tokens, std::size_t at, const Token& head) {
+    const auto is = [&](std::size_t i, const char* w) { return i < tokens.size() && tokens[i].upper == w; };
+    if (is(at, "MODE")) return;  // FUNCTION MODE MILL
+    if (is(at, "RESET") && is(at + 1, "TCPM")) {
+      tcpm_ = false;
+      return;
+    }
+    if (is(at, "TCPM")) {
+      for (std::size_t i = at + 1; i < tokens.size(); ++i) {
+        if (tokens[i].upper == "SPAT") {
+          fail(tokens[i], "AXIS SPAT (rotary words as spatial angles) is not supported: AXIS POS");
+        }
+      }
+      tcpm_ = true;
+      return;
+    }
+    fail(head, "unsupported FUNCTION");
+  }
+
+  // --- Cycles: 7 datum shift, 32 tolerance, 9 dwell -------------------------------------------
+
+  void cycle(const std::vector<Token>& tokens, std::size_t first) {
+    const Token& head = tokens[first];
+    const auto is = [&](std::size_t i, const char* w) { return i < tokens.size() && tokens[i].upper == w; };
+    if (is(first + 1, "CALL")) fail(head, "CYCL CALL: machining cycles are not supported (output them as L blocks)");
+    if (!is(first + 1, "DEF") || first + 2 >= tokens.size()) fail(head, "expected CYCL DEF <number>");
+    const Token& number_token = tokens[first + 2];
+    const std::string& number = number_token.upper;
+    const std::size_t dot = number.find('.');
+    const std::string cycle_number = number.substr(0, dot);
+    const std::string sub = dot == std::string::npos ? "" : number.substr(dot + 1);
+    if (cycle_number == "7") {
+      if (sub == "0" || sub.empty()) {
+        in_datum_cycle_ = true;
+        return;
+      }
+      if (!in_datum_cycle_) fail(number_token, "CYCL DEF 7." + sub + " without CYCL DEF 7.0");
+      set_datum_shift(words_of(tokens, first + 3), number_token, false);
+      return;
+    }
+    in_datum_cycle_ = false;
+    if (cycle_number == "32") {
+      if (sub == "0" || sub.empty()) {
+        tolerance_cycle_ = true;
+        return;
+      }
+      if (!tolerance_cycle_) fail(number_token, "CYCL DEF 32." + sub + " without CYCL DEF 32.0");
+      if (sub == "1") {
+        corner_tolerance_m_ = PathPoint::kNotProgrammed;  // 32.1 without T: the machine's
+        for (const Word& word : words_of(tokens, first + 3)) {
+          if (word.address != "T" || !word.value) fail(word, "expected T<tolerance>");
+          const double t_mm = *word.value * mm_per_unit_;
+          require_within(*word.token, t_mm, 0.0, detail::kMaxToleranceMm, "tolerance", "mm");
+          corner_tolerance_m_ = t_mm * kMetresPerMillimetre;
+        }
+      }
+      return;  // 32.2 HSC-MODE / TA: accepted, not emulated
+    }
+    if (cycle_number == "9") return;  // dwell: no geometry
+    if (cycle_number == "19") {
+      fail(number_token, "cycle 19 (working plane by axis angles) is not supported: use PLANE SPATIAL");
+    }
+    fail(number_token, "cycle " + cycle_number + " is not supported (output it as L blocks)");
+  }
+
+  // --- Frames ---------------------------------------------------------------------------------
+
+  /// Program coordinates [mm] to preset coordinates: q = d0 + R (d1 + p).
+  Vec3 to_preset(const Vec3& p) const { return shift_before_mm_ + plane_R_ * (shift_after_mm_ + p); }
+  Vec3 from_preset(const Vec3& q) const {
+    return plane_R_.transpose() * (q - shift_before_mm_) - shift_after_mm_;
+  }
+  bool tilted() const { return plane_active_; }
+  bool tcp_like() const { return tcpm_ || plane_active_; }
+
+  /// Runs `change` on the frame and keeps the tool where it is: the known program position is
+  /// expressed in the new frame.
+  template <class Change>
+  void change_frame(Change change) {
+    const bool all_known = pos_[0] && pos_[1] && pos_[2];
+    std::optional<Vec3> q;
+    if (all_known) q = to_preset(Vec3(*pos_[0], *pos_[1], *pos_[2]));
+    const Vec3 d_before = shift_before_mm_ + plane_R_ * shift_after_mm_;
+    change();
+    if (q) {
+      const Vec3 p = from_preset(*q);
+      for (int k = 0; k < 3; ++k) pos_[static_cast<std::size_t>(k)] = p[k];
+    } else {
+      // Some axes unknown (only possible untilted): shift the known ones.
+      const Vec3 d_after = shift_before_mm_ + plane_R_ * shift_after_mm_;
+      for (int k = 0; k < 3; ++k) {
+        if (pos_[static_cast<std::size_t>(k)]) *pos_[static_cast<std::size_t>(k)] -= d_after[k] - d_before[k];
+      }
+    }
+  }
+
+  void set_datum_shift(const std::vector<Word>& words, const Token& head, bool reset) {
+    require_no_pending_corner(head);
+    Vec3 shift = tilted() ? shift_after_mm_ : shift_before_mm_;
+    if (reset) shift.setZero();
+    for (const Word& word : words) {
+      const int axis = linear_axis(word.address);
+      if (axis < 0) fail(word, "a datum shift of X, Y or Z only (rotary axes are not supported)");
+      if (!word.value) fail(word, "expected a value");
+      const double v = *word.value * mm_per_unit_;
+      require_within(*word.token, v, -detail::kMaxCoordinateMm, detail::kMaxCoordinateMm, "datum shift", "mm");
+      shift[axis] = word.incremental ? shift[axis] + v : v;
+    }
+    change_frame([&] { (tilted() ? shift_after_mm_ : shift_before_mm_) = shift; });
+  }
+
+  void plane(const std::vector<Token>& tokens, std::size_t at, const Token& head) {
+    require_no_pending_corner(head);
+    if (at >= tokens.size()) fail(head, "PLANE needs its kind (SPATIAL, VECTOR, EULER, RELATIV, RESET)");
+    const Token& kind_token = tokens[at];
+    const std::string& kind = kind_token.upper;
+    if (kind == "PROJECTED" || kind == "POINTS" || kind == "AXIAL") {
+      fail(kind_token, "PLANE " + kind + " is not supported (SPATIAL, VECTOR, EULER, RELATIV, RESET)");
+    }
+    if (kind != "SPATIAL" && kind != "VECTOR" && kind != "EULER" && kind != "RELATIV" && kind != "RESET") {
+      fail(kind_token, "unknown PLANE function");
+    }
+    std::map<std::string, const Word*> values;
+    enum class Positioning { none, turn, stay } positioning = Positioning::none;
+    const Token* positioning_token = nullptr;
+    std::optional<double> feed_m_per_s;
+    bool rapid = true;
+    std::optional<double> retract_mm;
+    const std::vector<Word> words = words_of(tokens, at + 1);
+    for (std::size_t i = 0; i < words.size(); ++i) {
+      const Word& word = words[i];
+      const std::string& a = word.address;
+      if (!word.value && !word.sign_only) {
+        if (a == "TURN" || a == "MOVE") {
+          positioning = Positioning::turn;
+          positioning_token = word.token;
+        } else if (a == "STAY") {
+          positioning = Positioning::stay;
+          positioning_token = word.token;
+        } else if (a == "FMAX") {
+          rapid = true;
+        } else if (a == "MB") {
+          if (i + 1 < words.size() && words[i + 1].address == "MAX" && !words[i + 1].value) {
+            warn("PLANE ... MB MAX (retract to the travel limit before tilting) is skipped: the "
+                 "travel is the machine's; program the retract (L Z.. M91)");
+            ++i;
+          } else if (i + 1 < words.size() && words[i + 1].address.empty()) {
+            fail(*words[i + 1].token, "unexpected");
+          } else {
+            fail(word, "MB needs MAX or a distance (MB50)");
+          }
+        } else if (a == "TABLE" || a == "COORD" || a == "ROT") {
+          // TABLE ROT / COORD ROT: the control's choice of solution, not emulated.
+        } else {
+          fail(word, "unexpected word in PLANE");
+        }
+        continue;
+      }
+      if (a == "SEQ") continue;  // SEQ+ / SEQ-: the solution's choice, not emulated
+      if (a == "MB") {
+        const double v = *word.value * mm_per_unit_;
+        require_within(*word.token, v, 0.0, detail::kMaxCoordinateMm, "retract", "mm");
+        retract_mm = v;
+        continue;
+      }
+      if (a == "DIST" || a == "ABST") continue;  // MOVE's distance: the turn is about the tip
+      if (a == "F") {
+        feed_m_per_s = feed_from(word);
+        rapid = false;
+        continue;
+      }
+      if (!word.value) fail(word, "expected a value");
+      if (values.count(a)) fail(word, "the address appears twice in one block");
+      values[a] = &word;
+      require_within(*word.token, *word.value, -detail::kMaxCoordinateMm, detail::kMaxCoordinateMm, "value", "");
+    }
+    const auto need = [&](std::initializer_list<const char*> names) {
+      for (const auto& [name, word] : values) {
+        bool known = false;
+        for (const char* n : names) known = known || name == n;
+        if (!known) fail(*word, "not a word of PLANE " + kind);
+      }
+      std::vector<double> result;
+      for (const char* n : names) {
+        const auto it = values.find(n);
+        if (it == values.end()) fail(kind_token, "PLANE " + kind + " needs " + n);
+        result.push_back(*it->second->value);
+      }
+      return result;
+    };
+    bool active = true;
+    Eigen::Matrix3d R = Eigen::Matrix3d::Identity();
+    if (kind == "SPATIAL") {
+      const auto v = need({"SPA", "SPB", "SPC"});
+      R = rotation_z(v[2]) * rotation_y(v[1]) * rotation_x(v[0]);
+    } else if (kind == "EULER") {
+      const auto v = need({"EULPR", "EULNU", "EULROT"});
+      R = rotation_z(v[0]) * rotation_x(v[1]) * rotation_z(v[2]);
+    } else if (kind == "VECTOR") {
+      const auto v = need({"BX", "BY", "BZ", "NX", "NY", "NZ"});
+      const Vec3 b(v[0], v[1], v[2]);
+      const Vec3 n(v[3], v[4], v[5]);
+      if (!(n.norm() > 1e-9)) fail(kind_token, "PLANE VECTOR: the normal vector N is zero");
+      const Vec3 z = n.normalized();
+      const Vec3 x_raw = b - b.dot(z) * z;
+      if (!(x_raw.norm() > 1e-9 * std::max(1.0, b.norm()))) {
+        fail(kind_token, "PLANE VECTOR: the base vector B is zero or parallel to the normal N");
+      }
+      const Vec3 x = x_raw.normalized();
+      R.col(0) = x;
+      R.col(1) = z.cross(x);
+      R.col(2) = z;
+    } else if (kind == "RELATIV") {
+      if (values.size() != 1) fail(kind_token, "PLANE RELATIV needs one of SPA, SPB, SPC");
+      const auto& [name, word] = *values.begin();
+      Eigen::Matrix3d step;
+      if (name == "SPA") {
+        step = rotation_x(*word->value);
+      } else if (name == "SPB") {
+        step = rotation_y(*word->value);
+      } else if (name == "SPC") {
+        step = rotation_z(*word->value);
+      } else {
+        fail(*word, "not a word of PLANE RELATIV (SPA, SPB or SPC)");
+      }
+      R = plane_R_ * step;  // about the axes of the plane in force
+    } else {
+      need({});
+      active = false;
+    }
+    if (positioning == Positioning::none) {
+      fail(kind_token, "PLANE needs its positioning: TURN, MOVE or STAY");
+    }
+    // The frame: a new plane turns about the datum in force outside planes; a shift made inside
+    // the old plane goes with it.
+    const Vec3 old_axis = axis_W_;
+    change_frame([&] {
+      plane_active_ = active;
+      plane_R_ = R;
+      shift_after_mm_.setZero();
+    });
+    if (positioning != Positioning::turn) return;
+    // TURN / MOVE: the tool turns about its tip onto the plane's axis.
+    if (!(pos_[0] && pos_[1] && pos_[2])) {
+      fail(*positioning_token, "PLANE TURN / MOVE before the tool's position is known");
+    }
+    const int block = add_source_block();
+    const Vec3 p(*pos_[0], *pos_[1], *pos_[2]);
+    // The tip in W before the turn (as the previous point has it).
+    const Vec3 tip_W_mm = path_.points.empty() ? tip_W_mm_of(p, old_axis)
+                                               : Vec3(path_.points.back().tip_W_m / kMetresPerMillimetre);
+    Vec3 tip = tip_W_mm;
+    if (retract_mm && *retract_mm > 0.0) {
+      tip += *retract_mm * old_axis;
+      PathPoint point = new_point(MotionKind::rapid, block);
+      point.tip_W_m = tip * kMetresPerMillimetre;
+      point.axis_W = old_axis;
+      point.rotary_words_deg = rotary_words_deg(rotary_deg_);
+      detail::append_point(path_, point, options_, file_, line_);
+    }
+    axis_W_ = plane_R_ * Vec3::UnitZ();
+    rotary_deg_ = {};  // the chain's choice from here; PLANE RESET TURN: the basic position
+    rotary_unknown_ = active;
+    PathPoint point = new_point(rapid ? MotionKind::rapid : MotionKind::linear, block);
+    if (!rapid) point.feed_m_per_s = *feed_m_per_s;
+    point.tip_W_m = tip * kMetresPerMillimetre;
+    point.axis_W = axis_W_;
+    detail::append_point(path_, point, options_, file_, line_);
+    // The program position of the (possibly retracted) tip in the new frame.
+    const Vec3 q = tip - preset_W_mm_ - dl_mm_ * axis_W_;
+    const Vec3 np = from_preset(q);
+    for (int k = 0; k < 3; ++k) pos_[static_cast<std::size_t>(k)] = np[k];
+    last_ = {};
+  }
+
+  // --- Motion blocks --------------------------------------------------------------------------
+
+  static int linear_axis(const std::string& a) {
+    if (a == "X") return 0;
+    if (a == "Y") return 1;
+    if (a == "Z") return 2;
+    return -1;
+  }
+  static int rotary_axis(const std::string& a) {
+    if (a == "A") return 0;
+    if (a == "B") return 1;
+    if (a == "C") return 2;
+    return -1;
+  }
+
+  double feed_from(const Word& word) const {
+    if (!word.value) fail(word, "expected a feed rate");
+    // Inch programs give F in 0.1 inch/min.
+    const double mm_per_min = *word.value * (mm_per_unit_ == 1.0 ? 1.0 : mm_per_unit_ / 10.0);
+    if (!(mm_per_min > 0.0)) fail(word, "the feed rate must be positive");
+    require_within(*word.token, mm_per_min, detail::kMinFeedMmPerMin, detail::kMaxFeedMmPerMin,
+                   "feed rate", "mm/min");
+    return mm_per_min * kMetresPerMillimetre / kSecondsPerMinute;
+  }
+
+  struct PendingCorner {
+    bool chamfer = false;
+    double size_mm = 0.0;
+    std::optional<double> feed_m_per_s;
+    int line = 0;
+    int column = 0;
+    int block = -1;
+  };
+
+  /// The last contour element, for CT, RND and CHF.
+  struct LastElement {
+    bool line = false;  ///< a straight line (else an arc)
+    Vec3 start = Vec3::Zero(), end = Vec3::Zero();  ///< program coordinates [mm]
+    Vec2 tangent = Vec2::Zero();  ///< unit direction at the end in the plane X/Y; zero: none
+    std::size_t point_index = 0;  ///< its last point (the corner), for RND / CHF
+    bool point_made = false;
+    bool in_plane = false;  ///< a line that does not move in Z
+    RotaryDeg rotary;
+  };
+
+  void require_no_pending_corner(const Token& token) const {
+    if (pending_corner_) {
+      fail(token, std::string(pending_corner_->chamfer ? "CHF" : "RND") +
+                      " must be followed by the straight line it ends at");
+    }
+  }
+
+  void motion_block(const std::string& kind, const Token& head, const std::vector<Token>& tokens,
+                    std::size_t first) {
+    const std::vector<Word> words = words_of(tokens, first);
+    std::array<const Word*, 3> xyz{}, abc{}, normal{}, vector{};
+    const Word* f_word = nullptr;
+    bool fmax = false, fauto = false;
+    const Word* dr_word = nullptr;
+    const Word* r_word = nullptr;
+    const Word* size_word = nullptr;  // CHF's length (a bare number)
+    bool m91 = false, m92 = false, m128 = false, m129 = false, end_program = false;
+    const auto once = [&](const Word*& slot, const Word& word) {
+      if (slot) fail(word, "the address appears twice in one block");
+      slot = &word;
+    };
+    for (const Word& word : words) {
+      const std::string& a = word.address;
+      if (a.empty()) {
+        if (kind == "CHF" && !size_word && word.value) {
+          size_word = &word;
+          continue;
+        }
+        fail(word, "expected a word");
+      }
+      if (const int k = linear_axis(a); k >= 0) {
+        if (!word.value) fail(word, "expected a value");
+        once(xyz[static_cast<std::size_t>(k)], word);
+        continue;
+      }
+      if (const int k = rotary_axis(a); k >= 0) {
+        if (!word.value) fail(word, "expected a value");
+        once(abc[static_cast<std::size_t>(k)], word);
+        continue;
+      }
+      if (a == "NX" || a == "NY" || a == "NZ" || a == "TX" || a == "TY" || a == "TZ") {
+        if (kind != "LN") fail(word, "the surface normal and tool vector belong to LN");
+        if (!word.value) fail(word, "expected a value");
+        once((a[0] == 'N' ? normal : vector)[static_cast<std::size_t>(a[1] - 'X')], word);
+        continue;
+      }
+      if (a == "F") {
+        once(f_word, word);
+        continue;
+      }
+      if (a == "FMAX") {
+        fmax = true;
+        continue;
+      }
+      if (a == "FAUTO") {
+        fauto = true;
+        continue;
+      }
+      if (a == "FU" || a == "FZ") fail(word, "feed per revolution / per tooth is not supported");
+      if (a == "R") {
+        if (kind == "CR" || kind == "RND") {
+          if (!word.value) fail(word, "expected the radius");
+          once(r_word, word);
+          continue;
+        }
+        if (word.value && *word.value == 0.0) continue;  // R0: no radius compensation
+        fail(word, "paraxial radius compensation R+ / R- is not supported");
+      }
+      if (a == "RL" || a == "RR") {
+        fail(word, "tool radius compensation RL / RR is not supported: program the tool centre (R0)");
+      }
+      if (a == "DR") {
+        if (kind != "C" && kind != "CR") fail(word, "DR (direction) belongs to C and CR");
+        if (!word.sign_only) fail(word, "expected DR+ or DR-");
+        once(dr_word, word);
+        continue;
+      }
+      if (a == "M") {
+        if (!word.value) fail(word, "expected the M function's number");
+        require_within(*word.token, *word.value, 0.0, detail::kMaxIgnoredWordValue, "M function", "");
+        const long m = std::lround(*word.value);
+        if (m == 91) m91 = true;
+        if (m == 92) m92 = true;
+        if (m == 128) m128 = true;
+        if (m == 129) m129 = true;
+        if (m == 2 || m == 30) end_program = true;
+        if (m == 140) fail(word, "M140 (retract along the tool axis) is not supported: program the retract");
+        if (m == 98 || m == 99) fail(word, "subprogram calls are not supported");
+        continue;
+      }
+      fail(word, "unsupported word in " + kind);
+    }
+    if (m91 && m92) fail(head, "both M91 and M92 in one block");
+    for (const Word* w : {xyz[0], xyz[1], xyz[2]}) {
+      if (w) require_within(*w->token, *w->value * mm_per_unit_, -detail::kMaxCoordinateMm, detail::kMaxCoordinateMm, "length", "mm");
+    }
+    for (const Word* w : {abc[0], abc[1], abc[2]}) {
+      if (w) require_within(*w->token, *w->value, -detail::kMaxRotaryDeg, detail::kMaxRotaryDeg, "rotary axis word", "deg");
+    }
+    if (r_word) {
+      require_within(*r_word->token, *r_word->value * mm_per_unit_, -detail::kMaxCoordinateMm, detail::kMaxCoordinateMm, "radius", "mm");
+    }
+    // Feed: F modal (and from the block on), FMAX this block only, FAUTO the TOOL CALL's.
+    std::optional<double> block_feed;
+    if (f_word) {
+      block_feed = feed_from(*f_word);
+      if (kind != "RND" && kind != "CHF") feed_m_per_s_ = block_feed;
+    }
+    if (fauto) {
+      if (!auto_feed_m_per_s_) fail(head, "FAUTO without a feed in TOOL CALL");
+      block_feed = auto_feed_m_per_s_;
+    }
+    if (m128) tcpm_ = true;
+
+    if (kind == "CC") {
+      pole(xyz, head);
+    } else if (kind == "RND" || kind == "CHF") {
+      corner(kind == "CHF", kind == "CHF" ? size_word : r_word, block_feed, head);
+    } else if (kind != "M") {
+      const Word* any = nullptr;
+      for (const Word* w : {xyz[0], xyz[1], xyz[2], abc[0], abc[1], abc[2]}) {
+        if (w && (!any || w->token->column < any->token->column)) any = w;
+      }
+      if (any || kind != "L") {
+        if (fmax && (kind != "L" && kind != "LN")) fail(head, "FMAX on an arc: give a feed");
+        const bool rapid = fmax;
+        std::optional<double> feed = rapid ? std::nullopt : (block_feed ? block_feed : feed_m_per_s_);
+        if (!rapid && !feed) fail(head, "feed motion before any F: the feed is unknown");
+        Motion motion{kind, &head, xyz, abc, normal, vector, dr_word, r_word, rapid, feed, m91 || m92, m92};
+        move(motion);
+      }
+    }
+    if (m129) tcpm_ = false;
+    if (end_program) ended_ = true;
+  }
+
+  struct Motion {
+    std::string kind;
+    const Token* head;
+    std::array<const Word*, 3> xyz, abc, normal, vector;
+    const Word* dr;
+    const Word* r;
+    bool rapid;
+    std::optional<double> feed_m_per_s;
+    bool machine;  ///< M91 / M92
+    bool m92;
+  };
+
+  /// CC: the circle centre, in the plane of the axes it names.
+  void pole(const std::array<const Word*, 3>& xyz, const Token& head) {
+    const bool x = xyz[0], y = xyz[1], z = xyz[2];
+    if (x && y && z) fail(head, "CC names two axes of the circle's plane, not three");
+    PlaneAxes plane = kPlaneXY;
+    if (z && x) plane = kPlaneZX;
+    if (z && y) plane = kPlaneYZ;
+    if (z && !x && !y) fail(*xyz[2]->token, "CC with Z alone: name the plane's two axes");
+    Vec3 c = Vec3::Zero();
+    for (int k = 0; k < 3; ++k) {
+      const Word* w = xyz[static_cast<std::size_t>(k)];
+      const auto& p = pos_[static_cast<std::size_t>(k)];
+      if (w && !w->incremental) {
+        c[k] = *w->value * mm_per_unit_;
+      } else {
+        if (!p && (k == plane[0] || k == plane[1])) {
+          fail(w ? *w->token : head, std::string("CC: the position of ") + "XYZ"[k] +
+                                         " is not known (the centre takes it from the tool)");
+        }
+        c[k] = p.value_or(0.0) + (w ? *w->value * mm_per_unit_ : 0.0);
+      }
+    }
+    pole_mm_ = c;
+    pole_plane_ = plane;
+  }
+
+  void corner(bool chamfer, const Word* size, std::optional<double> feed, const Token& head) {
+    if (!size) fail(head, chamfer ? "CHF needs its length (CHF 2)" : "RND needs its radius (RND R5)");
+    const double v = *size->value * mm_per_unit_;
+    if (!(v > 0.0)) fail(*size, chamfer ? "the chamfer length must be positive" : "the radius must be positive");
+    require_no_pending_corner(head);
+    if (!last_ || !last_->line || !last_->point_made ||
+        last_->point_index + 1 != path_.points.size()) {
+      fail(head, std::string(chamfer ? "CHF" : "RND") + " must follow a straight line (L) that ends at the corner");
+    }
+    PendingCorner pending;
+    pending.chamfer = chamfer;
+    pending.size_mm = v;
+    pending.feed_m_per_s = feed ? feed : feed_m_per_s_;
+    if (!pending.feed_m_per_s) fail(head, "feed motion before any F: the feed is unknown");
+    pending.line = line_;
+    pending.column = head.column;
+    pending.block = add_source_block();
+    pending_corner_ = pending;
+  }
+
+  // --- Poses ----------------------------------------------------------------------------------
+
+  PathPoint new_point(MotionKind kind, int block) const {
+    PathPoint point;
+    point.kind = kind;
+    point.block = block;
+    point.tool_number = tool_number_;
+    point.corner_tolerance_m = corner_tolerance_m_;
+    return point;
+  }
+
+  int add_source_block() {
+    SourceBlock source;
+    source.file = file_;
+    source.line = line_;
+    source.block_number = block_number_;
+    source.text = line_text_;
+    path_.blocks.push_back(std::move(source));
+    return static_cast<int>(path_.blocks.size()) - 1;
+  }
+
+  static std::vector<std::pair<char, double>> rotary_words(const RotaryDeg& rotary_deg) {
+    std::vector<std::pair<char, double>> words;
+    for (std::size_t k = 0; k < 3; ++k) {
+      if (rotary_deg[k]) words.emplace_back("ABC"[k], *rotary_deg[k]);
+    }
+    return words;
+  }
+  static std::array<double, 3> rotary_words_deg(const RotaryDeg& rotary_deg) {
+    std::array<double, 3> words;
+    for (std::size_t k = 0; k < 3; ++k) words[k] = rotary_deg[k].value_or(PathPoint::kNotProgrammed);
+    return words;
+  }
+
+  template <typename Call>
+  auto located_call(const char* callback, Call call) const {
+    const std::string where = "'" + line_text_ + "' (through " + callback + "): ";
+    try {
+      return call();
+    } catch (const InfeasibleError& error) {
+      throw InfeasibleError(located_message(file_, line_, 0, where + error.what()));
+    } catch (const InputError& error) {
+      throw InputError(located_message(file_, line_, 0, where + error.what()));
+    }
+  }
+
+  /// The tip in W [mm] of program point p with the tool along `axis_W` (tool-centre-point terms).
+  Vec3 tip_W_mm_of(const Vec3& p, const Vec3& axis_W) const {
+    return preset_W_mm_ + to_preset(p) + dl_mm_ * axis_W;
+  }
+
+  /// The machine axes X Y Z [mm] of program point p outside M128 and planes.
+  Vec3 machine_of(const Vec3& p) const {
+    return preset_machine_mm_ + to_preset(p) + Vec3(0.0, 0.0, tool_length_mm_ + dl_mm_);
+  }
+
+  /// Sets the pose of `point` for program point p [mm] with rotary words `rotary` (and, in
+  /// tool-centre-point terms, the axis `axis_W` unless the words give it); `shift_W_mm` moves
+  /// the tip in W (LN's DR along the normal).
+  void set_pose(PathPoint& point, const Vec3& p, const RotaryDeg& rotary, const Vec3& axis_W,
+                const Vec3& shift_W_mm = Vec3::Zero()) const {
+    point.rotary_words_deg = rotary_words_deg(rotary);
+    if (!tcp_like()) {
+      const Vec3 m = machine_of(p);
+      if (options_.axis_words_to_pose) {
+        std::vector<std::pair<char, double>> words = {{'X', m.x()}, {'Y', m.y()}, {'Z', m.z()}};
+        for (const auto& w : rotary_words(rotary)) words.push_back(w);
+        const AxisWordPose pose =
+            located_call("axis_words_to_pose", [&] { return options_.axis_words_to_pose(words); });
+        if (!pose.tip_W_m.allFinite()) {
+          fail(0, "axis_words_to_pose gave a tool tip that is not finite for '" + line_text_ + "'");
+        }
+        point.axis_W = detail::unit_tool_axis(pose.axis_W, file_, line_, 0,
+                                              line_text_ + " (through axis_words_to_pose)");
+        point.tip_W_m = pose.tip_W_m + shift_W_mm * kMetresPerMillimetre;
+        return;
+      }
+      const Vec3 gauge_mm = m - Vec3(0.0, 0.0, tool_length_mm_);
+      point.tip_W_m = (options_.machine_axes_W * gauge_mm + options_.machine_zero_W_mm + shift_W_mm) *
+                      kMetresPerMillimetre;
+      point.axis_W = Vec3::UnitZ();
+      return;
+    }
+    point.axis_W = axis_W;
+    point.tip_W_m = (tip_W_mm_of(p, axis_W) + shift_W_mm) * kMetresPerMillimetre;
+  }
+
+  Vec3 tool_axis_of(const RotaryDeg& rotary, int column) const {
+    const auto words = rotary_words(rotary);
+    const Vec3 v = located_call("rotary_words_to_tool_axis",
+                                [&] { return options_.rotary_words_to_tool_axis(words); });
+    return detail::unit_tool_axis(v, file_, line_, column, line_text_ + " (through rotary_words_to_tool_axis)");
+  }
+
+  /// Where an axis never programmed is taken: at the G28 reference (the machine's home) with a
+  /// set-up and outside tool-centre-point terms, else at the program's 0.
+  double start_position(int k) const {
+    if (!tcp_like() && !options_.work_offsets_mm.empty()) {
+      const Vec3 d = preset_machine_mm_ + to_preset(Vec3::Zero()) + Vec3(0.0, 0.0, tool_length_mm_ + dl_mm_);
+      return options_.g28_reference_mm[k] - d[k];
+    }
+    return 0.0;
+  }
+
+  void move(const Motion& m) {
+    const bool arc = m.kind == "C" || m.kind == "CR" || m.kind == "CT";
+    const bool any_rotary = m.abc[0] || m.abc[1] || m.abc[2];
+    const bool any_vector = m.vector[0] || m.vector[1] || m.vector[2];
+    const bool any_normal = m.normal[0] || m.normal[1] || m.normal[2];
+    if (arc && any_rotary) fail(*m.head, "a change of tool orientation in an arc is not supported");
+    if (any_vector && !tcpm_) {
+      fail(*m.head, "LN with a tool vector TX TY TZ needs M128 / FUNCTION TCPM");
+    }
+    if (any_rotary && any_vector) fail(*m.head, "both rotary words and a tool vector in one block");
+    if (any_rotary) {
+      const Word* w = m.abc[0] ? m.abc[0] : (m.abc[1] ? m.abc[1] : m.abc[2]);
+      if (tcp_like() && !options_.rotary_words_to_tool_axis) {
+        fail(*w, "rotary words under M128 / a tilted plane need a machine to turn them into a tool "
+                 "axis (ReaderOptions::rotary_words_to_tool_axis)");
+      }
+      if (!tcp_like() && !options_.axis_words_to_pose) {
+        fail(*w, "rotary axis words need a machine to turn the axis words into a tool pose "
+                 "(ReaderOptions::axis_words_to_pose)");
+      }
+    }
+    if (m.machine && tcp_like()) {
+      fail(*m.head, "M91 / M92 under M128 or in a tilted working plane (an error on the TNC too)");
+    }
+    if (m.machine && arc) fail(*m.head, "M91 / M92 on an arc");
+
+    // Machine coordinates (M91 / M92): the named axes become known in program terms.
+    std::array<std::optional<double>, 3> target = pos_;
+    if (m.machine) {
+      // No tool length compensation: the spindle's gauge point goes to the machine position;
+      // in program terms that is the machine position less machine_of(0).
+      const Vec3 zero = machine_of(Vec3::Zero());
+      for (int k = 0; k < 3; ++k) {
+        const Word* w = m.xyz[static_cast<std::size_t>(k)];
+        if (!w) continue;
+        if (w->incremental) fail(*w, "incremental words with M91 / M92");
+        const double machine_mm = *w->value * mm_per_unit_ + (m.m92 ? options_.g28_reference_mm[k] : 0.0);
+        target[static_cast<std::size_t>(k)] = machine_mm - zero[k];
+      }
+    }
+    const RotaryDeg start_rotary = rotary_deg_;
+    RotaryDeg rotary = rotary_deg_;
+    for (int k = 0; k < 3; ++k) {
+      const Word* w = m.abc[static_cast<std::size_t>(k)];
+      if (!w) continue;
+      const double previous = rotary[static_cast<std::size_t>(k)].value_or(0.0);
+      const double value = w->incremental ? previous + *w->value : *w->value;
+      require_within(*w->token, value, -detail::kMaxRotaryDeg, detail::kMaxRotaryDeg, "rotary axis position", "deg");
+      rotary[static_cast<std::size_t>(k)] = value;
+    }
+    if (any_vector) rotary = {};  // the tool vector, not the words, orients the tool
+    if (m.machine && !(target[0] && target[1] && target[2])) {
+      // As after G28 / G53: the named axes are known, the pose once all three are.
+      pos_ = target;
+      rotary_deg_ = rotary;
+      if (any_rotary) rotary_unknown_ = false;
+      return;
+    }
+    // The start: axes never programmed at their start position (with a warning).
+    Vec3 start;
+    for (int k = 0; k < 3; ++k) {
+      auto& p = pos_[static_cast<std::size_t>(k)];
+      if (!p) {
+        const Word* w = m.xyz[static_cast<std::size_t>(k)];
+        if (!(w && !w->incremental) && !m.machine) {
+          warn(std::string("axis ") + "XYZ"[k] + " has no programmed position before this motion: taken " +
+               (!tcp_like() && !options_.work_offsets_mm.empty()
+                    ? "at the G28 reference point (the machine's home, where a tool change leaves it)"
+                    : "as 0"));
+        }
+        p = start_position(k);
+        if (!target[static_cast<std::size_t>(k)]) target[static_cast<std::size_t>(k)] = p;
+      }
+      start[k] = *p;
+    }
+    Vec3 end = start;
+    for (int k = 0; k < 3; ++k) {
+      if (m.machine) {
+        end[k] = *target[static_cast<std::size_t>(k)];
+        continue;
+      }
+      const Word* w = m.xyz[static_cast<std::size_t>(k)];
+      if (!w) continue;
+      const double v = *w->value * mm_per_unit_;
+      end[k] = w->incremental ? start[k] + v : v;
+      require_within(*w->token, end[k], -detail::kMaxCoordinateMm, detail::kMaxCoordinateMm, "position", "mm");
+    }
+    if (arc && !started_) fail(*m.head, "an arc as the first motion: its start point is unknown");
+
+    // The tool axis of this motion.
+    Vec3 axis = axis_W_;
+    if (any_vector) {
+      const Vec3 t(m.vector[0] ? *m.vector[0]->value : 0.0, m.vector[1] ? *m.vector[1]->value : 0.0,
+                   m.vector[2] ? *m.vector[2]->value : 0.0);
+      axis = plane_R_ * detail::unit_tool_axis(t, file_, line_, m.head->column, line_text_);
+    } else if (any_rotary && tcp_like()) {
+      axis = tool_axis_of(rotary, m.head->column);
+    }
+    if (any_rotary) rotary_unknown_ = false;
+    if (!tcp_like() && rotary_unknown_ && !any_rotary && axis_W_ != Vec3::UnitZ()) {
+      fail(*m.head, "the rotary axes are where PLANE ... TURN put them (the chain's choice, unknown "
+                    "to the reader): position them (L A.. C..) before leaving the plane and M128");
+    }
+    Vec3 shift_W = Vec3::Zero();
+    if (m.kind == "LN") {
+      if (!any_normal) fail(*m.head, "LN needs the surface normal NX NY NZ");
+      const Vec3 n(m.normal[0] ? *m.normal[0]->value : 0.0, m.normal[1] ? *m.normal[1]->value : 0.0,
+                   m.normal[2] ? *m.normal[2]->value : 0.0);
+      shift_W = dr_mm_ * (plane_R_ * detail::unit_tool_axis(n, file_, line_, m.head->column, line_text_));
+    }
+
+    PathPoint point = new_point(m.rapid ? MotionKind::rapid : (arc ? MotionKind::arc : MotionKind::linear), -1);
+    if (!m.rapid) point.feed_m_per_s = *m.feed_m_per_s;
+    const std::size_t first_point = path_.points.size();
+
+    if (pending_corner_) {
+      if (m.kind != "L" || m.machine) {
+        fail(*m.head, std::string(pending_corner_->chamfer ? "CHF" : "RND") +
+                          " between a line and an arc, or before a positioning with M91 / M92, is "
+                          "not supported: only between two straight lines");
+      }
+      start = round_corner(start, end, *m.head);
+    }
+    point.block = add_source_block();
+    if (!arc) {
+      line_points(point, start, end, start_rotary, rotary, axis, shift_W, *m.head);
+    } else {
+      arc_motion(point, m, start, end);
+    }
+    // The block's last point carries the mode; points inside it are no corners.
+    for (std::size_t i = first_point; i + 1 < path_.points.size(); ++i) {
+      if (path_.points[i].corner_tolerance_m == 0.0) path_.points[i].corner_tolerance_m = PathPoint::kNotProgrammed;
+    }
+    started_ = true;
+    axis_W_ = tcp_like() ? axis : (path_.points.empty() ? axis_W_ : path_.points.back().axis_W);
+    rotary_deg_ = rotary;
+    if (any_vector) {
+      // The tool vector leaves the rotary axes to the chain: unknown to the reader from here.
+      rotary_deg_ = {};
+      rotary_unknown_ = true;
+    }
+    for (int k = 0; k < 3; ++k) pos_[static_cast<std::size_t>(k)] = end[k];
+    // The element, for CT / RND / CHF.
+    LastElement element;
+    element.line = !arc;
+    element.start = start;
+    element.end = end;
+    element.rotary = rotary;
+    element.point_made = path_.points.size() > first_point;
+    element.point_index = path_.points.size() - 1;
+    if (!arc) {
+      const Vec2 d(end.x() - start.x(), end.y() - start.y());
+      element.tangent = d.norm() > kTinyMm ? Vec2(d.normalized()) : Vec2::Zero();
+      element.in_plane = std::abs(end.z() - start.z()) <= kTinyMm;
+    } else {
+      element.tangent = arc_end_tangent_;
+      element.in_plane = false;
+    }
+    last_ = element;
+  }
+
+  /// RND / CHF pending at the corner `corner` (the start of this line to `end`): moves the
+  /// previous line's end point back to the first tangent point, makes the rounding arc or the
+  /// chamfer, and gives the start of this line (the second tangent point).
+  Vec3 round_corner(const Vec3& corner, const Vec3& end, const Token& head) {
+    const PendingCorner pending = *pending_corner_;
+    pending_corner_.reset();
+    const std::string name = pending.chamfer ? "CHF" : "RND";
+    const LastElement& before = *last_;
+    if (!before.in_plane || std::abs(end.z() - corner.z()) > kTinyMm) {
+      fail(head, name + " between lines in the working plane X/Y only (this line or the one before "
+                        "moves in Z)");
+    }
+    const Vec2 c2(corner.x(), corner.y());
+    const Vec2 a(before.start.x(), before.start.y());
+    const Vec2 b(end.x(), end.y());
+    const double len1 = (c2 - a).norm(), len2 = (b - c2).norm();
+    if (len1 <= kTinyMm || len2 <= kTinyMm) fail(head, name + " next to a line of zero length in X/Y");
+    const Vec2 u1 = (c2 - a) / len1, u2 = (b - c2) / len2;
+    const double cross = u1.x() * u2.y() - u1.y() * u2.x();
+    const double deflection = std::atan2(std::abs(cross), u1.dot(u2));
+    if (std::abs(cross) < 1e-12 && u1.dot(u2) > 0.0) fail(head, name + " between collinear lines: no corner");
+    if (std::abs(cross) < 1e-12) fail(head, name + " where the contour reverses: no corner to round");
+    const double t = pending.chamfer ? pending.size_mm : pending.size_mm * std::tan(0.5 * deflection);
+    if (t > len1 + kTinyMm || t > len2 + kTinyMm) {
+      fail(head, name + " " + detail::format_number(pending.size_mm) + " mm cuts " +
+                     detail::format_number(t) + " mm off each line, more than the lines are long (" +
+                     detail::format_number(len1) + " and " + detail::format_number(len2) + " mm)");
+    }
+    const Vec2 t1 = c2 - t * u1, t2 = c2 + t * u2;
+    const Vec3 p1(t1.x(), t1.y(), corner.z()), p2(t2.x(), t2.y(), corner.z());
+    // The line before now ends at the first tangent point.
+    PathPoint& corner_point = path_.points[before.point_index];
+    set_pose(corner_point, p1, before.rotary, corner_point.axis_W);
+    const int block = pending.block;
+    PathPoint point = new_point(pending.chamfer ? MotionKind::linear : MotionKind::arc, block);
+    point.feed_m_per_s = *pending.feed_m_per_s;
+    const int saved_line = line_;
+    if (pending.chamfer) {
+      set_pose(point, p2, rotary_deg_, axis_W_);
+      detail::append_point(path_, point, options_, file_, line_);
+    } else {
+      const bool ccw = cross > 0.0;
+      const Vec2 n1 = ccw ? Vec2(-u1.y(), u1.x()) : Vec2(u1.y(), -u1.x());
+      const Vec2 centre = t1 + pending.size_mm * n1;
+      line_ = pending.line;
+      arc_points(point, p1, p2, centre, ccw, false, kPlaneXY, pending.column);
+      line_ = saved_line;
+    }
+    return p2;
+  }
+
+  void line_points(PathPoint point, const Vec3& start, const Vec3& end, const RotaryDeg& start_rotary,
+                   const RotaryDeg& rotary, const Vec3& axis, const Vec3& shift_W, const Token& head) {
+    double largest_turn = 0.0;
+    for (std::size_t k = 0; k < 3; ++k) {
+      if (rotary[k] && start_rotary[k]) largest_turn = std::max(largest_turn, std::abs(*rotary[k] - *start_rotary[k]));
+    }
+    if (largest_turn < kSplitRotaryTurnDeg) {
+      set_pose(point, end, rotary, axis, shift_W);
+      detail::append_point(path_, point, options_, file_, line_);
+      return;
+    }
+    const auto steps = static_cast<std::size_t>(std::ceil(largest_turn / kRotaryStepDeg));
+    detail::require_room_for_points(path_, steps, options_, file_, line_, head.column,
+                                    "the rotary turn of " + detail::format_number(largest_turn) +
+                                        " deg (steps of " + detail::format_number(kRotaryStepDeg) + " deg)");
+    PathPoint end_point = point;
+    set_pose(end_point, end, rotary, axis, shift_W);  // the words as written checked first
+    for (std::size_t s = 1; s < steps; ++s) {
+      const double t = static_cast<double>(s) / static_cast<double>(steps);
+      RotaryDeg r = rotary;
+      for (std::size_t k = 0; k < 3; ++k) {
+        if (rotary[k] && start_rotary[k]) r[k] = *start_rotary[k] + t * (*rotary[k] - *start_rotary[k]);
+      }
+      const Vec3 a = tcp_like() && options_.rotary_words_to_tool_axis && !rotary_words(r).empty()
+                         ? tool_axis_of(r, head.column)
+                         : axis;
+      set_pose(point, start + t * (end - start), r, a, t * shift_W);
+      detail::append_point(path_, point, options_, file_, line_);
+    }
+    detail::append_point(path_, end_point, options_, file_, line_);
+  }
+
+  double radius_tolerance_mm(double r_mm) const {
+    const double absolute_mm = mm_per_unit_ == 1.0
+                                   ? options_.arc_radius_tolerance_mm
+                                   : options_.arc_radius_tolerance_inch * detail::kMillimetresPerInch;
+    return std::max(absolute_mm, options_.arc_radius_relative_tolerance * r_mm);
+  }
+
+  void arc_motion(PathPoint point, const Motion& m, const Vec3& start, const Vec3& end) {
+    const Token& head = *m.head;
+    if (m.kind == "C") {
+      if (!pole_mm_) fail(head, "C without a circle centre CC before it");
+      const PlaneAxes plane = pole_plane_;
+      const Vec2 c((*pole_mm_)[plane[0]], (*pole_mm_)[plane[1]]);
+      if (!m.dr) fail(head, "C needs its direction DR+ or DR-");
+      const Vec2 s(start[plane[0]], start[plane[1]]), e(end[plane[0]], end[plane[1]]);
+      const bool full = (e - s).norm() < detail::kFullCircleDistanceMm;
+      arc_points(point, start, end, c, m.dr->sign_only > 0, full, plane, head.column);
+      return;
+    }
+    const Vec2 s(start.x(), start.y()), e(end.x(), end.y());
+    if ((e - s).norm() < detail::kFullCircleDistanceMm) {
+      fail(head, m.kind + " cannot be a full circle (end = start): use CC and C");
+    }
+    if (m.kind == "CR") {
+      if (!m.r) fail(head, "CR needs its radius R");
+      if (!m.dr) fail(head, "CR needs its direction DR+ or DR-");
+      const double r_mm = *m.r->value * mm_per_unit_;
+      if (r_mm == 0.0) fail(*m.r, "zero arc radius");
+      double short_by = 0.0;
+      const bool ccw = m.dr->sign_only > 0;
+      const Vec2 c = detail::arc_centre_from_radius(s, e, r_mm, ccw, &short_by);
+      const double tolerance = radius_tolerance_mm(0.5 * (e - s).norm());
+      if (short_by > tolerance) {
+        fail(*m.r, "the radius is smaller than half the distance from start to end (" +
+                       detail::format_number(0.5 * (e - s).norm()) + " mm) by " +
+                       detail::format_number(short_by) + " mm, more than the tolerance of " +
+                       detail::format_number(tolerance) + " mm");
+      }
+      arc_points(point, start, end, c, ccw, false, kPlaneXY, head.column);
+      return;
+    }
+    // CT: tangent to the element before at its end.
+    if (!last_ || last_->tangent.norm() == 0.0) {
+      fail(head, "CT needs a contour element before it with a direction in the plane X/Y");
+    }
+    const Vec2 t = last_->tangent;
+    const Vec2 n(-t.y(), t.x());
+    const Vec2 d = e - s;
+    const double nd = n.dot(d);
+    if (std::abs(nd) <= 1e-12 * d.squaredNorm() || std::abs(nd) < 1e-12) {
+      fail(head, "CT: the end point lies on the tangent (a straight line, not an arc)");
+    }
+    const double r_signed = d.squaredNorm() / (2.0 * nd);
+    const Vec2 c = s + r_signed * n;
+    arc_points(point, start, end, c, r_signed > 0.0, false, kPlaneXY, head.column);
+  }
+
+  /// The points of an arc from start to end [program mm] about centre c in `plane`, tessellated
+  /// as G2/G3 (detail arc helpers); motion along the plane normal makes a helix.
+  void arc_points(PathPoint point, const Vec3& start, const Vec3& end, Vec2 c, bool ccw,
+                  bool full_circle, const PlaneAxes& plane, int column) {
+    const int u = plane[0], v = plane[1], w = plane[2];
+    const Vec2 s(start[u], start[v]), e(end[u], end[v]);
+    double r_start = (s - c).norm(), r_end = (e - c).norm();
+    if (r_start == 0.0) fail(column, "an arc of zero radius (the centre is the start point)");
+    const double tolerance = radius_tolerance_mm(std::max(r_start, r_end));
+    if (std::abs(r_start - r_end) > tolerance) {
+      fail(column, "'" + line_text_ + "': the arc's start and end are not at the same distance from its "
+                   "centre: start radius " + detail::format_number(r_start) + " mm, end radius " +
+                   detail::format_number(r_end) + " mm, more than the tolerance of " +
+                   detail::format_number(tolerance) + " mm apart");
+    }
+    if (!full_circle && r_start != r_end) {
+      c = detail::centre_on_bisector(s, e, c);
+      r_start = r_end = (s - c).norm();
+    }
+    const double a0 = std::atan2(s.y() - c.y(), s.x() - c.x());
+    const double sweep = detail::arc_sweep_rad(s, e, c, ccw, full_circle);
+    const double r_max = std::max(r_start, r_end);
+    const double chord_mm = options_.arc_chord_tolerance_m / kMetresPerMillimetre;
+    const double count = detail::arc_chord_count(r_max, sweep, chord_mm);
+    const std::string what = "the arc (radius " + detail::format_number(r_max) + " mm, " +
+                             detail::format_number(std::abs(sweep) * kDegPerRad) +
+                             " deg, chord tolerance " + detail::format_number(chord_mm) + " mm)";
+    if (!(count <= static_cast<double>(options_.max_points_per_block))) {
+      fail(column, what + " expands to " + detail::format_number(count) +
+                       " points, more than the limit of " + std::to_string(options_.max_points_per_block) +
+                       " points per block (ReaderOptions::max_points_per_block)");
+    }
+    const auto segments = static_cast<long>(count);
+    detail::require_room_for_points(path_, static_cast<std::size_t>(segments), options_, file_, line_, column, what);
+    for (long k = 1; k <= segments; ++k) {
+      Vec3 p = end;
+      if (k < segments) {
+        const double t = static_cast<double>(k) / static_cast<double>(segments);
+        const double angle = a0 + t * sweep;
+        p[u] = c.x() + r_start * std::cos(angle);
+        p[v] = c.y() + r_start * std::sin(angle);
+        p[w] = start[w] + t * (end[w] - start[w]);
+      }
+      set_pose(point, p, rotary_deg_, axis_W_);
+      detail::append_point(path_, point, options_, file_, line_);
+    }
+    // The direction at the end, in the plane X/Y (for CT after this arc).
+    const double a1 = a0 + sweep;
+    const Vec2 radial(std::cos(a1), std::sin(a1));
+    const Vec2 tangent = ccw ? Vec2(-radial.y(), radial.x()) : Vec2(radial.y(), -radial.x());
+    arc_end_tangent_ = plane == kPlaneXY ? tangent : Vec2::Zero();
+  }
+
+  const std::string& file_;
+  const ReaderOptions& options_;
+  Toolpath path_;
+  int line_ = 0;
+  std::string line_text_;
+  long block_number_ = -1;
+  bool ended_ = false;
+  bool started_ = false;
+  int warning_count_ = 0;
+
+  double mm_per_unit_ = 1.0;
+  std::map<std::string, double> q_;
+  std::optional<Vec3> blank_min_mm_;
+  // Tool.
+  int tool_number_ = -1;
+  double tool_length_mm_ = 0.0;
+  double dl_mm_ = 0.0, dr_mm_ = 0.0;
+  std::optional<double> auto_feed_m_per_s_;
+  std::optional<double> feed_m_per_s_;
+  double corner_tolerance_m_ = PathPoint::kNotProgrammed;
+  bool in_datum_cycle_ = false, tolerance_cycle_ = false;
+  // Frames.
+  Vec3 preset_machine_mm_ = Vec3::Zero();
+  Vec3 preset_W_mm_ = Vec3::Zero();
+  Vec3 shift_before_mm_ = Vec3::Zero(), shift_after_mm_ = Vec3::Zero();
+  bool plane_active_ = false;
+  Eigen::Matrix3d plane_R_ = Eigen::Matrix3d::Identity();
+  bool tcpm_ = false;
+  // Position and contour.
+  std::array<std::optional<double>, 3> pos_;  ///< program coordinates [mm]
+  RotaryDeg rotary_deg_;
+  bool rotary_unknown_ = false;  ///< after PLANE TURN: the axes are the chain's choice
+  Vec3 axis_W_ = Vec3::UnitZ();
+  std::optional<Vec3> pole_mm_;
+  PlaneAxes pole_plane_ = kPlaneXY;
+  Vec2 arc_end_tangent_ = Vec2::Zero();
+  std::optional<PendingCorner> pending_corner_;
+  std::optional<LastElement> last_;
+};
+
+}  // namespace
+
+Toolpath parse_heidenhain(const std::string& text, const std::string& file_name_for_messages,
+                          const ReaderOptions& options) {
+  HeidenhainReader reader(file_name_for_messages, options);
+  return detail::read_with_located_errors(reader, text, file_name_for_messages);
+}
+
+Toolpath read_heidenhain(const std::string& path, const ReaderOptions& options) {
+  return parse_heidenhain(detail::read_text_file(path), path, options);
+}
+
+}  // namespace vmsim::toolpath
