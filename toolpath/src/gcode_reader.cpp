@@ -1473,11 +1473,7 @@ class GcodeReader {
     // Chord error of a segment of angle delta on radius r: r (1 - cos(delta / 2)).
     const double r_max = std::max(r_start, r_end);
     const double tolerance_mm = options_.arc_chord_tolerance_m / kMetresPerMillimetre;
-    double max_delta = std::numbers::pi / 2.0;
-    if (tolerance_mm < r_max) {
-      max_delta = std::min(max_delta, 2.0 * std::acos(1.0 - tolerance_mm / r_max));
-    }
-    const double segments_real = std::ceil(std::abs(sweep) / max_delta);
+    const double segments_real = detail::arc_segment_count(r_max, sweep, tolerance_mm);
     const std::string what =
         "the arc (radius " + detail::format_number(r_max) + " mm, " +
         detail::format_number(std::abs(sweep) * 180.0 / std::numbers::pi) +

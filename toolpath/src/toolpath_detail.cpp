@@ -4,7 +4,9 @@
 #include <charconv>
 #include <cmath>
 #include <cstdio>
+#include <algorithm>
 #include <limits>
+#include <numbers>
 #include <filesystem>
 #include <fstream>
 #include <system_error>
@@ -227,6 +229,26 @@ void require_motion(const Toolpath& path, const std::string& file) {
     throw InputError(located_message(file, 0, 0,
                                      "no motion: the tool path programs no tool position"));
   }
+}
+
+double arc_segment_count(double radius_mm, double sweep_rad, double chord_tolerance_mm) {
+  double max_delta = std::numbers::pi / 2.0;
+  if (chord_tolerance_mm < radius_mm) {
+    max_delta = std::min(max_delta, 2.0 * std::acos(1.0 - chord_tolerance_mm / radius_mm));
+  }
+  return std::max(1.0, std::ceil(std::abs(sweep_rad) / max_delta));
+}
+
+Eigen::Vector3d SpaceArc::at(double t) const {
+  const double angle = t * sweep_rad;
+  return centre + radius * (std::cos(angle) * u + std::sin(angle) * v) + t * lift;
+}
+
+Eigen::Vector3d SpaceArc::tangent(double t) const {
+  const double angle = t * sweep_rad;
+  const Eigen::Vector3d d =
+      radius * sweep_rad * (-std::sin(angle) * u + std::cos(angle) * v) + lift;
+  return d.normalized();
 }
 
 }  // namespace vmsim::toolpath::detail

@@ -92,6 +92,27 @@ void require_room_for_points(const Toolpath& path, std::size_t more, const Reade
                              const std::string& file, int line, int column,
                              const std::string& what);
 
+/// Chord segments of an arc of `radius_mm` turning by |sweep_rad| whose chords stay within
+/// `chord_tolerance_mm` of it (chord error r (1 - cos(delta / 2))), at most 90 deg each; at
+/// least 1. Not rounded to an integer, so that a caller can check it against its limits first.
+/// Shared by the G-code and Siemens readers.
+double arc_segment_count(double radius_mm, double sweep_rad, double chord_tolerance_mm);
+
+/// A circular arc or helix in space [mm]: p(t) = centre + radius (cos(t sweep) u + sin(t sweep)
+/// v) + t lift, t in [0, 1]; u, v orthonormal (u from the centre to the start, v the direction
+/// of motion at the start), sweep > 0.
+struct SpaceArc {
+  Eigen::Vector3d centre = Eigen::Vector3d::Zero();
+  Eigen::Vector3d u = Eigen::Vector3d::UnitX();
+  Eigen::Vector3d v = Eigen::Vector3d::UnitY();
+  Eigen::Vector3d lift = Eigen::Vector3d::Zero();
+  double radius = 0.0;
+  double sweep_rad = 0.0;
+  Eigen::Vector3d at(double t) const;
+  /// Unit direction of motion at t (the helix's lift included).
+  Eigen::Vector3d tangent(double t) const;
+};
+
 /// Throws InputError naming the file when the path has no point.
 void require_motion(const Toolpath& path, const std::string& file);
 

@@ -418,8 +418,16 @@ Toolpath read_gcode(const std::string& path, const ReaderOptions& options = {});
 Toolpath parse_gcode(const std::string& text, const std::string& file_name_for_messages,
                      const ReaderOptions& options = {});
 
-/// Picks the reader by extension: .apt .cl .cls -> APT; .nc .ngc .gcode .mpf .tap .iso .ptp .eia
-/// .cnc -> G-code.
+/// Reads a Siemens Sinumerik 840D program (subset above, "Siemens 840D"). Throws
+/// vmsim::InputError naming the file, line, column and word. Subprograms (L<n>, named calls) are
+/// looked for in ReaderOptions::subprogram_folder (read_siemens: the program's folder).
+Toolpath read_siemens(const std::string& path, const ReaderOptions& options = {});
+Toolpath parse_siemens(const std::string& text, const std::string& file_name_for_messages,
+                       const ReaderOptions& options = {});
+
+/// Picks the reader by extension: .apt .cl .cls -> APT; .mpf .spf -> Siemens 840D; .nc .ngc
+/// .gcode .tap .iso .ptp .eia .cnc -> G-code, unless the text is unmistakably a Siemens program
+/// (a `%_N_..._MPF` header, or a CYCLE832 / CYCLE800 call), which goes to the Siemens reader.
 Toolpath read_toolpath(const std::string& path, const ReaderOptions& options = {});
 
 }  // namespace vmsim::toolpath
