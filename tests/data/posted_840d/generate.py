@@ -24,11 +24,11 @@ def f3(v):
     return f"{v:.3f}".rstrip("0")  # "10." as the posts write integers
 
 
-def f4(v):
-    v = round(v, 4)
+def f6(v):
+    v = round(v, 6)
     if v == 0:
         v = 0.0
-    return f"{v:.4f}"
+    return f"{v:.6f}"
 
 
 def write(folder, name, lines, part):
@@ -176,7 +176,7 @@ feeds: {{}}                           # the program's own feeds; reference at 1 
 
 def powermill_5axis():
     """PowerMill (Sinumerik 840D 5-axis post): TRAORI, ORIWKS, ORIVECT, CYCLE832, COMPCAD, SOFT,
-    FFWON, X Y Z and the tool vector A3 B3 C3 (4 decimals) on every point of a spiral over a
+    FFWON, X Y Z and the tool vector A3 B3 C3 (6 decimals) on every point of a spiral over a
     dome (tool normal to it), the tool vector back to +Z at the safe height, TRAFOOF."""
     w = Numbered(2)
     w("%_N_PM_DOME_MPF", numbered=False)
@@ -203,7 +203,7 @@ def powermill_5axis():
 
     tip, n = pose(15.0, 0.0)
     w(f"G0 X{f3(tip[0] + 40 * n[0])} Y{f3(tip[1] + 40 * n[1])} Z{f3(tip[2] + 40 * n[2])} "
-      f"A3={f4(n[0])} B3={f4(n[1])} C3={f4(n[2])}")
+      f"A3={f6(n[0])} B3={f6(n[1])} C3={f6(n[2])}")
     w(f"G1 X{f3(tip[0] + 2 * n[0])} Y{f3(tip[1] + 2 * n[1])} Z{f3(tip[2] + 2 * n[2])} F500")
     w(f"X{f3(tip[0])} Y{f3(tip[1])} Z{f3(tip[2])} F2000")
     # A spiral from 15 to 45 deg of polar angle over 3 turns, 2 deg of azimuth per point.
@@ -211,7 +211,7 @@ def powermill_5axis():
     for k in range(1, steps + 1):
         polar = 15.0 + 30.0 * k / steps
         tip, n = pose(polar, 2.0 * k)
-        w(f"X{f3(tip[0])} Y{f3(tip[1])} Z{f3(tip[2])} A3={f4(n[0])} B3={f4(n[1])} C3={f4(n[2])}")
+        w(f"X{f3(tip[0])} Y{f3(tip[1])} Z{f3(tip[2])} A3={f6(n[0])} B3={f6(n[1])} C3={f6(n[2])}")
     w(f"G1 X{f3(tip[0] + 5 * n[0])} Y{f3(tip[1] + 5 * n[1])} Z{f3(tip[2] + 5 * n[2])}")
     w(f"G0 X{f3(tip[0] + 40 * n[0])} Y{f3(tip[1] + 40 * n[1])} Z{f3(tip[2] + 40 * n[2])}")
     w("G0 Z80 A3=0 B3=0 C3=1")
