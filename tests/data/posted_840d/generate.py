@@ -24,6 +24,14 @@ def f3(v):
     return f"{v:.3f}".rstrip("0")  # "10." as the posts write integers
 
 
+def f4(v):
+    """4 decimals, trailing zeros dropped ("X-45.8")."""
+    v = round(v, 4)
+    if v == 0:
+        v = 0.0
+    return f"{v:.4f}".rstrip("0")
+
+
 def f6(v):
     v = round(v, 6)
     if v == 0:
@@ -303,7 +311,7 @@ def part1_840d():
                 continue
             x, y, z = (float(v) for v in line.split("/")[1].split(",")[:3])
             code = "G0" if rapid or line.startswith("FROM/") else "G1"
-            words = f"X{f3(x)} Y{f3(y)} Z{f3(z)}"
+            words = f"X{f4(x)} Y{f4(y)} Z{f4(z)}"
             if code != motion:
                 words = f"{code} {words}" + (" F10000" if code == "G1" else "")
                 motion = code
