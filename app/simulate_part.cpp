@@ -164,6 +164,9 @@ struct Context {
   /// feedforward is switched, the machine the servo simulates.
   NcModes nc;
   std::optional<kinematics::MachineModel> servo_machine;
+  /// Set by a run whose third-order plan failed and fell back to second order (the context
+  /// line then says so).
+  mutable bool third_order_fell_back = false;
 };
 
 // s of the plan at time t (linear interpolation in the set points).
@@ -237,6 +240,7 @@ Run simulate_run(const Context& context, const std::string& name, const FeedSett
       // The third-order (jerk / torque-rate) planner does not yet hold on every path: plan with
       // velocity, acceleration (or torque) limits only, and say so in the report.
       plan_options.third_order = false;
+      context.third_order_fell_back = true;
       run.plan = planner::plan_feedrate(machine, context.path, plan_options);
       run.plan.notes.push_back(std::string("jerk / torque-rate limits NOT applied: the third-order "
                                            "planner failed on this path (") + error.what() +
@@ -982,6 +986,9 @@ Json report_context(const Context& context, const FeedSetting& production_feed, 
   out["planning"] = method_name(options.method) + std::string(context.nc.third_order ? ", jerk / torque-rate limits"
                                                                                       : ", no jerk limit") +
                     " (" + context.nc.jerk.source + ")" +
+                    (context.third_order_fell_back ? "; the third-order planner failed: planned without jerk limits "
+                                                     "(see the runs' notes)"
+                                                   : "") +
                     (options.perfect_drives ? ", perfect drives (no servo)" : "");
   out["corners"] = !options.corner_tolerance_override
                        ? std::string("as the program asks (G61 / G9 exact stop, G64 P / G5.1 / G187 blending; "
@@ -1011,7 +1018,7 @@ Json simulate_part(const SimulatePartOptions& options, const ProgressSink& progr
   chain_options.part_path = options.part_path;
   chain_options.corner_tolerance_m = options.corner_tolerance_m;
   chain_options.corner_tolerance_override = options.corner_tolerance_override;
-  Context context{options, progress, load_part(options.part_path), load_chain_inputs(chain_options), {}, {}, {}, {}, {}, {}, {}, {}};
+  Context context{options, progress, load_part(options.part_path), load_chain_inputs(chain_options), {}, {}, {}, {}, {}, {}, {}, {}, false};
   NcModeCommandLine nc_command_line;
   nc_command_line.third_order = options.third_order;
   nc_command_line.third_order_option = options.third_order && *options.third_order ? "--third-order" : "--no-third-order";
