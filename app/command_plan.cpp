@@ -17,6 +17,7 @@
 #include "effects_option.hpp"
 #include "input_files.hpp"
 #include "json_text.hpp"
+#include "nc_modes.hpp"
 #include "vmsim/common/errors.hpp"
 #include "vmsim/common/files.hpp"
 #include "vmsim/common/output_folder.hpp"
@@ -39,6 +40,7 @@ struct PlanOptions {
   double corner_axis_tolerance_deg = planner::CornerBlendOptions{}.axis_tolerance_rad * 180.0 / std::numbers::pi;
   bool exact_stop = false;
   bool no_third_order = false;
+  bool third_order = false;
   bool no_plot = false;
 };
 
@@ -97,7 +99,6 @@ int run_plan(const PlanOptions& options, const CommandContext& context) {
   fo.method = parse_method(options.method);
   fo.limits = parse_limit_source(options.limits);
   fo.effects = parse_effects(options.effects);
-  fo.third_order = !options.no_third_order;
   if (options.feed_mm_per_min < 0.0) {
     throw CommandLineError("--feed-mm-per-min must be > 0, got " + format_double(options.feed_mm_per_min));
   }
@@ -112,6 +113,15 @@ int run_plan(const PlanOptions& options, const CommandContext& context) {
   input_options.corner_tolerance_override = options.exact_stop || options.corner_tolerance_mm > 0.0;
 
   const ChainInputs inputs = load_chain_inputs(input_options);
+  // Jerk limits: the command line's, else the program's SOFT / BRISK, else on (plan's default).
+  NcModeCommandLine nc_command_line;
+  if (options.third_order || options.no_third_order) nc_command_line.third_order = options.third_order;
+  nc_command_line.third_order_option = options.third_order ? "--third-order" : "--no-third-order";
+  nc_command_line.corner_override = input_options.corner_tolerance_override;
+  nc_command_line.corner_tolerance_m = input_options.corner_tolerance_m;
+  nc_command_line.default_third_order = true;
+  const NcModes nc_modes = decide_nc_modes(inputs.toolpath, nc_command_line);
+  fo.third_order = nc_modes.third_order;
   OutputFolder output(options.out_dir, chain_input_files(input_options, inputs), {"plan", VMSIM_VERSION});
   for (const std::string& warning : inputs.warnings) context.warn(warning);
   const kinematics::PathKinematics path = kinematics::solve_path_kinematics(
@@ -181,6 +191,7 @@ int run_plan(const PlanOptions& options, const CommandContext& context) {
   summary["limits"] = options.limits;
   summary["effects"] = options.effects;
   summary["third_order"] = fo.third_order;
+  summary["nc_modes"] = nc_modes.to_json();
   auto block_name = [&inputs](int block) {
     return block >= 0 ? inputs.block_names[static_cast<std::size_t>(block)] : std::string("-");
   };
@@ -302,6 +313,7 @@ int run_plan(const PlanOptions& options, const CommandContext& context) {
     }
   }
   for (const auto& note : plan.notes) context.say("note: " + note);
+  context.say("NC mode: " + nc_modes.lines()[0]);
   if (!plot && !options.no_plot) {
     context.warn("no plot: " + no_display + " (every numerical file was written)");
   }
@@ -345,8 +357,12 @@ void add_plan_command(CLI::App& app, CommandContext& context) {
                     "--corner-tolerance-mm: the program's G61 / G9 / G64 P / G5.1, exact stop "
                     "where it says nothing)")
       ->excludes(tolerance);
-  command->add_flag("--no-third-order", options->no_third_order,
-                    "leave out the jerk / torque-rate limits");
+  auto* no_third = command->add_flag("--no-third-order", options->no_third_order,
+                                     "leave out the jerk / torque-rate limits (BRISK), whatever the program asks");
+  command->add_flag("--third-order", options->third_order,
+                    "apply the jerk / torque-rate limits (SOFT), whatever the program asks; default: the "
+                    "program's SOFT / BRISK / CYCLE832, jerk limits where it says nothing")
+      ->excludes(no_third);
   command->add_flag("--no-plot", options->no_plot, "write no plan.png");
   command->add_option("--out", options->out_dir,
                       "output folder (new, empty or a previous vmsim result: replaced as a whole): "

@@ -32,6 +32,8 @@ struct CommandOptions {
   bool no_commanded_check = false;
   bool perfect_drives = false;
   bool third_order = false;
+  bool no_third_order = false;
+  std::string feedforward;  ///< "", "on" or "off"
   bool compare_methods = false;
   /// NaN = not given: the program's corner tolerances (G61 / G64 P / G5.1), else exact stop.
   double corner_tolerance_mm = std::numeric_limits<double>::quiet_NaN();
@@ -71,7 +73,11 @@ int run(const CommandOptions& command, const CommandContext& context) {
   options.renders = !command.no_renders;
   options.commanded_check = !command.no_commanded_check;
   options.perfect_drives = command.perfect_drives;
-  options.third_order = command.third_order;
+  if (command.third_order && command.no_third_order) {
+    throw InputError("--third-order and --no-third-order contradict each other: give one");
+  }
+  if (command.third_order || command.no_third_order) options.third_order = command.third_order;
+  if (!command.feedforward.empty()) options.feedforward = command.feedforward == "on";
   options.compare_methods = command.compare_methods;
   const bool tolerance_given = !std::isnan(command.corner_tolerance_mm);
   if (tolerance_given && !(command.corner_tolerance_mm >= 0.0)) {
@@ -172,7 +178,15 @@ void add_simulate_part_command(CLI::App& app, CommandContext& context) {
                     "also run the production feed with the other planning method (kinematic / "
                     "dynamic) and report cycle time and marks side by side");
   command->add_flag("--third-order", options->third_order,
-                    "apply jerk / torque-rate limits in the plan (exact, much slower planning)");
+                    "apply jerk / torque-rate limits in the plan (as SOFT on a Siemens 840D; exact, "
+                    "slower planning); default: what the program asks (SOFT / BRISK, CYCLE832), "
+                    "no jerk limit where it says nothing");
+  command->add_flag("--no-third-order", options->no_third_order,
+                    "velocity and acceleration (or torque) limits only (BRISK), whatever the program asks");
+  command->add_option("--feedforward", options->feedforward,
+                      "the drives' feedforward: on (as the machine file configures it) or off; default: "
+                      "what the program asks (FFWON / FFWOF), the machine file's where it says nothing")
+      ->check(CLI::IsMember({"on", "off"}));
   command->add_option("--corner-tolerance-mm", options->corner_tolerance_mm,
                       "blend G1 corners within this distance [mm] (0: exact stop) at every "
                       "corner; default: what the program asks (G61 / G9 exact stop, G64 P, "

@@ -99,6 +99,12 @@ void context_section(std::ostringstream& html, const Json& report) {
   row("Reference feed", text_of(context, "reference_feed"));
   row("Feedrate planning", text_of(context, "planning"));
   row("Corners", text_of(context, "corners"));
+  if (context.contains("nc_modes")) {
+    // What the program asks, what the run applied, and what the command line overrode.
+    std::string modes;
+    for (const auto& line : context["nc_modes"]) modes += (modes.empty() ? "" : "\n") + line.get<std::string>();
+    html << "<tr><th>NC modes</th><td style=\"white-space:pre-line\">" << html_escape(modes) << "</td></tr>\n";
+  }
   row("Surface grid", text_of(context, "grid"));
   row("Date", text_of(context, "date_utc"));
   row("vmsim", text_of(context, "vmsim_version"));

@@ -16,6 +16,7 @@
 #include "chain_inputs.hpp"
 #include "tool_table.hpp"
 #include "json_text.hpp"
+#include "nc_modes.hpp"
 #include "report_html.hpp"
 #include "report_marks.hpp"
 #include "part_file.hpp"
@@ -159,6 +160,13 @@ struct Context {
   /// The uncut buffer of each view, made once (over a mesh stock that takes a while): every run
   /// starts from a copy, so that all runs cut identical lines.
   std::vector<removal::NBuffer> uncut;
+  /// The NC modes the runs apply (the program's, or the command line's) and, where the
+  /// feedforward is switched, the machine the servo simulates.
+  NcModes nc;
+  std::optional<kinematics::MachineModel> servo_machine;
+  /// Set by a run whose third-order plan failed and fell back to second order (the context
+  /// line then says so).
+  mutable bool third_order_fell_back = false;
 };
 
 // s of the plan at time t (linear interpolation in the set points).
@@ -213,7 +221,7 @@ Run simulate_run(const Context& context, const std::string& name, const FeedSett
     plan_options.method = method;
     plan_options.limits = context.options.limits;
     plan_options.effects = context.options.effects;
-    plan_options.third_order = context.options.third_order;
+    plan_options.third_order = context.nc.third_order;
     plan_options.path_tolerance_m = context.options.setpoint_path_tolerance_m;
     // The run's feed setting on cutting moves (a fixed feed, or the programmed one times an
     // override); rapids and turns about a fixed tip keep no feed limit and go as fast as the
@@ -224,8 +232,8 @@ Run simulate_run(const Context& context, const std::string& name, const FeedSett
     try {
       run.plan = planner::plan_feedrate(machine, context.path, plan_options);
       if (!plan_options.third_order) {
-        run.plan.notes.push_back("jerk / torque-rate limits not applied (simulate-part's default, as an "
-                                 "NC in its acceleration-only mode, e.g. BRISK on a Siemens 840D; "
+        run.plan.notes.push_back("jerk / torque-rate limits not applied (" + context.nc.jerk.source +
+                                 ": an NC in its acceleration-only mode, e.g. BRISK on a Siemens 840D; "
                                  "--third-order applies the axis jerk / torque-rate limits)");
       }
     } catch (const InfeasibleError& error) {
@@ -233,6 +241,7 @@ Run simulate_run(const Context& context, const std::string& name, const FeedSett
       // The third-order (jerk / torque-rate) planner does not yet hold on every path: plan with
       // velocity, acceleration (or torque) limits only, and say so in the report.
       plan_options.third_order = false;
+      context.third_order_fell_back = true;
       run.plan = planner::plan_feedrate(machine, context.path, plan_options);
       run.plan.notes.push_back(std::string("jerk / torque-rate limits NOT applied: the third-order "
                                            "planner failed on this path (") + error.what() +
@@ -274,7 +283,9 @@ Run simulate_run(const Context& context, const std::string& name, const FeedSett
     StageTimer timer(run, "servo", context.progress);
     servo::SimulationOptions servo_options;
     servo_options.record_period_s = record_s;
-    run.servo = servo::simulate_machine(machine, setpoint_trace(machine, run.plan.setpoints),
+    // FFWON / FFWOF: the servo runs the machine with its feedforward as the NC mode says.
+    run.servo = servo::simulate_machine(context.servo_machine ? *context.servo_machine : machine,
+                                 setpoint_trace(machine, run.plan.setpoints),
                                         name + " set points", servo_options);
   }
   {
@@ -974,12 +985,16 @@ Json report_context(const Context& context, const FeedSetting& production_feed, 
   out["production_feed"] = feed_text(production_feed, options.production_feed_m_per_s > 0, "--feed-mm-per-min");
   out["reference_feed"] =
       feed_text(reference_feed, options.reference_feed_m_per_s > 0, "--reference-feed-mm-per-min");
-  out["planning"] = method_name(options.method) + std::string(options.third_order ? ", jerk / torque-rate limits"
-                                                                                  : ", no jerk limit") +
+  out["planning"] = method_name(options.method) + std::string(context.nc.third_order ? ", jerk / torque-rate limits"
+                                                                                      : ", no jerk limit") +
+                    " (" + context.nc.jerk.source + ")" +
+                    (context.third_order_fell_back ? "; the third-order planner failed: planned without jerk limits "
+                                                     "(see the runs' notes)"
+                                                   : "") +
                     (options.perfect_drives ? ", perfect drives (no servo)" : "");
   out["corners"] = !options.corner_tolerance_override
-                       ? std::string("as the program asks (G61 / G9 exact stop, G64 P / G5.1 / G187 blending), "
-                                     "exact stop where it says nothing")
+                       ? std::string("as the program asks (G61 / G9 exact stop, G64 P / G5.1 / G187 blending; "
+                                     "840D G60 / G9, G641 ADIS, G642 / CYCLE832), exact stop where it says nothing")
                    : options.corner_tolerance_m > 0
                        ? "blended within " + millimetres_text(options.corner_tolerance_m) + " mm at every corner"
                        : std::string("exact stop at every corner");
@@ -991,6 +1006,7 @@ Json report_context(const Context& context, const FeedSetting& production_feed, 
   out["date_utc"] = date;
   out["vmsim_version"] = VMSIM_VERSION;
   out["command_line"] = options.command_line;
+  out["nc_modes"] = context.nc.lines();
   return out;
 }
 
@@ -1004,7 +1020,16 @@ Json simulate_part(const SimulatePartOptions& options, const ProgressSink& progr
   chain_options.part_path = options.part_path;
   chain_options.corner_tolerance_m = options.corner_tolerance_m;
   chain_options.corner_tolerance_override = options.corner_tolerance_override;
-  Context context{options, progress, load_part(options.part_path), load_chain_inputs(chain_options), {}, {}, {}, {}, {}, {}};
+  Context context{options, progress, load_part(options.part_path), load_chain_inputs(chain_options), {}, {}, {}, {}, {}, {}, {}, {}, false};
+  NcModeCommandLine nc_command_line;
+  nc_command_line.third_order = options.third_order;
+  nc_command_line.third_order_option = options.third_order && *options.third_order ? "--third-order" : "--no-third-order";
+  nc_command_line.feedforward = options.feedforward;
+  nc_command_line.corner_override = options.corner_tolerance_override;
+  nc_command_line.corner_tolerance_m = options.corner_tolerance_m;
+  context.nc = decide_nc_modes(context.inputs.toolpath, nc_command_line);
+  if (context.nc.feedforward) context.servo_machine = with_feedforward(context.inputs.machine, *context.nc.feedforward);
+  for (const std::string& line : context.nc.lines()) progress("NC mode: " + line);
   // The output folder is checked (and its staging folder made) before any computation: a bad
   // --out fails at once, and nothing the user owns is ever replaced.
   OutputFolder output(options.out_dir,
@@ -1237,6 +1262,7 @@ Json simulate_part(const SimulatePartOptions& options, const ProgressSink& progr
   }
   report["verdict"] = make_verdict(curated, check_list, tolerance);
   report["context"] = report_context(context, production_feed, reference_feed);
+  report["nc_modes"] = context.nc.to_json();
   report["corners"] = context.path.corners.size();
   report["singular_zones"] = context.path.singular_zones.size();
   report["renders"] = Json::object();

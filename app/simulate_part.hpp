@@ -11,6 +11,7 @@
 
 #include <Eigen/Core>
 #include <functional>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -27,10 +28,14 @@ struct SimulatePartOptions {
   kinematics::EffectSet effects = kinematics::EffectSet::all();
   double production_feed_m_per_s = 0.0;  ///< 0 = the part file's
   double reference_feed_m_per_s = 0.0;   ///< 0 = the part file's
-  /// Jerk (kinematic) / torque-rate (dynamic) limits in the plan. Off by default: the
-  /// third-order planner (planner/feedrate.hpp) is exact but still takes minutes on the long
-  /// sample paths; the report says when they are not applied.
-  bool third_order = false;
+  /// Jerk (kinematic) / torque-rate (dynamic) limits in the plan: true / false as given on the
+  /// command line; nullopt: what the program asks (Siemens SOFT: on, BRISK: off; app/nc_modes.hpp),
+  /// off where it says nothing (an NC's acceleration-only mode). The report says which.
+  std::optional<bool> third_order;
+  /// The drives' feedforward: true / false as given on the command line (off: no velocity or
+  /// torque feedforward); nullopt: what the program asks (FFWON / FFWOF), the machine file's
+  /// where it says nothing.
+  std::optional<bool> feedforward;
   /// Corner blending tolerance [m] (planner/corner_blend.hpp); 0 = exact stop at corners.
   double corner_tolerance_m = 0.0;
   /// True: corner_tolerance_m at every corner (given on the command line); false: the

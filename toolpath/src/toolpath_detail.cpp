@@ -5,6 +5,7 @@
 #include <charconv>
 #include <cmath>
 #include <cstdio>
+#include <algorithm>
 #include <limits>
 #include <numbers>
 #include <filesystem>
@@ -278,6 +279,18 @@ double arc_chord_count(double radius_mm, double sweep_rad, double chord_toleranc
     max_delta = std::min(max_delta, 2.0 * std::acos(1.0 - chord_tolerance_mm / radius_mm));
   }
   return std::max(1.0, std::ceil(std::abs(sweep_rad) / max_delta));
+}
+
+Eigen::Vector3d SpaceArc::at(double t) const {
+  const double angle = t * sweep_rad;
+  return centre + radius * (std::cos(angle) * u + std::sin(angle) * v) + t * lift;
+}
+
+Eigen::Vector3d SpaceArc::tangent(double t) const {
+  const double angle = t * sweep_rad;
+  const Eigen::Vector3d d =
+      radius * sweep_rad * (-std::sin(angle) * u + std::cos(angle) * v) + lift;
+  return d.normalized();
 }
 
 }  // namespace vmsim::toolpath::detail

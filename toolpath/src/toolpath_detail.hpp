@@ -92,6 +92,21 @@ void require_room_for_points(const Toolpath& path, std::size_t more, const Reade
                              const std::string& file, int line, int column,
                              const std::string& what);
 
+/// A circular arc or helix in space [mm]: p(t) = centre + radius (cos(t sweep) u + sin(t sweep)
+/// v) + t lift, t in [0, 1]; u, v orthonormal (u from the centre to the start, v the direction
+/// of motion at the start), sweep > 0.
+struct SpaceArc {
+  Eigen::Vector3d centre = Eigen::Vector3d::Zero();
+  Eigen::Vector3d u = Eigen::Vector3d::UnitX();
+  Eigen::Vector3d v = Eigen::Vector3d::UnitY();
+  Eigen::Vector3d lift = Eigen::Vector3d::Zero();
+  double radius = 0.0;
+  double sweep_rad = 0.0;
+  Eigen::Vector3d at(double t) const;
+  /// Unit direction of motion at t (the helix's lift included).
+  Eigen::Vector3d tangent(double t) const;
+};
+
 /// Throws InputError naming the file when the path has no point.
 void require_motion(const Toolpath& path, const std::string& file);
 
@@ -119,7 +134,7 @@ double arc_sweep_rad(const Eigen::Vector2d& s, const Eigen::Vector2d& e, const E
 
 /// The number of chords (at least 1, as a double: it may be huge) that keep the chord error of
 /// an arc of radius radius_mm sweeping sweep_rad within chord_tolerance_mm; chords span at most
-/// 90 deg.
+/// 90 deg. Shared by the G-code, Siemens and Heidenhain readers.
 double arc_chord_count(double radius_mm, double sweep_rad, double chord_tolerance_mm);
 
 /// Runs `reader.read(text)`. Every failure of a reader is about its input: an exception that is

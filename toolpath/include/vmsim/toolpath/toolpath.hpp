@@ -1,6 +1,6 @@
 #pragma once
-// The canonical motion: what both tool path readers (APT/CL and ISO G-code) produce, and all the
-// planner reads. SI units (m, s), positions and tool axes in the workpiece frame W.
+// The canonical motion: what the tool path readers (APT/CL, ISO G-code, Siemens 840D) produce,
+// and all the planner reads. SI units (m, s), positions and tool axes in the workpiece frame W.
 //
 // Both readers give the same canonical points for the same motion: a tool tip [m], a unit tool
 // axis pointing from the tip to the spindle, the kind of motion, the feed [m/s] (or G93 inverse
@@ -169,6 +169,77 @@
 //    Errors naming the word: G41/G42 cutter compensation, G68.1 3-D rotation, G51 scaling, G16
 //    polar, G87 G88, any other G-code, and words outside this list (U V W, Siemens keywords
 //    other than TRAORI/TRAFOOF); P Q L E where their G-code does not use them.
+//
+// Siemens Sinumerik 840D subset (read_siemens; toolpath/src/siemens_reader.cpp): programs as NX,
+// hyperMILL and PowerMill posts write them for the 840D. One pass runs the program as the
+// control does (language and blocks together, each block in the order it is reached). The
+// common rules above apply (errors "file:line:column: 'word': ...", limits, UTF-8).
+//  - Text: `;` starts a comment; `%_N_NAME_MPF` headers are skipped; a block starting with `/`
+//    is skipped with a warning; N123 and :123 are block numbers (SourceBlock::block_number),
+//    `LABEL:` a jump label. Words: a letter and a number (X10.5, G642), `ADDRESS=expression`
+//    (X=R1+5, CR=10, A3=0.6, I1=AC(5)), keywords (TRAORI, SOFT), calls KEYWORD(a, , c).
+//  - Language: R parameters R0..R99999 (global, start at 0), `DEF INT|REAL|BOOL|CHAR name[=v],
+//    ...` (local to the program level; STRING accepted and not kept; arrays are errors),
+//    assignments in order within a block (R1=4 R2=R1*2 gives 8), expressions with + - * /
+//    DIV MOD, == <> < > <= >=, NOT AND OR XOR, parentheses, SIN COS TAN ASIN ACOS ATAN2 (deg)
+//    SQRT ABS POT TRUNC ROUND ROUNDUP LN EXP MINVAL MAXVAL, TRUE FALSE and CYCLE832's
+//    constants (_OFF 0, _FINISH 1, _SEMIFIN 2, _ROUGH 3, _PRECISION 4, _ORI_FINISH 11,
+//    _ORI_SEMIFIN 12, _ORI_ROUGH 13). Control flow: IF c GOTOF/GOTOB/GOTO label (or N number),
+//    IF c ... [ELSE ...] ENDIF, WHILE c ... ENDWHILE, FOR v = a TO b ... ENDFOR, REPEAT ...
+//    UNTIL c, LOOP ... ENDLOOP, GOTOF / GOTOB / GOTO. Subprograms: `L<n> [P<k>]` and a bare
+//    name (MYSUB) call NAME.SPF / name.spf in ReaderOptions::subprogram_folder (P: k runs), M17
+//    or RET return, the end of the file returns; PROC lines are skipped (no parameters). MSG(...)
+//    and STOPRE do nothing. System variables ($...) are errors. Limits:
+//    ReaderOptions::max_executed_blocks, max_call_depth as for G-code.
+//  - Motion: G0 G1 G2 G3 CIP CT (modal), G17 G18 G19, G70/G700 inch, G71/G710 mm, G90/G91 and
+//    per word X=AC(..) / X=IC(..), G93/G94 (G95 G96: errors), F, G4 dwell (F or S a time).
+//    G2/G3: I J K incremental from the start (I=AC(..): absolute), or CR=r (r < 0: more than
+//    180 deg); end radius tolerance and helix as for G-code. CIP X Y Z I1= J1= K1=: the circle
+//    through start, intermediate point (absolute under G90, from the start under G91 or IC)
+//    and end, in any plane. CT X Y Z: the arc leaving the start along the previous motion's
+//    tangent. Arcs are tessellated in program coordinates and each point goes through the
+//    frames, so MIRROR turns G2 into G3 as on the control. AR= TURN= AP= RP=: errors.
+//  - Frames (program point p to the machine): programmable frame P (TRANS X Y Z, ROT X Y Z as
+//    RPY: about Z, then the new Y, then the new X, the 840D default; ROT RPL= about the plane's
+//    normal; MIRROR X0 (the named axes change sign); each absolute instruction replaces the
+//    whole programmable frame (TRANS or ROT alone: none); ATRANS AROT AMIRROR add in the current
+//    frame, P = P o step); the swivel S of CYCLE800; the settable offset G54..G57, G505..G599
+//    from ReaderOptions::work_offsets_mm (G500: none; without a table G54 is the identity as for
+//    G-code). Outside TRAORI and without a swivel X Y Z give the machine axes:
+//        machine = offset + (0, 0, tool length under D) + P(p), the pose through
+//    ReaderOptions::axis_words_to_pose (as G-code with G43); under TRAORI or a swivel the tip in
+//    W is the work zero in W + S(P(p)). A frame, offset, tool or mode change does not move the
+//    machine (an axis not programmed next stays where it is). SUPA / G53 / G153: X Y Z in that
+//    block are machine axes (G0/G1, outside TRAORI and the swivel). SCALE: error.
+//  - CYCLE800(_FR, _TC, _ST, _MODE, _X0, _Y0, _Z0, _A, _B, _C, _X1, _Y1, _Z1, _DIR, ...): axis by
+//    axis only (_MODE bits 6-7 = 0; bits 0-1, 2-3, 4-5 the axes of the 1st, 2nd, 3rd rotation:
+//    1 X, 2 Y, 3 Z, so 57 = X then Y then Z, 27 = Z, Y, X), each about the frame's own, turned
+//    axis: S(q) = (_X0, _Y0, _Z0) + R ((_X1, _Y1, _Z1) + q), R = R1(_A) R2(_B) R3(_C); _ST units
+//    digit 1 adds to the swivel in force, else replaces it; CYCLE800() or zero angles and
+//    offsets: no swivel. The tool axis becomes R z. Not emulated: the retraction _FR and the
+//    swivel's own motion (the next motion turns the axes), _DIR (the chain's inverse kinematics
+//    picks the branch nearest the previous pose), solid-angle / projection / direct modes (errors).
+//  - Tools: T<n> or T="name" selects (a name: PathPoint::tool_number -1, the part file's tool),
+//    M6 loads it and activates D1; D<n> (D0: none) switches the length
+//    (ReaderOptions::tool_length_mm by T number, else default_tool_length_mm; a length needed
+//    and unknown is an error naming T and D). G40 accepted; G41/G42 errors.
+//  - 5-axis: TRAORI / TRAORI(n) on, TRAFOOF off; under TRAORI X Y Z are the tip and the tool
+//    axis is A3 B3 C3 (ORIWKS: in the workpiece frame, turned by the frames' rotation), or the
+//    rotary words A B C through ReaderOptions::rotary_words_to_tool_axis; outside TRAORI rotary
+//    words are machine axes (axis_words_to_pose) and are errors under a swivel. ORIWKS ORIMKS
+//    ORIAXES ORIVECT and the like are accepted: the chain interpolates the tool axis between
+//    points its own way. Turns of 180 deg or more are split as for G-code.
+//  - NC modes into the path points: G60 (modal) and G9 (one block): exact stop (0); G64: NaN
+//    (no tolerance given); G641 ADIS=d: d (the blend stays within d of the corner; ADIS=0 as
+//    G64); G642 / G643 / G644 / G645: CTOL= where given, else CYCLE832's tolerance, else
+//    ReaderOptions::contouring_tolerance_m (the machine data's). SOFT: JerkMode::soft; BRISK and
+//    DRIVE: brisk. FFWON / FFWOF: FeedforwardMode::on / off. COMPCAD COMPCURV COMPON: the
+//    compressor on within CYCLE832's tolerance (else CTOL, else contouring_tolerance_m); COMPOF:
+//    0. CYCLE832(tol, type, ...) with type's units digit not 0 (and tol > 0): G642 within tol,
+//    COMPCAD within tol, SOFT, FFWON (the settings the standard cycle makes); type 0 or
+//    CYCLE832(): G64, COMPOF, the tolerance forgotten (SOFT / BRISK and FFWON / FFWOF stay).
+//    DYNNORM DYNROUGH DYNSEMIFIN DYNFINISH (dynamic response groups: machine data) are accepted
+//    and not modelled. Points inside a block (arc chords, rotary steps) carry no corner mode.
 //
 // G-code programs (read_gcode; toolpath/src/gcode_program.cpp): the programming language of
 // Fanuc Custom Macro B and LinuxCNC runs first, and the block interpreter above reads the blocks
@@ -442,8 +513,17 @@ Toolpath read_gcode(const std::string& path, const ReaderOptions& options = {});
 Toolpath parse_gcode(const std::string& text, const std::string& file_name_for_messages,
                      const ReaderOptions& options = {});
 
-/// Picks the reader by extension: .apt .cl .cls -> APT; .nc .ngc .gcode .mpf .tap .iso .ptp .eia
-/// .cnc -> G-code; .h -> Heidenhain TNC conversational (heidenhain_reader.hpp).
+/// Reads a Siemens Sinumerik 840D program (subset above, "Siemens 840D"). Throws
+/// vmsim::InputError naming the file, line, column and word. Subprograms (L<n>, named calls) are
+/// looked for in ReaderOptions::subprogram_folder (read_siemens: the program's folder).
+Toolpath read_siemens(const std::string& path, const ReaderOptions& options = {});
+Toolpath parse_siemens(const std::string& text, const std::string& file_name_for_messages,
+                       const ReaderOptions& options = {});
+
+/// Picks the reader by extension: .apt .cl .cls -> APT; .mpf .spf -> Siemens 840D; .nc .ngc
+/// .gcode .tap .iso .ptp .eia .cnc -> G-code, unless the text is unmistakably a Siemens program
+/// (a `%_N_..._MPF` header, or a CYCLE832 / CYCLE800 call), which goes to the Siemens reader;
+/// .h -> Heidenhain TNC conversational (heidenhain_reader.hpp).
 Toolpath read_toolpath(const std::string& path, const ReaderOptions& options = {});
 
 }  // namespace vmsim::toolpath
