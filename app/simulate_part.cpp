@@ -24,6 +24,7 @@
 #include "validity_checks.hpp"
 #include "vmsim/common/errors.hpp"
 #include "vmsim/common/files.hpp"
+#include "vmsim/common/memory.hpp"
 #include "vmsim/common/output_folder.hpp"
 #include "vmsim/common/trace.hpp"
 #include "vmsim/kinematics/kinematics.hpp"
@@ -285,10 +286,15 @@ Run simulate_run(const Context& context, const std::string& name, const FeedSett
     StageTimer timer(run, "servo", context.progress);
     servo::SimulationOptions servo_options;
     servo_options.record_period_s = record_s;
-    read_servo_positions(machine,
-                         servo::simulate_machine(machine, setpoint_trace(machine, run.plan.setpoints),
-                                                 name + " set points", servo_options),
-                         run);
+    Trace simulated;
+    {
+      const Trace setpoints = setpoint_trace(machine, run.plan.setpoints);
+      // The reference's axis set points live on in the trace only (its poses are timed by t and
+      // s alone); the production run keeps them for the places of its marks.
+      if (!keep_signals) run.plan.setpoints.q.resize(0, 0);
+      simulated = servo::simulate_machine(machine, setpoints, name + " set points", servo_options);
+    }
+    read_servo_positions(machine, std::move(simulated), run);
   }
   {
     StageTimer timer(run, "direct kinematics", context.progress);
@@ -1112,6 +1118,9 @@ Json simulate_part(const SimulatePartOptions& options, const ProgressSink& progr
   end_stage("stock");
 
   Run reference = simulate_run(context, "reference", reference_feed, options.method, false);
+  // Its traces and set points are gone: their memory goes back to the system, or it would
+  // stay under every later stage (vmsim keeps freed memory in the process, common/memory.hpp).
+  return_freed_memory_to_system();
   // The reference is checked at once, before the production run: a reference that is no valid
   // reference stops the job before the rest is computed, and the commanded path's buffers are
   // gone before the production run's are made (two Z-maps alive at once, not three).

@@ -67,6 +67,10 @@ def main():
     vmsim = os.path.join(args.build, "app", "vmsim")
     generator = os.path.join(args.build, "samples", "generate_parts")
     os.makedirs(args.out, exist_ok=True)
+    # The part files name their machine as ../../machines/<file> (samples/ layout).
+    machines = os.path.join(args.out, "machines")
+    if not os.path.exists(machines):
+        os.symlink(os.path.join(os.path.dirname(os.path.abspath(__file__)), "..", "samples", "machines"), machines)
     results = []
     for width in [float(w) for w in args.widths.split(",")]:
         parts = os.path.join(args.out, "parts")
