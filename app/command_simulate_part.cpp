@@ -39,6 +39,7 @@ struct CommandOptions {
   double corner_tolerance_mm = std::numeric_limits<double>::quiet_NaN();
   double tolerance_um = 0.0;
   int threads = 0;
+  long long compact_zmap_above_lines = static_cast<long long>(SimulatePartOptions{}.compact_zmap_above_lines);
 };
 
 // The built-in sample: part 1 of the second paper on the Mikron sample, from the source tree
@@ -72,6 +73,10 @@ int run(const CommandOptions& command, const CommandContext& context) {
   options.mark_threshold_m = command.mark_threshold_um * 1e-6;
   options.renders = !command.no_renders;
   options.commanded_check = !command.no_commanded_check;
+  if (command.compact_zmap_above_lines < 0) {
+    throw InputError("--compact-zmap-above-lines must be >= 0, got " + std::to_string(command.compact_zmap_above_lines));
+  }
+  options.compact_zmap_above_lines = static_cast<std::size_t>(command.compact_zmap_above_lines);
   options.perfect_drives = command.perfect_drives;
   if (command.third_order && command.no_third_order) {
     throw InputError("--third-order and --no-third-order contradict each other: give one");
@@ -193,6 +198,10 @@ void add_simulate_part_command(CLI::App& app, CommandContext& context) {
                       "G5.1), exact stop where it says nothing");
   command->add_flag("--no-commanded-check", options->no_commanded_check,
                     "skip cutting the commanded path to check the reference run");
+  command->add_option("--compact-zmap-above-lines", options->compact_zmap_above_lines,
+                      "Z-maps with more lines store heights compactly (float offsets from a base a "
+                      "tile, within 2^-24 of the depth; tiles only where a tool reaches); 0 = always")
+      ->capture_default_str();
   command->callback([options, &context] { context.result = run(*options, context); });
 }
 

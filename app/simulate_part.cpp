@@ -1,5 +1,6 @@
 #include "simulate_part.hpp"
 
+#include <sys/resource.h>
 #include <unistd.h>
 
 #include <algorithm>
@@ -24,6 +25,7 @@
 #include "validity_checks.hpp"
 #include "vmsim/common/errors.hpp"
 #include "vmsim/common/files.hpp"
+#include "vmsim/common/memory.hpp"
 #include "vmsim/common/output_folder.hpp"
 #include "vmsim/common/trace.hpp"
 #include "vmsim/kinematics/kinematics.hpp"
@@ -31,6 +33,7 @@
 #include "vmsim/removal/marks.hpp"
 #include "vmsim/removal/nbuffer.hpp"
 #include "vmsim/removal/output.hpp"
+#include "vmsim/removal/trajectory.hpp"
 #include "vmsim/servo/servo.hpp"
 #include "vmsim/viz/display.hpp"
 #include "vmsim/viz/plot.hpp"
@@ -46,6 +49,21 @@ double seconds_since(Clock::time_point start) {
   return std::chrono::duration<double>(Clock::now() - start).count();
 }
 
+// CPU time of the process (user + system, all threads) [s].
+double cpu_seconds() {
+  rusage usage{};
+  getrusage(RUSAGE_SELF, &usage);
+  return static_cast<double>(usage.ru_utime.tv_sec + usage.ru_stime.tv_sec) +
+         1e-6 * static_cast<double>(usage.ru_utime.tv_usec + usage.ru_stime.tv_usec);
+}
+
+// The process's peak resident memory so far [MiB] (the kernel's high-water mark).
+double peak_rss_mib() {
+  rusage usage{};
+  getrusage(RUSAGE_SELF, &usage);
+  return static_cast<double>(usage.ru_maxrss) / 1024.0;  // ru_maxrss is in KiB on Linux
+}
+
 // Rounded to a multiple of step (a power of ten): divided by 1 / step, so that 18.9 prints as
 // 18.9 and not as 189 * 0.1 = 18.900000000000002.
 double round_to(double value, double step) { return std::round(value / step) / std::round(1.0 / step); }
@@ -58,15 +76,21 @@ struct Run {
   /// The largest feed of a cutting move in this run [m/s] (the fixed feed where one is set).
   double feed_m_per_s = 0.0;
   planner::FeedratePlan plan;
-  Trace servo;                          ///< t, <AXIS>.cmd|pos|...: the simulated drives
-  std::vector<double> t_s;              ///< servo sample times
-  Eigen::MatrixXd q_cmd, q_actual;      ///< per axis (rows), per servo sample (SI)
+  /// Servo sample times and the commanded and actual positions per axis (rows), per servo
+  /// sample (SI): kept for the production run only (marks are related to them and plotted);
+  /// the reference run's are summarised (`summary`) and dropped after its direct kinematics,
+  /// so that the long low-feed run holds no trace while the others run.
+  std::vector<double> t_s;
+  Eigen::MatrixXd q_cmd, q_actual;
+  Json summary;                         ///< following errors over all moves and while cutting
   std::vector<removal::Pose> trajectory;  ///< actual tool poses, thinned
   std::vector<double> trajectory_t_s;   ///< the time of each kept pose
   std::size_t samples = 0;              ///< servo samples before thinning
   std::vector<removal::NBuffer> buffers;  ///< one per surface view (Context::views)
   std::vector<removal::CutStatistics> cuts;  ///< one per surface view
   std::map<std::string, double> stage_seconds;
+  std::map<std::string, double> stage_cpu_seconds;   ///< user + system, all threads
+  std::map<std::string, double> stage_peak_rss_mib;  ///< the process's peak so far, at the stage's end
   std::vector<ValidityCheck> checks;    ///< set points on the path and within travel, actual positions
 };
 
@@ -100,50 +124,23 @@ double from_trace_unit(const kinematics::Axis& axis, double value) {
   return axis.type == kinematics::AxisType::linear ? value * 1e-3 : value * std::numbers::pi / 180.0;
 }
 
-// Keeps the samples needed so that every dropped sample's tool (tip, and tip + length * axis)
-// lies within `tolerance_m` of the straight interpolation between the kept neighbours.
-std::vector<std::size_t> thin_trajectory(const std::vector<removal::Pose>& poses,
-                                         double tool_length_m, double tolerance_m) {
-  constexpr std::size_t kMaxWindow = 256;  // bounds the cost on long straight stretches
-  std::vector<std::size_t> kept{0};
-  if (poses.size() < 2) return kept;
-  auto deviation = [&](std::size_t a, std::size_t b, std::size_t k) {
-    const double f = static_cast<double>(k - a) / static_cast<double>(b - a);
-    const Eigen::Vector3d tip = (1 - f) * poses[a].tip_W_m + f * poses[b].tip_W_m;
-    const Eigen::Vector3d top = tip + tool_length_m * ((1 - f) * poses[a].axis_W + f * poses[b].axis_W);
-    const Eigen::Vector3d top_k = poses[k].tip_W_m + tool_length_m * poses[k].axis_W;
-    return std::max((poses[k].tip_W_m - tip).norm(), (top_k - top).norm());
-  };
-  std::size_t anchor = 0;
-  while (anchor + 1 < poses.size()) {
-    std::size_t end = anchor + 1;
-    while (end + 1 < poses.size() && end + 1 - anchor <= kMaxWindow) {
-      const std::size_t candidate = end + 1;
-      bool ok = true;
-      for (std::size_t k = anchor + 1; k < candidate && ok; ++k) {
-        ok = deviation(anchor, candidate, k) <= tolerance_m;
-      }
-      if (!ok) break;
-      end = candidate;
-    }
-    kept.push_back(end);
-    anchor = end;
-  }
-  return kept;
-}
-
 class StageTimer {
  public:
   StageTimer(Run& run, std::string stage, const ProgressSink& progress)
-      : run_(run), stage_(std::move(stage)), start_(Clock::now()) {
+      : run_(run), stage_(std::move(stage)), start_(Clock::now()), cpu_start_(cpu_seconds()) {
     progress(run.name + ": " + stage_ + " ...");
   }
-  ~StageTimer() { run_.stage_seconds[stage_] += seconds_since(start_); }
+  ~StageTimer() {
+    run_.stage_seconds[stage_] += seconds_since(start_);
+    run_.stage_cpu_seconds[stage_] += cpu_seconds() - cpu_start_;
+    run_.stage_peak_rss_mib[stage_] = peak_rss_mib();
+  }
 
  private:
   Run& run_;
   std::string stage_;
   Clock::time_point start_;
+  double cpu_start_;
 };
 
 struct Context {
@@ -181,23 +178,34 @@ double plan_s_at(const planner::FeedratePlan& plan, double t_s) {
   return s[k - 1] + f * (s[k] - s[k - 1]);
 }
 
-// The commanded and actual (load) positions of every axis from the servo trace, in SI.
-void read_servo_positions(const kinematics::MachineModel& machine, Run& run) {
-  run.t_s = run.servo.column("t");
+// The commanded and actual (load) positions of every axis from the servo trace, in SI. Each
+// column is released once read (the trace of a long run is the largest thing the chain holds).
+void read_servo_positions(const kinematics::MachineModel& machine, Trace servo, Run& run) {
+  const auto release = [&](const std::string& name) {
+    if (const auto index = servo.column_index(name)) std::vector<double>().swap(servo.values[*index]);
+  };
+  // What is not read goes first: speeds and currents.
+  for (const auto& axis : machine.axes) {
+    release(axis.name + ".vel");
+    release(axis.name + ".cur");
+  }
+  run.t_s = servo.column("t");
+  release("t");
   run.samples = run.t_s.size();
   const auto n = static_cast<Eigen::Index>(run.samples);
   run.q_cmd.resize(static_cast<Eigen::Index>(machine.axes.size()), n);
   run.q_actual.resize(static_cast<Eigen::Index>(machine.axes.size()), n);
   for (std::size_t j = 0; j < machine.axes.size(); ++j) {
     const auto& axis = machine.axes[j];
-    const auto& cmd = run.servo.column(axis.name + ".cmd");
+    const auto& cmd = servo.column(axis.name + ".cmd");
     // The load position where the servo distinguishes it (backlash, compliance, pitch error).
-    const auto load_column = run.servo.column_index(axis.name + ".pos2");
-    const auto& actual = run.servo.column(load_column ? axis.name + ".pos2" : axis.name + ".pos");
+    const auto load_column = servo.column_index(axis.name + ".pos2");
+    const auto& actual = servo.column(load_column ? axis.name + ".pos2" : axis.name + ".pos");
     for (Eigen::Index k = 0; k < n; ++k) {
       run.q_cmd(static_cast<Eigen::Index>(j), k) = from_trace_unit(axis, cmd[static_cast<std::size_t>(k)]);
       run.q_actual(static_cast<Eigen::Index>(j), k) = from_trace_unit(axis, actual[static_cast<std::size_t>(k)]);
     }
+    for (const char* column : {".cmd", ".pos", ".pos2"}) release(axis.name + column);
   }
 }
 
@@ -205,8 +213,14 @@ std::string method_name(planner::FeedrateMethod method) {
   return method == planner::FeedrateMethod::kinematic ? "kinematic" : "dynamic";
 }
 
+// The following errors of a run over all moves and over its cutting moves (run_summary's "axes"
+// and "axes_while_cutting"), from its servo samples.
+Json following_error_summary(const Context& context, const Run& run);
+
+// `keep_signals`: keep the run's servo samples (t_s, q_cmd, q_actual) after its direct
+// kinematics (the production run: its marks are related to them).
 Run simulate_run(const Context& context, const std::string& name, const FeedSetting& feed,
-                 planner::FeedrateMethod method) {
+                 planner::FeedrateMethod method, bool keep_signals) {
   const kinematics::MachineModel& machine = context.inputs.machine;
   Run run(name, feed);
   const std::vector<double> point_feeds = point_feeds_m_per_s(context.inputs, context.path, feed);
@@ -283,14 +297,19 @@ Run simulate_run(const Context& context, const std::string& name, const FeedSett
     StageTimer timer(run, "servo", context.progress);
     servo::SimulationOptions servo_options;
     servo_options.record_period_s = record_s;
-    // FFWON / FFWOF: the servo runs the machine with its feedforward as the NC mode says.
-    run.servo = servo::simulate_machine(context.servo_machine ? *context.servo_machine : machine,
-                                 setpoint_trace(machine, run.plan.setpoints),
-                                        name + " set points", servo_options);
+    Trace simulated;
+    {
+      const Trace setpoints = setpoint_trace(machine, run.plan.setpoints);
+      // The reference's axis set points live on in the trace only (its poses are timed by t and
+      // s alone); the production run keeps them for the places of its marks.
+      if (!keep_signals) run.plan.setpoints.q.resize(0, 0);
+      // FFWON / FFWOF: the servo runs the machine with its feedforward as the NC mode says.
+      simulated = servo::simulate_machine(context.servo_machine ? *context.servo_machine : machine, setpoints, name + " set points", servo_options);
+    }
+    read_servo_positions(machine, std::move(simulated), run);
   }
   {
     StageTimer timer(run, "direct kinematics", context.progress);
-    if (!context.options.perfect_drives) read_servo_positions(machine, run);
     if (name == "production" && context.options.production_disturbance) {
       for (std::size_t k = 0; k < run.samples; ++k) {
         Eigen::VectorXd q = run.q_actual.col(static_cast<Eigen::Index>(k));
@@ -300,17 +319,23 @@ Run simulate_run(const Context& context, const std::string& name, const FeedSett
     }
     run.checks.push_back(check_actual_within_travel(machine, run.t_s, run.q_actual, name));
     context.progress(check_line(run.checks.back()));
-    std::vector<removal::Pose> poses(run.samples);
+    // Sample by sample into the thinning (it holds a window of poses, never the whole run's).
+    removal::TrajectoryThinner thinner(context.tool.length_m, context.options.trajectory_tolerance_m,
+                                       [&](std::size_t k, const removal::Pose& pose) {
+                                         run.trajectory.push_back(pose);
+                                         run.trajectory_t_s.push_back(run.t_s[k]);
+                                       });
     for (std::size_t k = 0; k < run.samples; ++k) {
       const kinematics::ToolPose pose = kinematics::forward_kinematics(
           machine, run.q_actual.col(static_cast<Eigen::Index>(k)), context.inputs.tool_length_m);
-      poses[k] = {pose.tip_W_m, pose.axis_W};
+      thinner.push({pose.tip_W_m, pose.axis_W});
     }
-    const std::vector<std::size_t> kept =
-        thin_trajectory(poses, context.tool.length_m, context.options.trajectory_tolerance_m);
-    for (std::size_t k : kept) {
-      run.trajectory.push_back(poses[k]);
-      run.trajectory_t_s.push_back(run.t_s[k]);
+    thinner.finish();
+    run.summary = following_error_summary(context, run);
+    if (!keep_signals) {
+      std::vector<double>().swap(run.t_s);
+      run.q_cmd.resize(0, 0);
+      run.q_actual.resize(0, 0);
     }
   }
   {
@@ -339,6 +364,13 @@ Run simulate_run(const Context& context, const std::string& name, const FeedSett
       run.cuts.push_back(cut_with_tools(run.buffers.back(), context.point_tools, run.trajectory,
                                         trajectory_point, cut_options));
     }
+  }
+  if (!keep_signals) {
+    // The set points (one per interpolation period) served the servo and the times of the
+    // poses cut; nothing after needs them.
+    std::vector<double>().swap(run.plan.setpoints.t_s);
+    std::vector<double>().swap(run.plan.setpoints.s_m);
+    run.plan.setpoints.q.resize(0, 0);
   }
   return run;
 }
@@ -516,7 +548,7 @@ std::vector<bool> cutting_samples(const Context& context, const Run& run) {
   return cutting;
 }
 
-Json run_summary(const Context& context, const Run& run) {
+Json run_summary(const Run& run) {
   Json summary;
   // Rounded to 1e-6 mm/min: a programmed 3000 mm/min x 10 % is 300, not 300.00000000000006.
   summary["feed_mm_per_min"] = round_to(run.feed_m_per_s * 60e3, 1e-6);
@@ -538,6 +570,13 @@ Json run_summary(const Context& context, const Run& run) {
   }
   summary["removal_per_view"] = cuts;
   summary["plan_notes"] = run.plan.notes;
+  summary["axes"] = run.summary["axes"];
+  summary["axes_while_cutting"] = run.summary["axes_while_cutting"];
+  return summary;
+}
+
+Json following_error_summary(const Context& context, const Run& run) {
+  Json summary;
   Json axes = Json::array();
   const auto& machine = context.inputs.machine;
   for (std::size_t j = 0; j < machine.axes.size(); ++j) {
@@ -1015,6 +1054,16 @@ Json simulate_part(const SimulatePartOptions& options, const ProgressSink& progr
   Json report;
   Json stage_seconds;
   auto stage_clock = Clock::now();
+  // CPU (user + system) and the peak resident memory so far at each stage's end, beside the
+  // wall times (bench/scaling: the growth law of each stage).
+  Json stage_cpu_seconds, stage_peak_rss_mib;
+  const double cpu_start = cpu_seconds();
+  double stage_cpu = cpu_start;
+  const auto end_stage = [&](const std::string& stage) {
+    stage_seconds[stage] = seconds_since(stage_clock);
+    stage_cpu_seconds[stage] = cpu_seconds() - stage_cpu;
+    stage_peak_rss_mib[stage] = peak_rss_mib();
+  };
 
   ChainInputOptions chain_options;
   chain_options.part_path = options.part_path;
@@ -1063,9 +1112,10 @@ Json simulate_part(const SimulatePartOptions& options, const ProgressSink& progr
                                                    context.inputs.tool_length_m,
                                                    context.inputs.block_names,
                                                    context.inputs.path_kinematics);
-  stage_seconds["load_and_inverse_kinematics"] = seconds_since(stage_clock);
+  end_stage("load_and_inverse_kinematics");
 
   stage_clock = Clock::now();
+  stage_cpu = cpu_seconds();
   progress("stock" + std::string(context.stock.mesh ? " (" + context.part.stock_stl_path + ")" : "") + " ...");
   std::vector<Eigen::Vector3d> cutting_tips;
   for (std::size_t i = 0; i < context.inputs.path.size(); ++i) {
@@ -1079,6 +1129,11 @@ Json simulate_part(const SimulatePartOptions& options, const ProgressSink& progr
     context.uncut.push_back(view.fresh_buffer(context.stock, view.zmap ? &mesh_report : nullptr,
                                               context.uncut.empty() ? nullptr : &context.uncut.front()));
   }
+  // A large Z-map keeps compact heights (every run's copy too), made after the other views
+  // were clipped to it.
+  if (context.views.front().zmap && context.uncut.front().line_count() > options.compact_zmap_above_lines) {
+    context.uncut.front().make_compact();
+  }
   const auto millimetres = [](const Eigen::Vector3d& v) { return Json{v.x() * 1e3, v.y() * 1e3, v.z() * 1e3}; };
   report["stock"] = {{"min_mm", millimetres(context.stock.bounds.min_W_m)},
                      {"max_mm", millimetres(context.stock.bounds.max_W_m)}};
@@ -1089,12 +1144,92 @@ Json simulate_part(const SimulatePartOptions& options, const ProgressSink& progr
     report["stock"]["zmap_lines_outside_the_mesh"] = mesh_report.lines_missing;
     report["stock"]["zmap_lines_filled_below"] = mesh_report.lines_filled;
   }
-  stage_seconds["stock"] = seconds_since(stage_clock);
+  end_stage("stock");
 
-  Run reference = simulate_run(context, "reference", reference_feed, options.method);
-  Run production = simulate_run(context, "production", production_feed, options.method);
+  Run reference = simulate_run(context, "reference", reference_feed, options.method, false);
+  // Its traces and set points are gone: their memory goes back to the system, or it would
+  // stay under every later stage (vmsim keeps freed memory in the process, common/memory.hpp).
+  return_freed_memory_to_system();
+  // The reference is checked at once, before the production run: a reference that is no valid
+  // reference stops the job before the rest is computed, and the commanded path's buffers are
+  // gone before the production run's are made (two Z-maps alive at once, not three).
+  ValidityCheck reference_check;
+  Json commanded_figures = Json::object();
+  if (options.commanded_check) {
+    // The reference against the commanded tool path's own surface: what the low feed changes.
+    // A reference that differs from it by more than the mark threshold is no reference: marks
+    // (or a path error common to both runs) could hide in it.
+    stage_clock = Clock::now();
+    stage_cpu = cpu_seconds();
+    progress("commanded tool path surface (check of the reference) ...");
+    std::vector<removal::Pose> poses;
+    for (const auto& point : context.inputs.path) poses.push_back({point.pose.tip_W_m, point.pose.axis_W});
+    removal::CutOptions cut_options;
+    cut_options.threads = options.threads;
+    // Judged as marks are: regions of at least MarkOptions::min_lines connected lines beyond the
+    // threshold; lines beyond it on their own (a tool grazing a line's end) are counted apart.
+    removal::MarkOptions mark_options;
+    mark_options.threshold_m = options.mark_threshold_m;
+    double worst = 0.0, worst_isolated = 0.0;
+    std::size_t isolated_lines = 0;
+    Eigen::Vector3d worst_at = Eigen::Vector3d::Zero();
+    for (std::size_t v = 0; v < context.views.size(); ++v) {
+      removal::NBuffer commanded = context.uncut[v];
+      std::vector<std::size_t> pose_point(poses.size());
+      for (std::size_t k = 0; k < poses.size(); ++k) pose_point[k] = k;
+      cut_with_tools(commanded, context.point_tools, poses, pose_point, cut_options);
+      std::vector<double> reference_vs_commanded = removal::difference(reference.buffers[v], commanded);
+      // Steep in either surface: a line in the plane of a tool face (a wall view's row at the
+      // floor's height) is cut whole or not at all by a rounding of the tool's height.
+      exclude_steep_lines(commanded, context.views[v].spacing_m, reference_vs_commanded);
+      exclude_steep_lines(reference.buffers[v], context.views[v].spacing_m, reference_vs_commanded);
+      for (double& d : reference_vs_commanded) {
+        if (std::isnan(d)) d = std::numeric_limits<double>::infinity();
+      }
+      const removal::MarkMap regions = removal::find_marks(commanded, reference_vs_commanded, mark_options);
+      for (std::size_t line = 0; line < reference_vs_commanded.size(); ++line) {
+        const double size = std::abs(reference_vs_commanded[line]);
+        if (size > options.mark_threshold_m && regions.label[line] < 0) {
+          ++isolated_lines;
+          worst_isolated = std::max(worst_isolated, size);
+          continue;
+        }
+        if (size > worst) {
+          worst = size;
+          const int nu = commanded.nu();
+          worst_at = commanded.surface_point(static_cast<int>(line % static_cast<std::size_t>(nu)),
+                                             static_cast<int>(line / static_cast<std::size_t>(nu)));
+        }
+      }
+    }
+    commanded_figures["reference_vs_commanded_max_um"] = worst * 1e6;
+    end_stage("commanded_check");
+    commanded_figures["reference_vs_commanded_isolated_lines"] = isolated_lines;
+    reference_check = check_reference_against_commanded(worst, worst_at, options.mark_threshold_m);
+    if (isolated_lines > 0) {
+      reference_check.detail += "; " + std::to_string(isolated_lines) + " lines beyond the limit on their own (up to " +
+                              format_double(std::round(worst_isolated * 1e9) / 1e3) +
+                              " um, in groups too small to be a mark) not counted";
+    }
+    progress(check_line(reference_check));
+    if (reference_check.status == CheckStatus::failed) {
+      throw InfeasibleError(
+          "the reference run is not a valid reference: " + check_line(reference_check) +
+          ". Its surface must match the commanded tool path's own surface to within the mark threshold, "
+          "or marks would hide in it; lower the reference feed (--reference-feed-mm-per-min) or look for "
+          "the cause at that place");
+    }
+  } else {
+    reference_check = {"reference_vs_commanded", "reference surface against the surface the commanded tool path cuts",
+                       0.0, options.mark_threshold_m * 1e6, "um", CheckStatus::not_done,
+                       "--no-commanded-check: the reference was not checked"};
+    progress(check_line(reference_check));
+  }
+
+  Run production = simulate_run(context, "production", production_feed, options.method, true);
 
   stage_clock = Clock::now();
+  stage_cpu = cpu_seconds();
   progress("comparison ...");
   const std::vector<double> curvature = tip_curvature(context.inputs.path);
   std::vector<ViewComparison> comparisons = compare_views(context, production, reference);
@@ -1150,92 +1285,40 @@ Json simulate_part(const SimulatePartOptions& options, const ProgressSink& progr
                {"deviation_rms_um", views[0]["deviation_rms_um"]},
                {"steep_step_per_spacing", kSteepStepPerSpacing},
                {"views", views}};
-  stage_seconds["comparison"] = seconds_since(stage_clock);
+  for (const auto& [key, value] : commanded_figures.items()) surface[key] = value;
+  {
+    // How the Z-map's heights were held (NBuffer::make_compact) and what they took.
+    const removal::NBuffer& zmap = production.buffers[0];
+    Json heights{{"storage", zmap.is_compact() ? "compact" : "plain"},
+                 {"tiles", zmap.tile_count()},
+                 {"tiles_allocated_production", zmap.allocated_tiles()},
+                 {"tiles_allocated_reference", reference.buffers[0].allocated_tiles()},
+                 {"bytes_production", zmap.length_bytes()}};
+    heights["exactness"] = zmap.is_compact()
+                               ? "float offsets from a double base a tile: within 2^-24 of the depth below "
+                                 "the tile's top (0.6 nm at 10 mm), exact where uncut"
+                               : "one double a line: exact";
+    surface["zmap_heights"] = heights;
+  }
+  end_stage("comparison");
 
   if (options.compare_methods) {
     const planner::FeedrateMethod other = options.method == planner::FeedrateMethod::kinematic
                                               ? planner::FeedrateMethod::dynamic
                                               : planner::FeedrateMethod::kinematic;
-    Run alternative = simulate_run(context, "production (" + method_name(other) + ")", production_feed, other);
+    Run alternative = simulate_run(context, "production (" + method_name(other) + ")", production_feed, other, true);
     stage_clock = Clock::now();
+    stage_cpu = cpu_seconds();
     const std::vector<ViewComparison> alternative_comparisons = compare_views(context, alternative, reference);
     report["method_comparison"] = {method_summary(context, options.method, production, comparisons, curvature),
                                    method_summary(context, other, alternative, alternative_comparisons, curvature)};
     stage_seconds["production_" + method_name(other)] = stage_times(alternative);
-    stage_seconds["method_comparison"] = seconds_since(stage_clock);
+    end_stage("method_comparison");
   }
 
   std::vector<ValidityCheck> checks = reference.checks;
   checks.insert(checks.end(), production.checks.begin(), production.checks.end());
-  if (options.commanded_check) {
-    // The reference against the commanded tool path's own surface: what the low feed changes.
-    // A reference that differs from it by more than the mark threshold is no reference: marks
-    // (or a path error common to both runs) could hide in it.
-    stage_clock = Clock::now();
-    progress("commanded tool path surface (check of the reference) ...");
-    std::vector<removal::Pose> poses;
-    for (const auto& point : context.inputs.path) poses.push_back({point.pose.tip_W_m, point.pose.axis_W});
-    removal::CutOptions cut_options;
-    cut_options.threads = options.threads;
-    // Judged as marks are: regions of at least MarkOptions::min_lines connected lines beyond the
-    // threshold; lines beyond it on their own (a tool grazing a line's end) are counted apart.
-    removal::MarkOptions mark_options;
-    mark_options.threshold_m = options.mark_threshold_m;
-    double worst = 0.0, worst_isolated = 0.0;
-    std::size_t isolated_lines = 0;
-    Eigen::Vector3d worst_at = Eigen::Vector3d::Zero();
-    for (std::size_t v = 0; v < context.views.size(); ++v) {
-      removal::NBuffer commanded = context.uncut[v];
-      std::vector<std::size_t> pose_point(poses.size());
-      for (std::size_t k = 0; k < poses.size(); ++k) pose_point[k] = k;
-      cut_with_tools(commanded, context.point_tools, poses, pose_point, cut_options);
-      std::vector<double> reference_vs_commanded = removal::difference(reference.buffers[v], commanded);
-      // Steep in either surface: a line in the plane of a tool face (a wall view's row at the
-      // floor's height) is cut whole or not at all by a rounding of the tool's height.
-      exclude_steep_lines(commanded, context.views[v].spacing_m, reference_vs_commanded);
-      exclude_steep_lines(reference.buffers[v], context.views[v].spacing_m, reference_vs_commanded);
-      for (double& d : reference_vs_commanded) {
-        if (std::isnan(d)) d = std::numeric_limits<double>::infinity();
-      }
-      const removal::MarkMap regions = removal::find_marks(commanded, reference_vs_commanded, mark_options);
-      for (std::size_t line = 0; line < reference_vs_commanded.size(); ++line) {
-        const double size = std::abs(reference_vs_commanded[line]);
-        if (size > options.mark_threshold_m && regions.label[line] < 0) {
-          ++isolated_lines;
-          worst_isolated = std::max(worst_isolated, size);
-          continue;
-        }
-        if (size > worst) {
-          worst = size;
-          const int nu = commanded.nu();
-          worst_at = commanded.surface_point(static_cast<int>(line % static_cast<std::size_t>(nu)),
-                                             static_cast<int>(line / static_cast<std::size_t>(nu)));
-        }
-      }
-    }
-    surface["reference_vs_commanded_max_um"] = worst * 1e6;
-    stage_seconds["commanded_check"] = seconds_since(stage_clock);
-    surface["reference_vs_commanded_isolated_lines"] = isolated_lines;
-    checks.push_back(check_reference_against_commanded(worst, worst_at, options.mark_threshold_m));
-    if (isolated_lines > 0) {
-      checks.back().detail += "; " + std::to_string(isolated_lines) + " lines beyond the limit on their own (up to " +
-                              format_double(std::round(worst_isolated * 1e9) / 1e3) +
-                              " um, in groups too small to be a mark) not counted";
-    }
-    progress(check_line(checks.back()));
-    if (checks.back().status == CheckStatus::failed) {
-      throw InfeasibleError(
-          "the reference run is not a valid reference: " + check_line(checks.back()) +
-          ". Its surface must match the commanded tool path's own surface to within the mark threshold, "
-          "or marks would hide in it; lower the reference feed (--reference-feed-mm-per-min) or look for "
-          "the cause at that place");
-    }
-  } else {
-    checks.push_back({"reference_vs_commanded", "reference surface against the surface the commanded tool path cuts",
-                      0.0, options.mark_threshold_m * 1e6, "um", CheckStatus::not_done,
-                      "--no-commanded-check: the reference was not checked"});
-    progress(check_line(checks.back()));
-  }
+  checks.push_back(reference_check);
   Json check_list = Json::array();
   for (const ValidityCheck& check : checks) check_list.push_back(check_json(check));
   report["validity_checks"] = check_list;
@@ -1246,8 +1329,8 @@ Json simulate_part(const SimulatePartOptions& options, const ProgressSink& progr
                       path_for_report(context.inputs.machine.source_file, options.part_path) + ")";
   report["toolpath"] = path_for_report(context.part.toolpath_path, options.part_path);
   report["method"] = method_name(options.method);
-  report["runs"]["production"] = run_summary(context, production);
-  report["runs"]["reference"] = run_summary(context, reference);
+  report["runs"]["production"] = run_summary(production);
+  report["runs"]["reference"] = run_summary(reference);
   report["surface"] = surface;
   // The marks a machinist acts on, deepest first; specks counted apart (report_marks.hpp).
   const Json curated =
@@ -1271,6 +1354,7 @@ Json simulate_part(const SimulatePartOptions& options, const ProgressSink& progr
   // that leaves the previous results as they were).
   const std::filesystem::path& staging = output.staging();
   stage_clock = Clock::now();
+  stage_cpu = cpu_seconds();
   progress("writing surfaces ...");
   for (std::size_t v = 0; v < context.views.size(); ++v) {
     const SurfaceView& view = context.views[v];
@@ -1292,11 +1376,19 @@ Json simulate_part(const SimulatePartOptions& options, const ProgressSink& progr
   report["surface"] = surface;
   std::vector<std::string> images;
   write_renders(context, production, reference, comparisons, staging, report, images);
-  stage_seconds["outputs"] = seconds_since(stage_clock);
+  end_stage("outputs");
   stage_seconds["production"] = stage_times(production);
   stage_seconds["reference"] = stage_times(reference);
   stage_seconds["total"] = seconds_since(start);
   report["stage_seconds"] = stage_seconds;
+  stage_cpu_seconds["total"] = cpu_seconds() - cpu_start;
+  stage_peak_rss_mib["total"] = peak_rss_mib();
+  for (const Run* run : {&production, &reference}) {
+    for (const auto& [stage, value] : run->stage_cpu_seconds) stage_cpu_seconds[run->name][stage] = value;
+    for (const auto& [stage, value] : run->stage_peak_rss_mib) stage_peak_rss_mib[run->name][stage] = value;
+  }
+  report["stage_cpu_seconds"] = stage_cpu_seconds;
+  report["stage_peak_rss_mib"] = stage_peak_rss_mib;
   write_file_atomically((staging / "report.json").string(), json_file_text(report));
   write_file_atomically((staging / "report.html").string(), html_report(report, images));
   write_file_atomically((staging / "marks.csv").string(), marks_csv(curated));

@@ -91,6 +91,13 @@ std::string vec(const Vector3d& v) {
   return "[" + num(v.x()) + ", " + num(v.y()) + ", " + num(v.z()) + "]";
 }
 
+// The shortest decimal text of a value given to a few digits (-5, 0.25, 500).
+std::string num_short(double value) {
+  std::ostringstream out;
+  out << value;
+  return out.str();
+}
+
 std::string range(double low, double high) { return "[" + num(low) + ", " + num(high) + "]"; }
 
 std::string cl_numbers(const ClPoint& cl, bool with_axis) {
@@ -190,19 +197,22 @@ std::string summary(const std::string& name, const ToolPath& path, const std::st
 // ---------------------------------------------------------------------------------------------
 // Part 1: two planes joined in tangency by a concave cylinder (second paper, test part 1)
 
-PartFiles part1_tangency() {
+// `width_mm` other than 10: the same profile swept over that width in y (a die-sized part for
+// the scaling benchmark, bench/scaling.py), passes 0.25 mm apart over the whole width.
+PartFiles part1_tangency(double width_mm = 10.0) {
   // Profile in the XZ plane, extruded along y: plane z = 20 for x <= 0, a concave cylinder
   // (axis along y through x = 0, z = 35, radius 15) from x = 0 to the tangency with the plane
   // inclined 30 degrees, which rises from x = 7.5 mm.
+  const bool die = width_mm != 10.0;
   const double z_floor = 20.0;
   const double fillet_radius = 15.0;
   const double slope = 30.0 * kDegree;
   const double ball_radius = 5.0;
   const double x_start = -46.0;  // contact point at the start of a pass (tool clear of the stock)
   const double x_end = 42.0;     // contact point at the end (tool above the stock top)
-  const double y_first = -5.0;
-  const int passes = 41;         // y = -5 ... 5 every 0.25 mm
+  const double y_first = -0.5 * width_mm;
   const double stepover = 0.25;
+  const int passes = static_cast<int>(std::lround(width_mm / stepover)) + 1;  // part 1: 41, y = -5 ... 5
   const double point_step = 0.2;
   const double z_safe = 50.0;
 
@@ -232,7 +242,7 @@ PartFiles part1_tangency() {
   }
 
   ToolPath path;
-  path.partno = "PART1_TANGENCY";
+  path.partno = die ? "DIE_PART1" : "PART1_TANGENCY";
   path.cutter_diameter_mm = 2.0 * ball_radius;
   path.cutter_corner_radius_mm = ball_radius;
   path.from.tip_W_mm = Vector3d(0.0, 0.0, 100.0);
@@ -246,23 +256,31 @@ PartFiles part1_tangency() {
   }
 
   const double y_last = y_first + stepover * (passes - 1);
+  const std::string name = die ? "die_part1_" + num_short(width_mm) + "mm" : "part1_tangency";
   std::string yaml;
-  yaml += "# Sample part 1 (second paper, Section 4, test part 1, Fig. 6 and "
-          R"(Fig. 8): two planes joined
+  if (die) {
+    yaml += "# Die-sized part 1 for the scaling benchmark (bench/scaling.py): sample part 1's profile\n"
+            "# swept over " + num_short(width_mm) + " mm in y, one-way XZ passes 0.25 mm apart, ball-end D10.\n"
+            "# Regenerate: <build>/samples/generate_parts --die-width-mm " + num_short(width_mm) + " <folder>\n";
+  } else {
+    yaml += "# Sample part 1 (second paper, Section 4, test part 1, Fig. 6 and "
+            R"(Fig. 8): two planes joined
 # in tangency by a concave cylinder, finished by a ball-end mill D10 in one-way parallel XZ
 # passes 0.25 mm apart, 3-axis. The tangency lines x = 0 and x = 7.5 mm are where the
 # 10 m/min pass leaves a mark (about 0.02 mm deep in the paper); 0.1 m/min is the reference.
 )";
-  yaml += kRegenerate;
-  yaml += "name: part1_tangency\n";
+    yaml += kRegenerate;
+  }
+  yaml += "name: " + name + "\n";
   yaml += "description: \"Plane z = 20 mm (x <= 0), concave cylinder R15 (axis along y at x = 0, "
-          "z = 35), plane inclined 30 deg (x >= 7.5). 41 one-way passes in XZ planes y = -5..5 mm "
+          "z = 35), plane inclined 30 deg (x >= 7.5). " + std::to_string(passes) +
+          " one-way passes in XZ planes y = " + num_short(y_first) + ".." + num_short(y_last) + " mm "
           "every 0.25 mm, each from contact x = -46 to 42 mm, tip points every 0.2 mm or less, "
           "feed plunge outside the stock, rapid retract to z = 50 and rapid return.\"\n";
   yaml += kMachine;
   yaml += "toolpath: toolpath.apt\n";
   yaml += "tool: {type: ball, diameter_mm: 10, corner_radius_mm: 5, length_mm: 60}\n";
-  yaml += stock_yaml(Vector3d(-40.0, -5.0, 0.0), Vector3d(40.0, 5.0, 40.0));
+  yaml += stock_yaml(Vector3d(-40.0, y_first, 0.0), Vector3d(40.0, y_last, 40.0));
   yaml += "design:\n";
   yaml += "  surfaces:\n";
   yaml += "    - {type: plane, point_mm: " + vec(Vector3d(0.0, 0.0, z_floor)) +
@@ -280,7 +298,7 @@ PartFiles part1_tangency() {
           ", point_step_max_mm: " + num(point_step) + ", safe_z_mm: " + num(z_safe) + "}\n";
   yaml += feeds_yaml(10000.0, 100.0);
 
-  return {"part1_tangency", apt_text(path), yaml, summary("part1_tangency", path, ""), ""};
+  return {name, apt_text(path), yaml, summary(name, path, ""), ""};
 }
 
 // ---------------------------------------------------------------------------------------------
@@ -748,16 +766,29 @@ void write_file(const std::filesystem::path& path, const std::string& text) {
 }  // namespace
 
 int main(int argc, char** argv) {
-  if (argc != 2 || std::string(argv[1]) == "-h" || std::string(argv[1]) == "--help") {
+  const bool die = argc == 4 && std::string(argv[1]) == "--die-width-mm";
+  if ((argc != 2 && !die) || std::string(argv[1]) == "-h" || std::string(argv[1]) == "--help") {
     std::cerr << "usage: generate_parts <output folder>   (e.g. generate_parts samples/parts)\n"
                  "Writes <output folder>/<part>/toolpath.apt and part.yaml for the sample parts\n"
-                 "(and stock.stl where a part has a near-net stock).\n";
+                 "(and stock.stl where a part has a near-net stock).\n"
+                 "       generate_parts --die-width-mm W <output folder>\n"
+                 "Writes <output folder>/die_part1_<W>mm/: part 1's profile swept over W mm in y\n"
+                 "(the scaling benchmark's die; 500 mm: 2 001 passes, about 900 000 GOTOs).\n";
     return argc == 2 ? 0 : 2;
   }
   try {
-    const std::filesystem::path out_dir(argv[1]);
-    const std::vector<PartFiles> parts = {part1_tangency(), part2_corner(), part3_five_axis(),
-                                          path1_yz(), path2_blade()};
+    const std::filesystem::path out_dir(argv[die ? 3 : 1]);
+    double width_mm = 10.0;
+    if (die) {
+      std::size_t used = 0;
+      width_mm = std::stod(argv[2], &used);
+      if (used != std::string(argv[2]).size() || !(width_mm >= 1.0 && width_mm <= 2000.0)) {
+        throw std::runtime_error(std::string("--die-width-mm ") + argv[2] + ": a width in mm from 1 to 2000");
+      }
+    }
+    const std::vector<PartFiles> parts =
+        die ? std::vector<PartFiles>{part1_tangency(width_mm)}
+            : std::vector<PartFiles>{part1_tangency(), part2_corner(), part3_five_axis(), path1_yz(), path2_blade()};
     for (const PartFiles& part : parts) {
       const std::filesystem::path dir = out_dir / part.name;
       std::filesystem::create_directories(dir);

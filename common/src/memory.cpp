@@ -17,4 +17,10 @@ void keep_freed_memory_in_process() {
 #endif
 }
 
+void return_freed_memory_to_system() {
+#if defined(__GLIBC__)
+  malloc_trim(0);
+#endif
+}
+
 }  // namespace vmsim

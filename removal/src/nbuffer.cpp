@@ -154,10 +154,71 @@ std::vector<double> NBuffer::lengths() const {
 
 void NBuffer::build_tiles() {
   tiles_.assign(static_cast<std::size_t>(tiles_u_) * tiles_v_, TileBounds{});
-  for (std::size_t t = 0; t < tiles_.size(); ++t) refresh_tile(t);
+  for (std::size_t t = 0; t < tiles_.size(); ++t) refresh_tile(t, &h_[t * kTile * kTile]);
 }
 
-void NBuffer::refresh_tile(std::size_t tile) {
+double NBuffer::compact_length(std::size_t stored) const {
+  const std::size_t tile = stored / (kTile * kTile);
+  const std::vector<float>& offsets = offsets_[tile];
+  if (offsets.empty()) return base_[tile];
+  // Never below 0 (the float rounding of an offset of -base could reach just below).
+  return std::max(0.0, base_[tile] + static_cast<double>(offsets[stored % (kTile * kTile)]));
+}
+
+void NBuffer::tile_lengths(std::size_t tile, double* out) const {
+  constexpr std::size_t n = kTile * kTile;
+  if (!compact_) {
+    std::copy_n(h_.begin() + static_cast<std::ptrdiff_t>(tile * n), n, out);
+    return;
+  }
+  const std::vector<float>& offsets = offsets_[tile];
+  const double base = base_[tile];
+  if (offsets.empty()) {
+    std::fill_n(out, n, base);
+    return;
+  }
+  for (std::size_t k = 0; k < n; ++k) out[k] = std::max(0.0, base + static_cast<double>(offsets[k]));
+}
+
+void NBuffer::make_compact() {
+  if (compact_) return;
+  constexpr std::size_t n = kTile * kTile;
+  base_.assign(tiles_.size(), 0.0);
+  offsets_.assign(tiles_.size(), {});
+  for (std::size_t t = 0; t < tiles_.size(); ++t) {
+    const double* h = &h_[t * n];
+    const double base = *std::max_element(h, h + n);
+    base_[t] = base;
+    if (std::all_of(h, h + n, [&](double v) { return v == base; })) continue;
+    std::vector<float>& offsets = offsets_[t];
+    offsets.resize(n);
+    for (std::size_t k = 0; k < n; ++k) offsets[k] = static_cast<float>(h[k] - base);
+  }
+  compact_ = true;
+  std::vector<double>().swap(h_);
+  // The bounds from the lengths as now stored (a rounded offset may sit just above the exact
+  // length: the culling must see what is stored).
+  double h[n];
+  for (std::size_t t = 0; t < tiles_.size(); ++t) {
+    tile_lengths(t, h);
+    refresh_tile(t, h);
+  }
+}
+
+std::size_t NBuffer::allocated_tiles() const {
+  if (!compact_) return tiles_.size();
+  std::size_t count = 0;
+  for (const std::vector<float>& offsets : offsets_) count += offsets.empty() ? 0 : 1;
+  return count;
+}
+
+std::size_t NBuffer::length_bytes() const {
+  if (!compact_) return h_.size() * sizeof(double);
+  return allocated_tiles() * kTile * kTile * sizeof(float) +
+         offsets_.size() * (sizeof(double) + sizeof(std::vector<float>));
+}
+
+void NBuffer::refresh_tile(std::size_t tile, const double* h) {
   const int tu = static_cast<int>(tile % static_cast<std::size_t>(tiles_u_));
   const int tv = static_cast<int>(tile / static_cast<std::size_t>(tiles_u_));
   const int u_end = std::min(nu_, (tu + 1) * kTile), v_end = std::min(nv_, (tv + 1) * kTile);
@@ -169,9 +230,9 @@ void NBuffer::refresh_tile(std::size_t tile) {
   for (int iv = tv * kTile; iv < v_end; ++iv) {
     for (int iu = tu * kTile; iu < u_end; ++iu) {
       const std::size_t s = base + static_cast<std::size_t>(iu - tu * kTile) + static_cast<std::size_t>(kTile) * (iv - tv * kTile);
-      b.h_max = std::max(b.h_max, h_[s]);
+      b.h_max = std::max(b.h_max, h[s - base]);
       if (!zmap_) {
-        const Eigen::Vector3d end = o_[s] + h_[s] * u_[s];
+        const Eigen::Vector3d end = o_[s] + h[s - base] * u_[s];
         b.lo = b.lo.cwiseMin(o_[s]).cwiseMin(end);
         b.hi = b.hi.cwiseMax(o_[s]).cwiseMax(end);
       }
@@ -1007,7 +1068,7 @@ CutStatistics NBuffer::cut(const Tool& tool, std::span<const Pose> trajectory, c
       // reach where the sweep gets below the tile's highest line, ahead of the axis plane's
       // limit and, for a continuing sweep, ahead of its start; each then gets the exact cut.
       auto cut_zmap_tile = [&](const Sweep& s, const ChainRole& role, std::size_t tile, int tu, int tv, int u_end, int v_end,
-                               std::size_t& lowered, double& lowered_max) {
+                               double* tile_h, std::size_t& lowered, double& lowered_max) {
         const double z0 = origin0_.z(), top = tiles_[tile].hi.z();
         const double reach = detail::reach_below(s, top);
         if (!(reach >= 0.0)) return;
@@ -1062,7 +1123,7 @@ CutStatistics NBuffer::cut(const Tool& tool, std::span<const Pose> trajectory, c
           if (!(xa <= xb)) continue;
           const int ia = std::max(tu * kTile, static_cast<int>(std::ceil((xa - origin0_.x()) / sp)));
           const int ib = std::min(u_end - 1, static_cast<int>(std::floor((xb - origin0_.x()) / sp)));
-          double* row = &h_[tile * kTile * kTile + static_cast<std::size_t>(kTile) * (iv - tv * kTile)];  // == index(iu, iv)
+          double* row = tile_h + static_cast<std::size_t>(kTile) * (iv - tv * kTile);  // == index(iu, iv)
           int skip_a = ib + 1, skip_b = ib;  // lines [skip_a, skip_b] skipped
           double sx0 = 0.0, sx1 = 0.0;
           if (skip_start_disc && fast.start_disc_row(y, slack, sx0, sx1)) {
@@ -1144,6 +1205,19 @@ CutStatistics NBuffer::cut(const Tool& tool, std::span<const Pose> trajectory, c
         const int tv = static_cast<int>(tile / static_cast<std::size_t>(tiles_u_));
         const int u_end = std::min(nu_, (tu + 1) * kTile), v_end = std::min(nv_, (tv + 1) * kTile);
         std::size_t visited = 0, lowered = 0;
+        // The tile's lengths: in place (plain storage), or decoded into `scratch` and encoded
+        // again after the tile's sweeps (compact storage).
+        constexpr std::size_t n_tile = kTile * kTile;
+        double scratch[n_tile], decoded[n_tile];
+        double* tile_h = nullptr;
+        if (compact_) {
+          tile_lengths(tile, scratch);
+          std::copy_n(scratch, n_tile, decoded);
+          tile_h = scratch;
+        } else {
+          tile_h = &h_[tile * n_tile];
+        }
+        const std::size_t lowered_start = lowered;
         for (std::size_t k = group_begin[g]; k < group_begin[g + 1]; ++k) {
           const Sweep& s = sweeps[pairs[k].second];
           if (!may_cut(s, tiles_[tile].lo, tiles_[tile].hi, zmap_)) continue;
@@ -1151,12 +1225,12 @@ CutStatistics NBuffer::cut(const Tool& tool, std::span<const Pose> trajectory, c
           const std::size_t before = lowered;
           double lowered_max = -1.0;  // the highest length lowered (the tile's bound moves only if it was the top)
           if (zmap_) {
-            cut_zmap_tile(s, roles[pairs[k].second], tile, tu, tv, u_end, v_end, lowered, lowered_max);
+            cut_zmap_tile(s, roles[pairs[k].second], tile, tu, tv, u_end, v_end, tile_h, lowered, lowered_max);
           } else {
             for (int iv = tv * kTile; iv < v_end; ++iv) {
               for (int iu = tu * kTile; iu < u_end; ++iu) {
                 const std::size_t li = index(iu, iv);
-                double& h = h_[li];
+                double& h = tile_h[li - tile * n_tile];
                 double t0 = 0.0, t1 = 0.0;
                 if (detail::line_interval(s, o_[li], u_[li], t0, t1) && t1 > 0.0 && t0 < h) {
                   h = std::max(0.0, t0);
@@ -1165,7 +1239,20 @@ CutStatistics NBuffer::cut(const Tool& tool, std::span<const Pose> trajectory, c
               }
             }
           }
-          if (lowered != before && (!zmap_ || lowered_max >= tiles_[tile].h_max)) refresh_tile(tile);
+          if (lowered != before && (!zmap_ || lowered_max >= tiles_[tile].h_max)) refresh_tile(tile, tile_h);
+        }
+        if (compact_ && lowered != lowered_start) {
+          // Encoded from the tile's base; a line's offset never rises (rounding is monotonic and
+          // the old offset is a float), so a cut never adds material.
+          std::vector<float>& offsets = offsets_[tile];
+          const double base = base_[tile];
+          if (offsets.empty()) offsets.assign(n_tile, 0.0f);
+          for (std::size_t k = 0; k < n_tile; ++k) {
+            if (scratch[k] != decoded[k]) offsets[k] = std::min(offsets[k], static_cast<float>(scratch[k] - base));
+          }
+          // The bounds from the lengths as stored (see make_compact).
+          tile_lengths(tile, scratch);
+          refresh_tile(tile, scratch);
         }
         tiles_visited += visited;
         lines_lowered += lowered;
@@ -1209,10 +1296,27 @@ std::vector<double> difference(const NBuffer& production, const NBuffer& referen
   if (!production.same_lines(reference)) {
     throw std::invalid_argument("difference: the two N-buffers are not on identical lines");
   }
-  std::vector<double> a = production.lengths();
-  const std::vector<double> b = reference.lengths();
-  for (std::size_t i = 0; i < a.size(); ++i) a[i] -= b[i];
-  return a;
+  // Tile by tile in storage order, written row-major: no whole copy of either buffer.
+  constexpr int n_tile = NBuffer::kTile * NBuffer::kTile;
+  const int nu = production.nu(), nv = production.nv();
+  std::vector<double> out(production.line_count());
+  double a[n_tile], b[n_tile];
+  const int tiles_u = (nu + NBuffer::kTile - 1) / NBuffer::kTile, tiles_v = (nv + NBuffer::kTile - 1) / NBuffer::kTile;
+  for (int tv = 0; tv < tiles_v; ++tv) {
+    for (int tu = 0; tu < tiles_u; ++tu) {
+      const std::size_t tile = static_cast<std::size_t>(tu) + static_cast<std::size_t>(tiles_u) * static_cast<std::size_t>(tv);
+      production.tile_lengths(tile, a);
+      reference.tile_lengths(tile, b);
+      const int u_end = std::min(nu, (tu + 1) * NBuffer::kTile), v_end = std::min(nv, (tv + 1) * NBuffer::kTile);
+      for (int iv = tv * NBuffer::kTile; iv < v_end; ++iv) {
+        for (int iu = tu * NBuffer::kTile; iu < u_end; ++iu) {
+          const int k = (iu - tu * NBuffer::kTile) + NBuffer::kTile * (iv - tv * NBuffer::kTile);
+          out[static_cast<std::size_t>(iu) + static_cast<std::size_t>(nu) * static_cast<std::size_t>(iv)] = a[k] - b[k];
+        }
+      }
+    }
+  }
+  return out;
 }
 
 }  // namespace vmsim::removal

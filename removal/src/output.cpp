@@ -55,7 +55,12 @@ std::string heights_csv(const NBuffer& b, const std::vector<double>* values) {
 }
 
 std::string heights_binary(const NBuffer& b) {
-  std::string out = "VMSIMNB1";
+  // Sized once and filled line by line: no copy of the lengths, no doubling of the string (the
+  // writing of the surfaces held about three times the file in memory).
+  const std::size_t lines = b.line_count();
+  std::string out;
+  out.reserve(8 + 3 * 4 + 4 * 8 + lines * 8 * (b.is_zmap() ? 1 : 7));
+  out += "VMSIMNB1";
   put<std::int32_t>(out, b.nu());
   put<std::int32_t>(out, b.nv());
   put<std::int32_t>(out, b.is_zmap() ? 1 : 0);
@@ -64,7 +69,9 @@ std::string heights_binary(const NBuffer& b) {
   put(out, o.y());
   put(out, o.z());
   put(out, b.is_zmap() ? b.spacing_m() : 0.0);
-  for (double h : b.lengths()) put(out, h);
+  for (int iv = 0; iv < b.nv(); ++iv) {
+    for (int iu = 0; iu < b.nu(); ++iu) put(out, b.length(iu, iv));
+  }
   if (!b.is_zmap()) {
     for (int pass = 0; pass < 2; ++pass) {
       for (int iv = 0; iv < b.nv(); ++iv) {

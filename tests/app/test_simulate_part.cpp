@@ -138,6 +138,47 @@ TEST(SimulatePart, TheReferenceRunMatchesTheCommandedSurface) {
   EXPECT_TRUE(std::filesystem::exists(folder / "out" / "marks.csv"));
 }
 
+TEST(SimulatePart, ACompactZmapGivesThePlainResultsWithinItsBound) {
+  // The same job with plain (exact) and compact Z-map heights (float offsets from a base a tile):
+  // the marks and deviations agree within the compact bound (2^-24 of the 40 mm stock's height,
+  // 2.4 nm, per run); the compact heights take about half the bytes (tiles the tool does not
+  // reach hold none: tests/removal/test_compact_heights.cpp); the stages report their CPU time
+  // and the peak memory.
+  const auto plain_folder = test::fresh_folder("simulate_plain_zmap");
+  const auto compact_folder = test::fresh_folder("simulate_compact_zmap");
+  app::SimulatePartOptions plain = options_for(plain_folder);
+  app::SimulatePartOptions compact = options_for(compact_folder);
+  compact.compact_zmap_above_lines = 0;
+  plain.perfect_drives = compact.perfect_drives = true;
+  const auto disturbance = [](double, Eigen::VectorXd& q) {  // a 20 um mark, as above
+    if (q[0] >= -6e-3 && q[0] <= -4e-3 && std::abs(q[1] + 4.75e-3) < 1e-6) q[2] -= 20e-6;
+  };
+  plain.production_disturbance = compact.production_disturbance = disturbance;
+  const nlohmann::json a = app::simulate_part(plain, kSilent);
+  const nlohmann::json b = app::simulate_part(compact, kSilent);
+  const double bound_um = 2 * removal::NBuffer::compact_bound_m(40e-3) * 1e6;
+  ASSERT_EQ(a["marks"].size(), b["marks"].size());
+  ASSERT_FALSE(a["marks"].empty());
+  for (std::size_t m = 0; m < a["marks"].size(); ++m) {
+    EXPECT_NEAR(a["marks"][m]["depth_um"].get<double>(), b["marks"][m]["depth_um"].get<double>(), bound_um);
+    // Lines within the bound of the threshold may fall either side of it.
+    const double lines = a["marks"][m]["lines"].get<double>();
+    EXPECT_NEAR(lines, b["marks"][m]["lines"].get<double>(), std::max(2.0, 1e-3 * lines));
+  }
+  for (const char* key : {"deviation_min_um", "deviation_max_um", "reference_vs_commanded_max_um"}) {
+    EXPECT_NEAR(a["surface"][key].get<double>(), b["surface"][key].get<double>(), bound_um) << key;
+  }
+  EXPECT_EQ(a["surface"]["zmap_heights"]["storage"], "plain");
+  EXPECT_EQ(b["surface"]["zmap_heights"]["storage"], "compact");
+  const auto& heights = b["surface"]["zmap_heights"];
+  // The tool reaches the whole strip here: every tile holds offsets, 4 B a line against 8.
+  EXPECT_LE(heights["tiles_allocated_production"].get<std::size_t>(), heights["tiles"].get<std::size_t>());
+  EXPECT_GT(heights["tiles_allocated_production"].get<std::size_t>(), 0u);
+  EXPECT_LT(heights["bytes_production"].get<double>(), 0.6 * a["surface"]["zmap_heights"]["bytes_production"].get<double>());
+  EXPECT_GT(b["stage_peak_rss_mib"]["total"].get<double>(), 0.0);
+  EXPECT_GE(b["stage_cpu_seconds"]["total"].get<double>(), b["stage_cpu_seconds"]["reference"]["removal"].get<double>());
+}
+
 TEST(SimulatePart, TheVerdictTakesTheToleranceFromTheOptionOrThePartFile) {
   const auto folder = test::fresh_folder("simulate_verdict");
   app::SimulatePartOptions options = options_for(folder);

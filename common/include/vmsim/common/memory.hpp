@@ -11,4 +11,9 @@ namespace vmsim {
 /// this). Safe to call more than once; does nothing where the C library has no such setting.
 void keep_freed_memory_in_process();
 
+/// Hands the memory freed so far back to the system (glibc: malloc_trim). For a long job after
+/// a stage that freed much more than the stages after it will reuse (the reference run's
+/// traces): kept, it would add to every later stage's peak. Does nothing elsewhere.
+void return_freed_memory_to_system();
+
 }  // namespace vmsim

@@ -138,7 +138,9 @@ class NBuffer {
   Eigen::Vector3d origin(int iu, int iv) const;
   Eigen::Vector3d direction(int iu, int iv) const;
   /// Remaining length h [m] of line (iu, iv); for a Z-map the height is h + zmap_origin_m().z().
-  double length(int iu, int iv) const { return h_[index(iu, iv)]; }
+  double length(int iu, int iv) const {
+    return compact_ ? compact_length(index(iu, iv)) : h_[index(iu, iv)];
+  }
   /// The surface point o + h u [m, W].
   Eigen::Vector3d surface_point(int iu, int iv) const;
   /// All lengths, row-major (index = iu + nu * iv).
@@ -152,17 +154,48 @@ class NBuffer {
   /// True when both buffers have the same lines (same grid, origins and directions, bit for bit).
   bool same_lines(const NBuffer& other) const;
 
+  /// Compact storage (for Z-maps and buffers too large for one double a line): each tile of
+  /// 16 x 16 lines keeps a base length (double: its largest length when made compact) and,
+  /// once a cut lowers one of its lines, one float offset a line from that base; a tile whose
+  /// lines all equal its base (uncut stock) holds no offsets at all, so the memory follows the
+  /// work: 4 bytes a line where a tool reached, about 0.13 bytes a line elsewhere. Lengths stay
+  /// exact where they equal the base; elsewhere a stored length is within
+  /// compact_bound_m(base - h) of the exact one (float rounding of the offset: 2^-24 of the
+  /// depth below the tile's base, 0.6 nm at 10 mm), and a cut never raises a stored length.
+  /// The cut is computed in double on the tile's lines as in plain storage (each tile is
+  /// decoded, cut and encoded again); every decision is the tile's own, so the result does not
+  /// depend on the thread count. Converting a plain buffer is exact for lines equal to their
+  /// tile's largest length and within the bound otherwise.
+  void make_compact();
+  bool is_compact() const { return compact_; }
+  /// Tiles holding offsets (compact storage); all tiles in plain storage.
+  std::size_t allocated_tiles() const;
+  std::size_t tile_count() const { return tiles_.size(); }
+  /// Bytes held for the lengths (plain: 8 a stored line; compact: offsets plus the bases).
+  std::size_t length_bytes() const;
+  /// Largest difference between a compact length and the exact one for a depth [m] below
+  /// its tile's base: the float rounding of the offset plus that of the double sum.
+  static double compact_bound_m(double depth_m) { return depth_m * 0x1p-24 + 1e-15; }
+
  private:
   std::size_t index(int iu, int iv) const;
   void build_tiles();
-  void refresh_tile(std::size_t tile);
+  /// Recomputes the bounds of `tile` from its kTile * kTile lengths (in storage order) at `h`.
+  void refresh_tile(std::size_t tile, const double* h);
+  double compact_length(std::size_t stored) const;
+  /// The lengths of a tile in storage order (compact storage decoded).
+  void tile_lengths(std::size_t tile, double* out) const;
 
   bool zmap_ = false;
   int nu_ = 0, nv_ = 0, tiles_u_ = 0, tiles_v_ = 0;
   double spacing_ = 0.0;
   Eigen::Vector3d origin0_ = Eigen::Vector3d::Zero();
   // Storage is tile-major: lines of one tile are contiguous.
-  std::vector<double> h_;
+  std::vector<double> h_;  // plain storage
+  // Compact storage: per tile, its base length and its offsets (empty: every line at the base).
+  bool compact_ = false;
+  std::vector<double> base_;
+  std::vector<std::vector<float>> offsets_;
   std::vector<Eigen::Vector3d> o_, u_;  // general buffers only
   struct TileBounds {
     Eigen::Vector3d lo, hi;  // box of the material segments of the tile's lines
@@ -170,12 +203,14 @@ class NBuffer {
   };
   std::vector<TileBounds> tiles_;
   friend struct NBufferAccess;
+  friend std::vector<double> difference(const NBuffer& production, const NBuffer& reference);
 };
 
 /// Run-versus-run difference, line by line: production minus reference lengths [m], row-major
 /// (index = iu + nu * iv). Negative where the production run cut deeper (a mark), positive where
 /// it left material. Both runs must be on identical lines (same grid), so that grid and scallop
-/// effects cancel exactly; throws std::invalid_argument otherwise.
+/// effects cancel exactly; throws std::invalid_argument otherwise. Computed tile by tile (no
+/// copy of either buffer's lengths); either buffer may be compact.
 std::vector<double> difference(const NBuffer& production, const NBuffer& reference);
 
 }  // namespace vmsim::removal
