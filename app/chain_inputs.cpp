@@ -230,6 +230,22 @@ ChainInputs load_chain_inputs(const ChainInputOptions& options) {
         kinematics::forward_kinematics(machine, axes_from_words(machine, words), tool_length_m);
     return toolpath::AxisWordPose{pose.tip_W_m, pose.axis_W};
   };
+  // KUKA KRL: $WORLD is the robot's base B; its place in W and PTP {A1 .. A6} in machine order.
+  reader.krl_world_in_W = kinematics::workpiece_frame_B(machine, machine.home_positions()).inverse().matrix();
+  reader.robot_joints_to_pose = [&machine, tool_length_m](const std::vector<double>& joints_deg) {
+    if (joints_deg.size() != machine.axes.size()) {
+      throw InputError("PTP gives " + std::to_string(joints_deg.size()) + " axis values, the machine " +
+                       machine.name + " has " + std::to_string(machine.axes.size()) + " axes");
+    }
+    Eigen::VectorXd q(static_cast<Eigen::Index>(joints_deg.size()));
+    for (std::size_t i = 0; i < joints_deg.size(); ++i) {
+      q[static_cast<Eigen::Index>(i)] = machine.axes[i].type == kinematics::AxisType::linear
+                                            ? joints_deg[i] * 1e-3
+                                            : joints_deg[i] * std::numbers::pi / 180.0;
+    }
+    const kinematics::ToolPose pose = kinematics::forward_kinematics(machine, q, tool_length_m);
+    return toolpath::AxisWordPose{pose.tip_W_m, pose.axis_W};
+  };
   apply_machine_setup(machine, setup, tool_length_m, reader, options.part_path);
   inputs.toolpath = toolpath::read_toolpath(toolpath_path, reader);
   if (inputs.toolpath.points.empty()) {

@@ -197,6 +197,8 @@ std::string method_name(planner::FeedrateMethod method) {
   return method == planner::FeedrateMethod::kinematic ? "kinematic" : "dynamic";
 }
 
+std::vector<bool> cutting_samples(const Context& context, const Run& run);
+
 Run simulate_run(const Context& context, const std::string& name, const FeedSetting& feed,
                  planner::FeedrateMethod method) {
   const kinematics::MachineModel& machine = context.inputs.machine;
@@ -287,6 +289,18 @@ Run simulate_run(const Context& context, const std::string& name, const FeedSett
     }
     run.checks.push_back(check_actual_within_travel(machine, run.t_s, run.q_actual, name));
     context.progress(check_line(run.checks.back()));
+    if (!context.options.perfect_drives) {
+      Eigen::MatrixXd current(static_cast<Eigen::Index>(machine.axes.size()), static_cast<Eigen::Index>(run.samples));
+      for (std::size_t j = 0; j < machine.axes.size(); ++j) {
+        const auto& column = run.servo.column(machine.axes[j].name + ".cur");
+        for (std::size_t k = 0; k < run.samples; ++k) {
+          current(static_cast<Eigen::Index>(j), static_cast<Eigen::Index>(k)) = column[k];
+        }
+      }
+      run.checks.push_back(
+          check_drives_not_saturated(machine, run.t_s, current, cutting_samples(context, run), name));
+      context.progress(check_line(run.checks.back()));
+    }
     std::vector<removal::Pose> poses(run.samples);
     for (std::size_t k = 0; k < run.samples; ++k) {
       const kinematics::ToolPose pose = kinematics::forward_kinematics(
@@ -570,6 +584,49 @@ Json run_summary(const Context& context, const Run& run) {
     cutting.push_back(entry);
   }
   summary["axes_while_cutting"] = cutting;
+  // The tool tip's Cartesian deviation while cutting: the direct kinematics of the actual (load)
+  // positions against that of the commanded ones, and the part of it that the joints' elastic
+  // deflection makes (load against motor side, where the servo tells them apart).
+  if (!context.options.perfect_drives) {
+    std::vector<const std::vector<double>*> motor(machine.axes.size(), nullptr);
+    bool elastic = false;
+    for (std::size_t j = 0; j < machine.axes.size(); ++j) {
+      if (machine.axes[j].effects.compliance.enabled && run.servo.column_index(machine.axes[j].name + ".pos2")) {
+        motor[j] = &run.servo.column(machine.axes[j].name + ".pos");
+        elastic = true;
+      }
+    }
+    double peak = 0.0, sum_squares = 0.0, deflection_peak = 0.0;
+    std::size_t at = 0, deflection_at = 0, count = 0;
+    const double tool_length = context.inputs.tool_length_m;
+    for (std::size_t k = 0; k < run.samples; ++k) {
+      if (!cutting_sample[k]) continue;
+      const Eigen::VectorXd q_actual = run.q_actual.col(static_cast<Eigen::Index>(k));
+      const Eigen::Vector3d tip = kinematics::forward_kinematics(machine, q_actual, tool_length).tip_W_m;
+      const double deviation =
+          (tip - kinematics::forward_kinematics(machine, run.q_cmd.col(static_cast<Eigen::Index>(k)), tool_length).tip_W_m)
+              .norm();
+      if (deviation > peak) peak = deviation, at = k;
+      sum_squares += deviation * deviation;
+      ++count;
+      if (!elastic) continue;
+      Eigen::VectorXd q_motor = q_actual;
+      for (std::size_t j = 0; j < machine.axes.size(); ++j) {
+        if (motor[j]) q_motor[static_cast<Eigen::Index>(j)] = from_trace_unit(machine.axes[j], (*motor[j])[k]);
+      }
+      const double deflection =
+          (tip - kinematics::forward_kinematics(machine, q_motor, tool_length).tip_W_m).norm();
+      if (deflection > deflection_peak) deflection_peak = deflection, deflection_at = k;
+    }
+    Json tip{{"deviation_peak_um", peak * 1e6},
+             {"deviation_rms_um", count > 0 ? std::sqrt(sum_squares / static_cast<double>(count)) * 1e6 : 0.0},
+             {"at_s_mm", run.t_s.empty() ? 0.0 : plan_s_at(run.plan, run.t_s[at]) * 1e3}};
+    if (elastic) {
+      tip["joint_deflection_peak_um"] = deflection_peak * 1e6;
+      tip["joint_deflection_at_s_mm"] = plan_s_at(run.plan, run.t_s[deflection_at]) * 1e3;
+    }
+    summary["tool_tip_while_cutting"] = tip;
+  }
   return summary;
 }
 

@@ -20,10 +20,11 @@ Toolpath read_toolpath(const std::string& path, const ReaderOptions& options) {
       extension == ".cnc") {
     return read_gcode(path, options);
   }
+  if (extension == ".src") return read_krl(path, options);  // KUKA KRL
   throw InputError(located_message(
       path, 0, 0,
       "unknown tool path extension '" + extension +
-          "': use .apt/.cl/.cls for APT/CL or .nc/.ngc/.gcode/.mpf/.tap/.iso/.ptp/.eia/.cnc for G-code"));
+          "': use .apt/.cl/.cls for APT/CL or .nc/.ngc/.gcode/.mpf/.tap/.iso/.ptp/.eia/.cnc for G-code, .src for KUKA KRL"));
 }
 
 }  // namespace vmsim::toolpath
