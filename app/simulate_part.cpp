@@ -589,39 +589,79 @@ Json run_summary(const Context& context, const Run& run) {
   // deflection makes (load against motor side, where the servo tells them apart).
   if (!context.options.perfect_drives) {
     std::vector<const std::vector<double>*> motor(machine.axes.size(), nullptr);
+    // Where the controller compensates the static deflection under gravity, the motor stands
+    // ahead of the set point by it on purpose: the servo's own gravity model gives it.
+    std::vector<std::optional<servo::AxisServoModel>> compensated(machine.axes.size());
     bool elastic = false;
+    std::vector<double> reference;
+    if (run.samples > 0) {
+      for (Eigen::Index j = 0; j < run.q_cmd.rows(); ++j) reference.push_back(run.q_cmd(j, 0));
+    }
     for (std::size_t j = 0; j < machine.axes.size(); ++j) {
-      if (machine.axes[j].effects.compliance.enabled && run.servo.column_index(machine.axes[j].name + ".pos2")) {
+      const auto& compliance = machine.axes[j].effects.compliance;
+      if (compliance.enabled && run.servo.column_index(machine.axes[j].name + ".pos2")) {
         motor[j] = &run.servo.column(machine.axes[j].name + ".pos");
         elastic = true;
+        if (compliance.compensate_gravity_deflection && !reference.empty()) {
+          compensated[j] = servo::make_axis_servo_model(machine, static_cast<int>(j), reference, true);
+        }
       }
     }
-    double peak = 0.0, sum_squares = 0.0, deflection_peak = 0.0;
+    double peak = 0.0, sum_squares = 0.0, deflection_peak = 0.0, lag_peak = 0.0;
     std::size_t at = 0, deflection_at = 0, count = 0;
     const double tool_length = context.inputs.tool_length_m;
+    std::vector<Eigen::Vector3d> commanded(run.samples);
+    for (std::size_t k = 0; k < run.samples; ++k) {
+      commanded[k] =
+          kinematics::forward_kinematics(machine, run.q_cmd.col(static_cast<Eigen::Index>(k)), tool_length).tip_W_m;
+    }
+    // The contour error: the distance from the actual tip to the commanded tip's path (its
+    // segments within 0.1 s either side), not to where the command is at that instant (the
+    // drives follow with a delay along the path, which leaves no mark).
+    const double dt = run.t_s.size() > 1 ? run.t_s[1] - run.t_s[0] : 1.0;
+    const auto window = static_cast<std::size_t>(std::ceil(0.1 / dt));
     for (std::size_t k = 0; k < run.samples; ++k) {
       if (!cutting_sample[k]) continue;
       const Eigen::VectorXd q_actual = run.q_actual.col(static_cast<Eigen::Index>(k));
       const Eigen::Vector3d tip = kinematics::forward_kinematics(machine, q_actual, tool_length).tip_W_m;
-      const double deviation =
-          (tip - kinematics::forward_kinematics(machine, run.q_cmd.col(static_cast<Eigen::Index>(k)), tool_length).tip_W_m)
-              .norm();
+      lag_peak = std::max(lag_peak, (tip - commanded[k]).norm());
+      double deviation = (tip - commanded[k]).norm();
+      for (std::size_t i = k > window ? k - window : 0; i + 1 < run.samples && i < k + window; ++i) {
+        const Eigen::Vector3d segment = commanded[i + 1] - commanded[i];
+        const double length2 = segment.squaredNorm();
+        const double f = length2 > 0.0 ? std::clamp((tip - commanded[i]).dot(segment) / length2, 0.0, 1.0) : 0.0;
+        deviation = std::min(deviation, (tip - commanded[i] - f * segment).norm());
+      }
       if (deviation > peak) peak = deviation, at = k;
       sum_squares += deviation * deviation;
       ++count;
       if (!elastic) continue;
       Eigen::VectorXd q_motor = q_actual;
       for (std::size_t j = 0; j < machine.axes.size(); ++j) {
-        if (motor[j]) q_motor[static_cast<Eigen::Index>(j)] = from_trace_unit(machine.axes[j], (*motor[j])[k]);
+        if (!motor[j]) continue;
+        double q = from_trace_unit(machine.axes[j], (*motor[j])[k]);
+        if (compensated[j]) {
+          const servo::AxisServoModel& m = *compensated[j];
+          const double q_set = run.q_cmd(static_cast<Eigen::Index>(j), static_cast<Eigen::Index>(k));
+          double tau = m.gravity_constant_N_m;
+          if (machine.axes[j].type == kinematics::AxisType::rotary) {
+            tau += m.gravity_cos_N_m * std::cos(q_set) + m.gravity_sin_N_m * std::sin(q_set);
+          }
+          q -= tau / (m.axis.effects.compliance.stiffness * m.axis.drive.ratio);
+        }
+        q_motor[static_cast<Eigen::Index>(j)] = q;
       }
       const double deflection =
           (tip - kinematics::forward_kinematics(machine, q_motor, tool_length).tip_W_m).norm();
       if (deflection > deflection_peak) deflection_peak = deflection, deflection_at = k;
     }
-    Json tip{{"deviation_peak_um", peak * 1e6},
-             {"deviation_rms_um", count > 0 ? std::sqrt(sum_squares / static_cast<double>(count)) * 1e6 : 0.0},
-             {"at_s_mm", run.t_s.empty() ? 0.0 : plan_s_at(run.plan, run.t_s[at]) * 1e3}};
+    Json tip{{"contour_error_peak_um", peak * 1e6},
+             {"contour_error_rms_um", count > 0 ? std::sqrt(sum_squares / static_cast<double>(count)) * 1e6 : 0.0},
+             {"at_s_mm", run.t_s.empty() ? 0.0 : plan_s_at(run.plan, run.t_s[at]) * 1e3},
+             {"behind_the_command_peak_um", lag_peak * 1e6}};
     if (elastic) {
+      // The tip moved by the joints' elastic deflection alone (load against motor side, less
+      // the static deflection the controller compensates).
       tip["joint_deflection_peak_um"] = deflection_peak * 1e6;
       tip["joint_deflection_at_s_mm"] = plan_s_at(run.plan, run.t_s[deflection_at]) * 1e3;
     }
