@@ -5,12 +5,14 @@
 #include <cmath>
 #include <limits>
 #include <numbers>
+#include <sstream>
 #include <optional>
 
 #include "part_file.hpp"
 #include "vmsim/common/errors.hpp"
 #include "vmsim/common/files.hpp"
 #include "vmsim/kinematics/kinematics.hpp"
+#include "vmsim/kinematics/redundancy.hpp"
 #include "vmsim/kinematics/machine_loader.hpp"
 
 namespace vmsim::app {
@@ -302,6 +304,27 @@ ChainInputs load_chain_inputs(const ChainInputOptions& options) {
                            point.block,
                            programmed_rotary_axes(inputs.machine, point, inputs.tool_length_m)});
     inputs.toolpath_point.push_back(i);
+  }
+  // A robot's sixth degree of freedom, the rotation about the tool axis, is free: choose it at
+  // the first pose away from joint limits and singularities; the path then keeps least joint
+  // motion from there.
+  inputs.q_start = inputs.machine.home_positions();
+  if (inputs.machine.kind == kinematics::MachineKind::robot && !inputs.path.empty() &&
+      inputs.path.front().q_given.size() == 0) {
+    const auto choice = kinematics::choose_tool_roll(inputs.machine, inputs.path.front().pose,
+                                                     inputs.q_start, inputs.tool_length_m);
+    if (choice) {
+      inputs.q_start = choice->q;
+      std::ostringstream text;
+      text.precision(3);
+      text << "tool roll (the free rotation about the tool axis) at the first pose: " << choice->roll_rad * 180.0 / std::numbers::pi
+           << " deg (" << choice->rolls_solved + 1 << " of " << choice->rolls_tried + 1 << " rolls every 15 deg reachable within travel), chosen for the largest of min(travel margin, "
+           << "inverse condition of the Jacobian): travel margin " << choice->margins.travel_margin * 100.0
+           << " % of a joint's travel, inverse condition " << choice->margins.inverse_condition
+           << " (the solution nearest home: " << choice->seed_margins.travel_margin * 100.0 << " %, "
+           << choice->seed_margins.inverse_condition << ")";
+      inputs.tool_roll = text.str();
+    }
   }
   return inputs;
 }

@@ -1123,10 +1123,11 @@ Json simulate_part(const SimulatePartOptions& options, const ProgressSink& progr
   const FeedSetting reference_feed = options.reference_feed_m_per_s > 0
                                          ? FeedSetting{options.reference_feed_m_per_s, 0.0}
                                          : context.part.reference_feed;
+  if (!context.inputs.tool_roll.empty()) progress(context.inputs.tool_roll);
   progress("part " + context.part.name + ": " + std::to_string(context.inputs.path.size()) +
            " path points; inverse kinematics ...");
   context.path = kinematics::solve_path_kinematics(context.inputs.machine, context.inputs.path,
-                                                   context.inputs.machine.home_positions(),
+                                                   context.inputs.q_start,
                                                    context.inputs.tool_length_m,
                                                    context.inputs.block_names,
                                                    context.inputs.path_kinematics);
@@ -1309,6 +1310,7 @@ Json simulate_part(const SimulatePartOptions& options, const ProgressSink& progr
 
   report["part"] = {{"name", context.part.name}, {"description", context.part.description},
                     {"file", part_path_for_report(options.part_path)}};
+  if (!context.inputs.tool_roll.empty()) report["tool_roll"] = context.inputs.tool_roll;
   report["machine"] = context.inputs.machine.name + " (" +
                       path_for_report(context.inputs.machine.source_file, options.part_path) + ")";
   report["toolpath"] = path_for_report(context.part.toolpath_path, options.part_path);
