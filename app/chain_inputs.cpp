@@ -5,12 +5,14 @@
 #include <cmath>
 #include <limits>
 #include <numbers>
+#include <sstream>
 #include <optional>
 
 #include "part_file.hpp"
 #include "vmsim/common/errors.hpp"
 #include "vmsim/common/files.hpp"
 #include "vmsim/kinematics/kinematics.hpp"
+#include "vmsim/kinematics/redundancy.hpp"
 #include "vmsim/kinematics/machine_loader.hpp"
 
 namespace vmsim::app {
@@ -247,6 +249,22 @@ ChainInputs load_chain_inputs(const ChainInputOptions& options) {
     }
     return machine_mm;
   };
+  // KUKA KRL: $WORLD is the robot's base B; its place in W and PTP {A1 .. A6} in machine order.
+  reader.krl_world_in_W = kinematics::workpiece_frame_B(machine, machine.home_positions()).inverse().matrix();
+  reader.robot_joints_to_pose = [&machine, tool_length_m](const std::vector<double>& joints_deg) {
+    if (joints_deg.size() != machine.axes.size()) {
+      throw InputError("PTP gives " + std::to_string(joints_deg.size()) + " axis values, the machine " +
+                       machine.name + " has " + std::to_string(machine.axes.size()) + " axes");
+    }
+    Eigen::VectorXd q(static_cast<Eigen::Index>(joints_deg.size()));
+    for (std::size_t i = 0; i < joints_deg.size(); ++i) {
+      q[static_cast<Eigen::Index>(i)] = machine.axes[i].type == kinematics::AxisType::linear
+                                            ? joints_deg[i] * 1e-3
+                                            : joints_deg[i] * std::numbers::pi / 180.0;
+    }
+    const kinematics::ToolPose pose = kinematics::forward_kinematics(machine, q, tool_length_m);
+    return toolpath::AxisWordPose{pose.tip_W_m, pose.axis_W};
+  };
   apply_machine_setup(machine, setup, tool_length_m, reader, options.part_path);
   inputs.toolpath = toolpath::read_toolpath(toolpath_path, reader);
   if (inputs.toolpath.points.empty()) {
@@ -308,6 +326,27 @@ ChainInputs load_chain_inputs(const ChainInputOptions& options) {
                                                                                       : programmed_m;
     if (point.kind == toolpath::MotionKind::rapid || !(contour_m > 0.0)) contour_m = 0.0;
     inputs.contour_tolerance_m.push_back(contour_m);
+  }
+  // A robot's sixth degree of freedom, the rotation about the tool axis, is free: choose it at
+  // the first pose away from joint limits and singularities; the path then keeps least joint
+  // motion from there.
+  inputs.q_start = inputs.machine.home_positions();
+  if (inputs.machine.kind == kinematics::MachineKind::robot && !inputs.path.empty() &&
+      inputs.path.front().q_given.size() == 0) {
+    const auto choice = kinematics::choose_tool_roll(inputs.machine, inputs.path.front().pose,
+                                                     inputs.q_start, inputs.tool_length_m);
+    if (choice) {
+      inputs.q_start = choice->q;
+      std::ostringstream text;
+      text.precision(3);
+      text << "tool roll (the free rotation about the tool axis) at the first pose: " << choice->roll_rad * 180.0 / std::numbers::pi
+           << " deg (" << choice->rolls_solved + 1 << " of " << choice->rolls_tried + 1 << " rolls every 15 deg reachable within travel), chosen for the largest of min(travel margin, "
+           << "inverse condition of the Jacobian): travel margin " << choice->margins.travel_margin * 100.0
+           << " % of a joint's travel, inverse condition " << choice->margins.inverse_condition
+           << " (the solution nearest home: " << choice->seed_margins.travel_margin * 100.0 << " %, "
+           << choice->seed_margins.inverse_condition << ")";
+      inputs.tool_roll = text.str();
+    }
   }
   return inputs;
 }

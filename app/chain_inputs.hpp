@@ -60,6 +60,12 @@ struct ChainInputs {
   /// The options to differentiate `path` with (kinematics::solve_path_kinematics): the
   /// defaults, with a fit window small enough to resolve the blends when corners were blended.
   kinematics::PathKinematicsOptions path_kinematics;
+  /// Where the inverse kinematics of `path` starts (solve_path_kinematics' q_start): the home
+  /// position, or on a robot the solution of the first pose whose rotation about the tool axis
+  /// (free: the spindle turns the tool) keeps furthest from joint limits and singularities
+  /// (kinematics::choose_tool_roll); `tool_roll` says which, in words, empty on a machine tool.
+  Eigen::VectorXd q_start;
+  std::string tool_roll;
 };
 
 /// Loads and checks everything; throws vmsim::InputError with file, line and value.

@@ -33,7 +33,7 @@ int run_dynamics(const DynamicsOptions& options, const CommandContext& context) 
   for (const std::string& warning : inputs.warnings) context.warn(warning);
   check_output_file(options.out_path, chain_input_files(options.inputs, inputs));  // before the work
   const kinematics::PathKinematics path = kinematics::solve_path_kinematics(
-      inputs.machine, inputs.path, inputs.machine.home_positions(), inputs.tool_length_m,
+      inputs.machine, inputs.path, inputs.q_start, inputs.tool_length_m,
       inputs.block_names);
   const double feed_m_per_s = options.feed_mm_per_min * 1e-3 / 60.0;
   const kinematics::DynamicsModel model(inputs.machine);

@@ -51,6 +51,7 @@ std::vector<double> nominal_time(const ChainInputs& inputs, const kinematics::Pa
 int run_kinematics(const KinematicsOptions& options, const CommandContext& context) {
   const ChainInputs inputs = load_chain_inputs(options.inputs);
   for (const std::string& warning : inputs.warnings) context.warn(warning);
+  if (!inputs.tool_roll.empty()) context.say("note: " + inputs.tool_roll);
   // The outputs are checked before the computation; with --summary both files are replaced
   // together or not at all.
   std::vector<std::string> out_paths = {options.out_path};
@@ -60,7 +61,7 @@ int run_kinematics(const KinematicsOptions& options, const CommandContext& conte
   kinematics::PathKinematicsOptions path_options;
   path_options.corner_angle_rad = options.corner_angle_deg * M_PI / 180.0;
   const kinematics::PathKinematics result = kinematics::solve_path_kinematics(
-      inputs.machine, inputs.path, inputs.machine.home_positions(), inputs.tool_length_m,
+      inputs.machine, inputs.path, inputs.q_start, inputs.tool_length_m,
       inputs.block_names, path_options);
 
   Trace trace;

@@ -124,8 +124,9 @@ int run_plan(const PlanOptions& options, const CommandContext& context) {
   fo.third_order = nc_modes.third_order;
   OutputFolder output(options.out_dir, chain_input_files(input_options, inputs), {"plan", VMSIM_VERSION});
   for (const std::string& warning : inputs.warnings) context.warn(warning);
+  if (!inputs.tool_roll.empty()) context.say("note: " + inputs.tool_roll);
   const kinematics::PathKinematics path = kinematics::solve_path_kinematics(
-      inputs.machine, inputs.path, inputs.machine.home_positions(), inputs.tool_length_m,
+      inputs.machine, inputs.path, inputs.q_start, inputs.tool_length_m,
       inputs.block_names, inputs.path_kinematics);
   // The programmed feeds (G94 F, G93 inverse time); rapids and turns about a fixed tip on the
   // axes' own limits.

@@ -122,6 +122,17 @@ int run(const CommandOptions& command, const CommandContext& context) {
               " mm/min: T = " + format_double(std::round(production["duration_s"].get<double>() * 1e3) / 1e3) +
               " s; reference " + format_double(reference["feed_mm_per_min"].get<double>()) +
               " mm/min: T = " + format_double(std::round(reference["duration_s"].get<double>() * 1e3) / 1e3) + " s");
+  if (production.contains("tool_tip_while_cutting")) {
+    const auto& tip = production["tool_tip_while_cutting"];
+    std::string line = "production tool tip while cutting: off the commanded path by up to " +
+                       format_double(std::round(tip["contour_error_peak_um"].get<double>() * 10) / 10) + " um (RMS " +
+                       format_double(std::round(tip["contour_error_rms_um"].get<double>() * 10) / 10) + " um)";
+    if (tip.contains("joint_deflection_peak_um")) {
+      line += ", of which the joints' elastic deflection up to " +
+              format_double(std::round(tip["joint_deflection_peak_um"].get<double>() * 10) / 10) + " um";
+    }
+    context.say(line);
+  }
   context.say(report["verdict"]["headline"].get<std::string>());
   context.say("marks deeper than " + format_double(options.mark_threshold_m * 1e6) +
               " um: " + std::to_string(report["marks"].size()) + " (and " +

@@ -235,6 +235,21 @@ void following_error_section(std::ostringstream& html, const Json& report) {
     }
   }
   html << "</table>\n";
+  // The tool tip in Cartesian terms (robots: what the joints' errors and elastic deflection do).
+  for (const char* name : {"production", "reference"}) {
+    if (!report["runs"].contains(name) || !report["runs"][name].contains("tool_tip_while_cutting")) continue;
+    const Json& tip = report["runs"][name]["tool_tip_while_cutting"];
+    html << "<p>" << name << ": the tool tip lies off the commanded path by up to "
+         << fixed(tip.value("contour_error_peak_um", 0.0), 1) << " um while cutting (RMS "
+         << fixed(tip.value("contour_error_rms_um", 0.0), 1) << " um, peak at s = " << fixed(tip.value("at_s_mm", 0.0), 1)
+         << " mm)";
+    if (tip.contains("joint_deflection_peak_um")) {
+      html << "; the joints' elastic deflection alone moves it by up to "
+           << fixed(tip["joint_deflection_peak_um"].get<double>(), 1) << " um (at s = "
+           << fixed(tip.value("joint_deflection_at_s_mm", 0.0), 1) << " mm)";
+    }
+    html << ".</p>\n";
+  }
 }
 
 void method_section(std::ostringstream& html, const Json& report) {

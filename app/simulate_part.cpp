@@ -82,6 +82,10 @@ struct Run {
   /// so that the long low-feed run holds no trace while the others run.
   std::vector<double> t_s;
   Eigen::MatrixXd q_cmd, q_actual;
+  /// Drive currents [A] and, on axes with an elastic joint (a `.pos2` column), the motor-side
+  /// position (SI; 0 rows without such an axis): read for the saturation check and the tool
+  /// tip's deflection share, released once the run is summarised.
+  Eigen::MatrixXd current_A, q_motor;
   Json summary;                         ///< following errors over all moves and while cutting
   std::vector<removal::Pose> trajectory;  ///< actual tool poses, thinned
   std::vector<double> trajectory_t_s;   ///< the time of each kept pose
@@ -184,15 +188,22 @@ void read_servo_positions(const kinematics::MachineModel& machine, Trace servo, 
   const auto release = [&](const std::string& name) {
     if (const auto index = servo.column_index(name)) std::vector<double>().swap(servo.values[*index]);
   };
-  // What is not read goes first: speeds and currents.
-  for (const auto& axis : machine.axes) {
-    release(axis.name + ".vel");
-    release(axis.name + ".cur");
-  }
+  // What is not read goes first: speeds.
+  for (const auto& axis : machine.axes) release(axis.name + ".vel");
   run.t_s = servo.column("t");
   release("t");
   run.samples = run.t_s.size();
   const auto n = static_cast<Eigen::Index>(run.samples);
+  const auto axes = static_cast<Eigen::Index>(machine.axes.size());
+  run.current_A.resize(axes, n);
+  for (std::size_t j = 0; j < machine.axes.size(); ++j) {
+    const auto& current = servo.column(machine.axes[j].name + ".cur");
+    for (Eigen::Index k = 0; k < n; ++k) run.current_A(static_cast<Eigen::Index>(j), k) = current[static_cast<std::size_t>(k)];
+    release(machine.axes[j].name + ".cur");
+  }
+  bool elastic = false;
+  for (const auto& axis : machine.axes) elastic = elastic || servo.column_index(axis.name + ".pos2");
+  if (elastic) run.q_motor.resize(axes, n);
   run.q_cmd.resize(static_cast<Eigen::Index>(machine.axes.size()), n);
   run.q_actual.resize(static_cast<Eigen::Index>(machine.axes.size()), n);
   for (std::size_t j = 0; j < machine.axes.size(); ++j) {
@@ -204,6 +215,13 @@ void read_servo_positions(const kinematics::MachineModel& machine, Trace servo, 
     for (Eigen::Index k = 0; k < n; ++k) {
       run.q_cmd(static_cast<Eigen::Index>(j), k) = from_trace_unit(axis, cmd[static_cast<std::size_t>(k)]);
       run.q_actual(static_cast<Eigen::Index>(j), k) = from_trace_unit(axis, actual[static_cast<std::size_t>(k)]);
+    }
+    if (elastic) {
+      // The motor side where the load is told apart; the load itself (actual) elsewhere.
+      const auto& motor = load_column ? servo.column(axis.name + ".pos") : actual;
+      for (Eigen::Index k = 0; k < n; ++k) {
+        run.q_motor(static_cast<Eigen::Index>(j), k) = from_trace_unit(axis, motor[static_cast<std::size_t>(k)]);
+      }
     }
     for (const char* column : {".cmd", ".pos", ".pos2"}) release(axis.name + column);
   }
@@ -219,6 +237,10 @@ Json following_error_summary(const Context& context, const Run& run);
 
 // `keep_signals`: keep the run's servo samples (t_s, q_cmd, q_actual) after its direct
 // kinematics (the production run: its marks are related to them).
+
+// Per servo sample of the run: whether its motion is a cutting move (not a rapid).
+std::vector<bool> cutting_samples(const Context& context, const Run& run);
+
 Run simulate_run(const Context& context, const std::string& name, const FeedSetting& feed,
                  planner::FeedrateMethod method, bool keep_signals) {
   const kinematics::MachineModel& machine = context.inputs.machine;
@@ -319,6 +341,11 @@ Run simulate_run(const Context& context, const std::string& name, const FeedSett
     }
     run.checks.push_back(check_actual_within_travel(machine, run.t_s, run.q_actual, name));
     context.progress(check_line(run.checks.back()));
+    if (!context.options.perfect_drives) {
+      run.checks.push_back(
+          check_drives_not_saturated(machine, run.t_s, run.current_A, cutting_samples(context, run), name));
+      context.progress(check_line(run.checks.back()));
+    }
     // Sample by sample into the thinning (it holds a window of poses, never the whole run's).
     removal::TrajectoryThinner thinner(context.tool.length_m, context.options.trajectory_tolerance_m,
                                        [&](std::size_t k, const removal::Pose& pose) {
@@ -332,6 +359,8 @@ Run simulate_run(const Context& context, const std::string& name, const FeedSett
     }
     thinner.finish();
     run.summary = following_error_summary(context, run);
+    run.current_A.resize(0, 0);
+    run.q_motor.resize(0, 0);
     if (!keep_signals) {
       std::vector<double>().swap(run.t_s);
       run.q_cmd.resize(0, 0);
@@ -622,6 +651,89 @@ Json following_error_summary(const Context& context, const Run& run) {
     cutting.push_back(entry);
   }
   summary["axes_while_cutting"] = cutting;
+  // The tool tip's Cartesian deviation while cutting: the direct kinematics of the actual (load)
+  // positions against that of the commanded ones, and the part of it that the joints' elastic
+  // deflection makes (load against motor side, where the servo tells them apart).
+  if (!context.options.perfect_drives) {
+    std::vector<bool> motor(machine.axes.size(), false);
+    // Where the controller compensates the static deflection under gravity, the motor stands
+    // ahead of the set point by it on purpose: the servo's own gravity model gives it.
+    std::vector<std::optional<servo::AxisServoModel>> compensated(machine.axes.size());
+    bool elastic = false;
+    std::vector<double> reference;
+    if (run.samples > 0) {
+      for (Eigen::Index j = 0; j < run.q_cmd.rows(); ++j) reference.push_back(run.q_cmd(j, 0));
+    }
+    for (std::size_t j = 0; j < machine.axes.size(); ++j) {
+      const auto& compliance = machine.axes[j].effects.compliance;
+      if (compliance.enabled && run.q_motor.rows() > 0) {
+        motor[j] = true;
+        elastic = true;
+        if (compliance.compensate_gravity_deflection && !reference.empty()) {
+          compensated[j] = servo::make_axis_servo_model(machine, static_cast<int>(j), reference, true);
+        }
+      }
+    }
+    double peak = 0.0, sum_squares = 0.0, deflection_peak = 0.0, lag_peak = 0.0;
+    std::size_t at = 0, deflection_at = 0, count = 0;
+    const double tool_length = context.inputs.tool_length_m;
+    std::vector<Eigen::Vector3d> commanded(run.samples);
+    for (std::size_t k = 0; k < run.samples; ++k) {
+      commanded[k] =
+          kinematics::forward_kinematics(machine, run.q_cmd.col(static_cast<Eigen::Index>(k)), tool_length).tip_W_m;
+    }
+    // The contour error: the distance from the actual tip to the commanded tip's path (its
+    // segments within 0.1 s either side), not to where the command is at that instant (the
+    // drives follow with a delay along the path, which leaves no mark).
+    const double dt = run.t_s.size() > 1 ? run.t_s[1] - run.t_s[0] : 1.0;
+    const auto window = static_cast<std::size_t>(std::ceil(0.1 / dt));
+    for (std::size_t k = 0; k < run.samples; ++k) {
+      if (!cutting_sample[k]) continue;
+      const Eigen::VectorXd q_actual = run.q_actual.col(static_cast<Eigen::Index>(k));
+      const Eigen::Vector3d tip = kinematics::forward_kinematics(machine, q_actual, tool_length).tip_W_m;
+      lag_peak = std::max(lag_peak, (tip - commanded[k]).norm());
+      double deviation = (tip - commanded[k]).norm();
+      for (std::size_t i = k > window ? k - window : 0; i + 1 < run.samples && i < k + window; ++i) {
+        const Eigen::Vector3d segment = commanded[i + 1] - commanded[i];
+        const double length2 = segment.squaredNorm();
+        const double f = length2 > 0.0 ? std::clamp((tip - commanded[i]).dot(segment) / length2, 0.0, 1.0) : 0.0;
+        deviation = std::min(deviation, (tip - commanded[i] - f * segment).norm());
+      }
+      if (deviation > peak) peak = deviation, at = k;
+      sum_squares += deviation * deviation;
+      ++count;
+      if (!elastic) continue;
+      Eigen::VectorXd q_motor = q_actual;
+      for (std::size_t j = 0; j < machine.axes.size(); ++j) {
+        if (!motor[j]) continue;
+        double q = run.q_motor(static_cast<Eigen::Index>(j), static_cast<Eigen::Index>(k));
+        if (compensated[j]) {
+          const servo::AxisServoModel& m = *compensated[j];
+          const double q_set = run.q_cmd(static_cast<Eigen::Index>(j), static_cast<Eigen::Index>(k));
+          double tau = m.gravity_constant_N_m;
+          if (machine.axes[j].type == kinematics::AxisType::rotary) {
+            tau += m.gravity_cos_N_m * std::cos(q_set) + m.gravity_sin_N_m * std::sin(q_set);
+          }
+          q -= tau / (m.axis.effects.compliance.stiffness * m.axis.drive.ratio);
+        }
+        q_motor[static_cast<Eigen::Index>(j)] = q;
+      }
+      const double deflection =
+          (tip - kinematics::forward_kinematics(machine, q_motor, tool_length).tip_W_m).norm();
+      if (deflection > deflection_peak) deflection_peak = deflection, deflection_at = k;
+    }
+    Json tip{{"contour_error_peak_um", peak * 1e6},
+             {"contour_error_rms_um", count > 0 ? std::sqrt(sum_squares / static_cast<double>(count)) * 1e6 : 0.0},
+             {"at_s_mm", run.t_s.empty() ? 0.0 : plan_s_at(run.plan, run.t_s[at]) * 1e3},
+             {"behind_the_command_peak_um", lag_peak * 1e6}};
+    if (elastic) {
+      // The tip moved by the joints' elastic deflection alone (load against motor side, less
+      // the static deflection the controller compensates).
+      tip["joint_deflection_peak_um"] = deflection_peak * 1e6;
+      tip["joint_deflection_at_s_mm"] = plan_s_at(run.plan, run.t_s[deflection_at]) * 1e3;
+    }
+    summary["tool_tip_while_cutting"] = tip;
+  }
   return summary;
 }
 
@@ -1105,10 +1217,11 @@ Json simulate_part(const SimulatePartOptions& options, const ProgressSink& progr
   const FeedSetting reference_feed = options.reference_feed_m_per_s > 0
                                          ? FeedSetting{options.reference_feed_m_per_s, 0.0}
                                          : context.part.reference_feed;
+  if (!context.inputs.tool_roll.empty()) progress(context.inputs.tool_roll);
   progress("part " + context.part.name + ": " + std::to_string(context.inputs.path.size()) +
            " path points; inverse kinematics ...");
   context.path = kinematics::solve_path_kinematics(context.inputs.machine, context.inputs.path,
-                                                   context.inputs.machine.home_positions(),
+                                                   context.inputs.q_start,
                                                    context.inputs.tool_length_m,
                                                    context.inputs.block_names,
                                                    context.inputs.path_kinematics);
@@ -1325,6 +1438,7 @@ Json simulate_part(const SimulatePartOptions& options, const ProgressSink& progr
 
   report["part"] = {{"name", context.part.name}, {"description", context.part.description},
                     {"file", part_path_for_report(options.part_path)}};
+  if (!context.inputs.tool_roll.empty()) report["tool_roll"] = context.inputs.tool_roll;
   report["machine"] = context.inputs.machine.name + " (" +
                       path_for_report(context.inputs.machine.source_file, options.part_path) + ")";
   report["toolpath"] = path_for_report(context.part.toolpath_path, options.part_path);

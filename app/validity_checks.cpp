@@ -183,6 +183,45 @@ ValidityCheck check_actual_within_travel(const kinematics::MachineModel& machine
   return check;
 }
 
+ValidityCheck check_drives_not_saturated(const kinematics::MachineModel& machine,
+                                         const std::vector<double>& t_s, const Eigen::MatrixXd& current,
+                                         const std::vector<bool>& cutting, const std::string& run_name) {
+  ValidityCheck check{"drives_not_saturated." + run_name,
+                      run_name + " drive currents below their saturation while cutting", 0.0, 0.0,
+                      "% of the cutting samples", CheckStatus::passed, ""};
+  std::size_t cutting_count = 0;
+  for (bool c : cutting) cutting_count += c ? 1 : 0;
+  std::string peaks;
+  for (std::size_t j = 0; j < machine.axes.size() && j < static_cast<std::size_t>(current.rows()); ++j) {
+    const double limit = machine.axes[j].controller.current_max_A;
+    if (!(limit > 0.0)) continue;
+    std::size_t at_limit = 0, first = 0;
+    double peak = 0.0;
+    for (std::size_t k = 0; k < cutting.size() && k < static_cast<std::size_t>(current.cols()); ++k) {
+      if (!cutting[k]) continue;
+      const double i = std::abs(current(static_cast<Eigen::Index>(j), static_cast<Eigen::Index>(k)));
+      peak = std::max(peak, i);
+      // The current loop's first-order lag reaches the clamp only asymptotically: within 0.5 %.
+      if (i >= 0.995 * limit) {
+        if (at_limit == 0) first = k;
+        ++at_limit;
+      }
+    }
+    peaks += (peaks.empty() ? "" : ", ") + machine.axes[j].name + " " + rounded(100.0 * peak / limit, 3) + " %";
+    if (at_limit == 0 || cutting_count == 0) continue;
+    const double share = 100.0 * static_cast<double>(at_limit) / static_cast<double>(cutting_count);
+    if (share > check.value) {
+      check.value = share;
+      check.status = CheckStatus::warning;
+      check.detail = "axis " + machine.axes[j].name + " at its current limit " + rounded(limit, 4) + " A in " +
+                     rounded(share, 3) + " % of the cutting samples, first at t = " + rounded(t_s[first], 4) +
+                     " s: the drive cannot give what the plan asks there";
+    }
+  }
+  if (check.status == CheckStatus::passed) check.detail = "peak current / saturation while cutting: " + peaks;
+  return check;
+}
+
 ValidityCheck check_reference_against_commanded(double worst_m, const Eigen::Vector3d& where_W_m,
                                                 double limit_m) {
   ValidityCheck check{"reference_vs_commanded",

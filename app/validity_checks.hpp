@@ -62,6 +62,16 @@ ValidityCheck check_actual_within_travel(const kinematics::MachineModel& machine
                                          const std::vector<double>& t_s, const Eigen::MatrixXd& q_actual,
                                          const std::string& run_name);
 
+/// The drives' currents against their saturation (controller.saturation.current_A) while
+/// cutting (`cutting[k]`): a warning naming the axis, its share of the cutting samples and the
+/// first time when any drive sits at its limit there (the plan never asks for more torque than
+/// the drive has: a saturated drive is a plan that leaves the controller no margin, or a model
+/// mismatch). The figure is the largest share [%]; axes without saturation are not checked.
+/// `current`: one row per axis [A], as the servo's `.cur` columns.
+ValidityCheck check_drives_not_saturated(const kinematics::MachineModel& machine,
+                                         const std::vector<double>& t_s, const Eigen::MatrixXd& current,
+                                         const std::vector<bool>& cutting, const std::string& run_name);
+
 /// The reference surface against the surface the commanded tool path cuts: the reference must
 /// not differ from it by more than `limit_m` (the mark threshold), or marks could hide in it.
 ValidityCheck check_reference_against_commanded(double worst_m, const Eigen::Vector3d& where_W_m,

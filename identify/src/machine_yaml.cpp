@@ -90,6 +90,7 @@ void write_axis(YAML::Node node, const kinematics::Axis& axis) {
     s[linear ? "stiffness_N_per_m" : "stiffness_N_m_per_rad"] = number(e.compliance.stiffness);
     s["damping_ratio"] = number(e.compliance.damping_ratio);
     s["motor_side_inertia_kg_m2"] = number(e.compliance.motor_side_inertia_kg_m2);
+    if (e.compliance.compensate_gravity_deflection) s["compensate_gravity_deflection"] = true;
     effects["compliance"] = s;
   }
   if (e.smooth_friction.enabled) {

@@ -1,5 +1,7 @@
 // The `effects` section of an axis in the machine file (servo/README.md documents every field).
 #include <algorithm>
+#include <cmath>
+#include <limits>
 #include <numbers>
 
 #include "machine_loader_internal.hpp"
@@ -20,6 +22,8 @@ const UnitTable kRotaryVelocity = {
 const UnitTable kLinearStiffness = {{"N_per_um", 1e6}, {"N_per_m", 1.0}};
 const UnitTable kRotaryStiffness = {{"N_m_per_arcmin", 180.0 * 60.0 / kPi},
                                     {"N_m_per_rad", 1.0}};
+const UnitTable kLinearDamping = {{"N_s_per_m", 1.0}, {"N_s_per_um", 1e6}};
+const UnitTable kRotaryDamping = {{"N_m_s_per_rad", 1.0}};
 const UnitTable kPhase = {{"deg", kPi / 180.0}, {"rad", 1.0}};
 
 bool linear(const Axis& axis) { return axis.type == AxisType::linear; }
@@ -96,11 +100,31 @@ Compliance read_compliance(const FieldReader& reader, const Axis& axis) {
   Compliance result;
   result.enabled = true;
   result.stiffness = reader.quantity("stiffness", linear(axis) ? kLinearStiffness : kRotaryStiffness);
-  result.damping_ratio = reader.number_or("damping_ratio", 0.0);
   result.motor_side_inertia_kg_m2 =
       reader.number_or("motor_side_inertia_kg_m2", axis.drive.rotor_inertia_kg_m2);
   reader.require_positive("stiffness", result.stiffness);
+  // Damping as a ratio of the mode's critical damping, or as the damper d at the joint [N m s/rad
+  // or N s/m]: d = 2 zeta sqrt(k J_red) with the two-mass reduced inertia at the joint,
+  // J_red = J_m J_L / (J_m + J_L) / r^2 (J_m, J_L at the motor).
+  const double damping = reader.quantity_or("damping", linear(axis) ? kLinearDamping : kRotaryDamping,
+                                            std::numeric_limits<double>::quiet_NaN());
+  const bool damper_given = !std::isnan(damping);
+  if (damper_given) reader.require_non_negative("damping", damping);
+  if (damper_given && reader.has("damping_ratio")) {
+    reader.fail("give the damping once: damping_ratio or damping_<unit>");
+  }
+  result.damping_ratio = reader.number_or("damping_ratio", 0.0);
   reader.require_non_negative("damping_ratio", result.damping_ratio);
+  result.compensate_gravity_deflection = reader.boolean_or("compensate_gravity_deflection", false);
+  if (damper_given) {
+    const double j_eq = axis.drive.equivalent_inertia_kg_m2;
+    const double jm = result.motor_side_inertia_kg_m2;
+    const double r = axis.drive.ratio;
+    if (jm > 0.0 && jm < j_eq && r > 0.0) {
+      const double j_reduced_joint = jm * (j_eq - jm) / j_eq / (r * r);
+      result.damping_ratio = damping / (2.0 * std::sqrt(result.stiffness * j_reduced_joint));
+    }
+  }
   if (result.damping_ratio >= 1.0) {
     reader.fail("field 'damping_ratio' must be < 1, got " + format_number(result.damping_ratio));
   }

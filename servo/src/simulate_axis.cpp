@@ -906,7 +906,33 @@ AxisSignals simulate_axis(const AxisServoModel& model, const AxisInput& input,
     throw InputError("axis " + model.axis.name +
                      ": the external force needs one value per set point");
   }
-  if (model.axis.effects.compliance.enabled || model.axis.effects.backlash.enabled) {
+  const auto& compliance = model.axis.effects.compliance;
+  if (compliance.enabled && compliance.compensate_gravity_deflection &&
+      input.kind == AxisInput::Kind::position &&
+      model.axis.controller.position_feedback == PositionFeedback::motor) {
+    // Deflection compensation: the motor is commanded further by the spring's static deflection
+    // under gravity at the set point, tau_g(q) / (k r) at the joint (tau_g at the motor), so that
+    // at rest the load stands at the set point.
+    AxisInput shifted = input;
+    const double r = model.axis.drive.ratio;
+    for (double& q : shifted.values) {
+      double tau = model.gravity_constant_N_m;
+      if (model.axis.type == kinematics::AxisType::rotary) {
+        tau += model.gravity_cos_N_m * std::cos(q) + model.gravity_sin_N_m * std::sin(q);
+      }
+      q += tau / (compliance.stiffness * r);
+    }
+    AxisRun<5> run(model, shifted, options);
+    AxisSignals out = run.run();
+    // The set point as given (the compensation is inside the controller).
+    const SetpointSignal given(input, model.axis.controller.fine_interpolation);
+    for (std::size_t k = 0; k < out.t.size(); ++k) {
+      out.cmd[k] = given.at(out.t[k]).x;
+      if (options.inner_signals) out.following_error[k] = out.cmd[k] - out.pos[k];
+    }
+    return out;
+  }
+  if (compliance.enabled || model.axis.effects.backlash.enabled) {
     AxisRun<5> run(model, input, options);
     return run.run();
   }

@@ -46,10 +46,11 @@ Toolpath read_toolpath(const std::string& path, const ReaderOptions& options) {
   }
   // .h: Heidenhain TNC conversational (Klartext) programs.
   if (extension == ".h") return read_heidenhain(path, options);
+  if (extension == ".src") return read_krl(path, options);  // KUKA KRL
   throw InputError(located_message(
       path, 0, 0,
       "unknown tool path extension '" + extension +
-          "': use .apt/.cl/.cls for APT/CL, .mpf/.spf for Siemens 840D, .h for Heidenhain TNC conversational or .nc/.ngc/.gcode/.tap/.iso/.ptp/.eia/.cnc for G-code"));
+          "': use .apt/.cl/.cls for APT/CL, .mpf/.spf for Siemens 840D, .h for Heidenhain TNC conversational, .src for KUKA KRL or .nc/.ngc/.gcode/.tap/.iso/.ptp/.eia/.cnc for G-code"));
 }
 
 }  // namespace vmsim::toolpath

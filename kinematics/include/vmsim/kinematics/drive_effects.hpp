@@ -61,6 +61,11 @@ struct Compliance {
   double damping_ratio = 0.0;
   /// Motor-side inertia J_m [kg m^2]; 0 = Drive::rotor_inertia_kg_m2. Must be in (0, J_eq).
   double motor_side_inertia_kg_m2 = 0.0;
+  /// The controller commands the motor further by the static deflection of the spring under
+  /// gravity at the set point (tau_g / k at the joint), as a robot controller's model-based
+  /// deflection compensation ("absolute accuracy") does: at rest the load reaches the set point,
+  /// in motion only the dynamic deflection remains. Off by default.
+  bool compensate_gravity_deflection = false;
 };
 
 /// Dry friction without a stick state: b tanh(v / speed) (the dry level of the drive, or of the

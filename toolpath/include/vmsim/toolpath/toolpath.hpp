@@ -311,6 +311,44 @@
 //    endsub), the end of the file inside a subprogram (no M99 / endsub), a subprogram that runs
 //    into the next program. An error of the block interpreter in a word made from an
 //    expression names that word's source column and quotes the word with its value (X2000000).
+//
+// KUKA KRL subset (read_krl; toolpath/src/krl_reader.cpp), as robot CAM posts write programs:
+//  - Lines; ';' starts a comment (so ;FOLD / ;ENDFOLD are comments), '&' lines (editor
+//    attributes) are skipped; names ignore case. DEF name() starts the program, its END ends it
+//    (a second DEF, a local subprogram, is not run). DEFDAT / ENDDAT, EXT, DECL of types other
+//    than positions, WAIT, HALT, $OUT and other system variables are accepted and change nothing;
+//    calls other than BAS are warnings (not simulated).
+//  - Positions: aggregates {[E6POS: | POS: | FRAME:] X x, Y y, Z z, A a, B b, C c[, S s, T t,
+//    E1 ..]}: X Y Z [mm] and A B C [deg] are the TCP frame in $BASE, with KUKA's ZYX Euler
+//    angles (R = Rz(A) Ry(B) Rx(C)); S and T (the arm configuration) are read and not used
+//    (the inverse kinematics chooses, next to the previous pose); components left out keep the
+//    current position's. Axis positions {[E6AXIS: | AXIS:] A1 .. A6} [deg] (PTP only).
+//    Variables: DECL E6POS / POS / FRAME / E6AXIS / AXIS name = {...}, in the program or in its
+//    companion .dat file (the teach pendant's inline forms: PTP XP1), and name = {...}.
+//  - Frames: $BASE = {FRAME: ...} (the base in $WORLD), BASE_DATA[n] = {...} and $BASE =
+//    BASE_DATA[n] or BAS(#BASE, n) (n = 0: $WORLD); $TOOL and TOOL_DATA / BAS(#TOOL, n) likewise.
+//    $WORLD is placed in W by ReaderOptions::krl_world_in_W (the app: the robot's base). A
+//    BASE_DATA / TOOL_DATA used but not set in the program is an error (the controller's
+//    $config.dat is not part of the program). $TOOL does not change the canonical path: the
+//    TCP is the tool tip; the machine file and the part's tool length say where it is.
+//  - Tool axis: the TCP frame's x axis is the tool direction (KUKA's $TOOL_DIRECTION #X, from
+//    the spindle into the work), so axis_W = -x of the TCP frame. The rotation about it (the
+//    sixth degree of freedom) is not part of the canonical path: the robot's redundancy is the
+//    inverse kinematics' to choose.
+//  - Motions: LIN target (MotionKind::linear); CIRC auxiliary, target: the circle through the
+//    start, the auxiliary and the target point, tessellated as G2/G3 (arc_chord_tolerance_m),
+//    the orientation turned from the start's to the target's in proportion to the angle
+//    ($ORI_TYPE #VAR; the auxiliary point's orientation is not used, as on the control); PTP
+//    target (Cartesian, or axis values through ReaderOptions::robot_joints_to_pose) is a rapid
+//    to that pose (the robot's joint-interpolated route differs: it is outside the cut).
+//  - Feed: $VEL.CP [m/s] (or BAS(#VEL_CP, v)) for LIN and CIRC; LIN / CIRC before any is an
+//    error. Approximation: C_DIS blends the corner within $APO.CDIS [mm]
+//    (PathPoint::corner_tolerance_m); C_VEL, C_ORI, C_PTP blend by a criterion that is not a
+//    distance (NaN: the part file or the command line decides); none: exact stop (0).
+//  - Errors: LIN_REL / PTP_REL / CIRC_REL, spline motions (SPLINE, SLIN, SCIRC, SPTP), CIRC with
+//    CA, control flow (IF, FOR, WHILE, LOOP, GOTO, SWITCH), the geometric operator ':', an
+//    unknown component, an undeclared variable, a malformed number, CIRC through three points on
+//    one line, a first motion that leaves components out.
 #include <Eigen/Core>
 #include <array>
 #include <cstddef>
@@ -499,6 +537,12 @@ struct ReaderOptions {
   /// G65 P1234: O1234.nc, o1234.nc, 1234.nc; o<name> call: name.ngc). Empty: nowhere;
   /// read_gcode and read_toolpath give the program file's folder when this is empty.
   std::string subprogram_folder;
+  /// KUKA KRL programs (read_krl): the pose of the robot's $WORLD frame in W (4x4 homogeneous,
+  /// translation in m); identity: KRL's $WORLD is W.
+  Eigen::Matrix4d krl_world_in_W = Eigen::Matrix4d::Identity();
+  /// KUKA KRL PTP with axis values {A1 .. A6} [deg]: the tool pose they give (the machine's
+  /// direct kinematics). Without it such a PTP is an error that says a machine is needed.
+  std::function<AxisWordPose(const std::vector<double>&)> robot_joints_to_pose;
 };
 
 /// Reads an APT/CL file (subset above). Throws vmsim::InputError naming the file, line, column
@@ -520,10 +564,19 @@ Toolpath read_siemens(const std::string& path, const ReaderOptions& options = {}
 Toolpath parse_siemens(const std::string& text, const std::string& file_name_for_messages,
                        const ReaderOptions& options = {});
 
+/// Reads a KUKA KRL program (subset above, "KUKA KRL subset"); declarations and BASE_DATA /
+/// TOOL_DATA of the companion .dat file (same name, .dat) are read first where it exists.
+/// Throws vmsim::InputError naming the file, line, column and word.
+Toolpath read_krl(const std::string& path, const ReaderOptions& options = {});
+/// `dat_text`: the companion .dat file's text (empty: none), named `dat_file` in messages.
+Toolpath parse_krl(const std::string& text, const std::string& file_name_for_messages,
+                   const ReaderOptions& options = {}, const std::string& dat_text = {},
+                   const std::string& dat_file = {});
+
 /// Picks the reader by extension: .apt .cl .cls -> APT; .mpf .spf -> Siemens 840D; .nc .ngc
 /// .gcode .tap .iso .ptp .eia .cnc -> G-code, unless the text is unmistakably a Siemens program
 /// (a `%_N_..._MPF` header, or a CYCLE832 / CYCLE800 call), which goes to the Siemens reader;
-/// .h -> Heidenhain TNC conversational (heidenhain_reader.hpp).
+/// .h -> Heidenhain TNC conversational (heidenhain_reader.hpp); .src -> KUKA KRL.
 Toolpath read_toolpath(const std::string& path, const ReaderOptions& options = {});
 
 }  // namespace vmsim::toolpath
