@@ -279,6 +279,36 @@ TEST(SimulatePart, AnStlStockOfTheBoxGivesTheBoxResultLineByLine) {
   EXPECT_NEAR(reports[1]["marks"][0]["depth_um"].get<double>(), 20.0, 0.5);
 }
 
+// --path-tolerance-um is the limit the planner holds its path to and the check applies: the
+// set points' largest distance from the programmed path stays under it and the report gives it
+// as the limit; a tolerance that is not > 0 is a usage error before anything is written.
+TEST(SimulatePart, ThePathToleranceOptionIsTheLimitOfTheSetPointsCheck) {
+  const auto folder = test::fresh_folder("simulate_path_tolerance");
+  const std::string part = small_part(folder, 1);
+  const auto out = folder / "out";
+  const test::RunResult run = test::run_vmsim("-q simulate-part --part " + part + " --out " + out.string() +
+                                              " --no-renders --grid-um 50 --path-tolerance-um 0.25");
+  ASSERT_EQ(run.exit_code, 0) << run.output;
+  const nlohmann::json report = nlohmann::json::parse(read_file((out / "report.json").string()));
+  int checked = 0;
+  for (const auto& check : report["validity_checks"]) {
+    if (check["id"].get<std::string>().rfind("setpoints_on_path.", 0) != 0) continue;
+    ++checked;
+    EXPECT_DOUBLE_EQ(check["limit"].get<double>(), 0.25) << check.dump();
+    EXPECT_LE(check["value"].get<double>(), 0.25) << check.dump();
+    EXPECT_EQ(check["status"], "ok") << check.dump();
+  }
+  EXPECT_EQ(checked, 2);  // reference and production
+  for (const std::string bad : {"0", "-1", "nan"}) {
+    const auto bad_out = folder / ("bad_" + bad);
+    const test::RunResult refused = test::run_vmsim("-q simulate-part --part " + part + " --out " +
+                                                    bad_out.string() + " --no-renders --path-tolerance-um " + bad);
+    EXPECT_EQ(refused.exit_code, 3) << bad << ": " << refused.output;
+    EXPECT_NE(refused.output.find("--path-tolerance-um must be > 0"), std::string::npos) << refused.output;
+    EXPECT_FALSE(std::filesystem::exists(bad_out));
+  }
+}
+
 // A stock STL that is not there, or not a closed mesh: an error naming the part file, the line
 // of `stock` and the STL's problem, exit code 3 (bad input file), and no output folder.
 TEST(SimulatePart, AMissingOrOpenStockStlIsALocatedErrorAndWritesNothing) {
