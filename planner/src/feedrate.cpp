@@ -83,7 +83,10 @@ double detail::first_exit(double p0, double p1, double p2, double p3, double L) 
   if (std::abs(p0) == L && (p0 * p1 > 0.0 || (p1 == 0.0 && p0 * p2 > 0.0))) return 0.0;  // leaving at once
   if (p1 == 0.0 && p2 == 0.0) {
     // p0 + p3 s^3 (the jerk rows' sd^3 q_sss term alone): monotone, leaves at s^3 p3 = +-L - p0.
-    double s = std::cbrt(((p3 > 0.0 ? L : -L) - p0) / p3);
+    // The cube roots apart: with a denormal p3 (an axis that does not move, its q_sss 1e-308
+    // from rounding) the quotient overflowed to inf and the exit came out 0, a speed cap of 0
+    // inside a stretch that the third-order programme could not leave.
+    double s = std::cbrt((p3 > 0.0 ? L : -L) - p0) / std::cbrt(p3);
     for (int step = 0; step < 64 && s > 0.0 && std::abs(f(s)) > L; ++step) s = std::nextafter(s, 0.0);
     if (std::abs(f(s)) <= L) return s;
   }
@@ -100,9 +103,12 @@ double detail::first_exit(double p0, double p1, double p2, double p3, double L) 
   // coefficient: the bisection below would not reach the root.)
   double bound = 0.0;
   for (int i = 0; i < degree; ++i) {
-    const double ratio = (std::abs(p[i]) + (i == 0 ? L : 0.0)) / std::abs(p[degree]);
+    const double top = std::abs(p[i]) + (i == 0 ? L : 0.0), leading = std::abs(p[degree]);
     const int order = degree - i;
-    bound = std::max(bound, order == 1 ? ratio : (order == 2 ? std::sqrt(ratio) : std::cbrt(ratio)));
+    // Roots taken apart (as above: a tiny leading coefficient must not overflow the quotient).
+    bound = std::max(bound, order == 1 ? top / leading
+                                       : (order == 2 ? std::sqrt(top) / std::sqrt(leading)
+                                                     : std::cbrt(top) / std::cbrt(leading)));
   }
   bound *= 2.0;
   // Monotone pieces between the critical points.

@@ -125,6 +125,7 @@ class ThirdOrderLp {
     un_.assign(nodes, 0.0);
     z_.assign(blocks_.size(), 0.0);
     x_.assign(points_, 0.0);
+    x_unclamped_.assign(points_, 0.0);
     u_.assign(points_, 0.0);
     // The first linearisation point: the second-order profile (above every third-order one).
     lin_ = x_upper_;
@@ -262,9 +263,11 @@ class ThirdOrderLp {
     for (std::size_t k = 0; k < p_.segments(); ++k) {
       const std::size_t c = node_of_segment_[k];
       forms_at(c, p_.s[k] - p_.s[nodes_[c]], fx, fu);
-      x_[k] = std::max(form_value(fx), 0.0);
+      x_unclamped_[k] = form_value(fx);
+      x_[k] = std::max(x_unclamped_[k], 0.0);
       u_[k] = form_value(fu);
     }
+    x_unclamped_[points_ - 1] = xn_.back();
     x_[points_ - 1] = std::max(xn_.back(), 0.0);
     u_[points_ - 1] = un_.back();
   }
@@ -387,6 +390,7 @@ class ThirdOrderLp {
   /// lo <= cx x(sigma) + cu u(sigma) + cup u' <= hi (one side bounded), u' the slope of u over
   /// the node span.
   struct RowTerms {
+    bool none = false;  ///< no row: a third-order row linearised where the cap is 0 (see third_order_terms)
     double sigma = 0.0;
     double cx = 0.0, cu = 0.0, cup = 0.0;
     double lo = -COIN_DBL_MAX, hi = COIN_DBL_MAX;
@@ -430,6 +434,7 @@ class ThirdOrderLp {
 
   /// The half-row of `t` in the node columns (x as `x_form` instead of x(sigma) if given).
   void terms_half_row(const RowTerms& t, std::size_t k, const Form* x_form, HalfRow& h) const {
+    if (t.none) return;
     const std::size_t c = node_of_segment_[k];
     if (t.cup != 0.0) {
       const double span = p_.s[nodes_[c + 1]] - p_.s[nodes_[c]];
@@ -535,6 +540,15 @@ class ThirdOrderLp {
   /// at q). The viscous terms V sd + Z u / sd are taken at the current iterate (x = q,
   /// u = u_now).
   void third_order_terms(const Row3& row, int side, double q, double u_now, RowTerms& t) const {
+    // A point inside a stretch where the second-order cap is 0 (a blended corner too sharp to
+    // pass moving): the motion stops there, where |P sddd| <= L / sd bounds nothing, and the
+    // tangent of L / sqrt(x) at 0 does not exist (its coefficients were infinite: CLP refused
+    // the programme as a bad element and posted programs found no third-order profile). The
+    // rows at the neighbouring points hold the jerk into and out of the stop.
+    if (!(q > 0.0)) {
+      t.none = true;
+      return;
+    }
     const double rq = std::sqrt(q);
     const double inverse_scale = rq / row.L;  // 1 / the limit at q
     const double viscous = row.V * rq + (row.Z != 0.0 ? row.Z * u_now / rq : 0.0);
@@ -783,7 +797,11 @@ class ThirdOrderLp {
     const double b = (u_[k + 1] - u_[k]) / delta;
     const std::size_t c = node_of_segment_[k];
     const double u_slope = (un_[c + 1] - un_[c]) / (p_.s[nodes_[c + 1]] - p_.s[nodes_[c]]);
-    auto x_at = [&](double sigma) { return x_[k] + sigma * (2.0 * u_[k] + b * sigma); };
+    // x as the rows see it (the node forms, not clamped at 0): an iterate whose x dips below 0
+    // between the nodes (before the x-range rows there are added) would otherwise be judged
+    // at x = 0, and near a stop, where the third-order rows divide by x, the two differ
+    // by far more than rounding (posted programs: 6e-7 below 0 at a cap of 3.4e-5).
+    auto x_at = [&](double sigma) { return x_unclamped_[k] + sigma * (2.0 * u_[k] + b * sigma); };
     const double x_ends[2] = {x_at(0.0), x_at(delta)};
     const double u_ends[2] = {u_[k], u_[k] + b * delta};
     const double x_middle = x_at(0.5 * delta), u_middle = u_[k] + b * 0.5 * delta;
@@ -813,6 +831,7 @@ class ThirdOrderLp {
     // Third-order rows, both sides at once (third_order_terms: the sides differ only in the
     // tangent's sign and the bound).
     auto check3 = [&](std::size_t slot0, const Row3* rows, double q, double u_now, double x, double u) {
+      if (!(q > 0.0)) return;  // no row there (third_order_terms)
       const double rq = std::sqrt(q), tangent = 0.5 * x / q;
       for (std::size_t r = 0; r < n3; ++r) {
         const std::size_t slot = slot0 + 2 * r;
@@ -957,6 +976,7 @@ class ThirdOrderLp {
   std::vector<std::size_t> node_of_segment_;   // node segment of each grid segment
   std::vector<long> node_of_point_;            // node index of a grid point, -1 if none
   std::vector<double> xn_, un_, z_;            // the programme's solution
+  std::vector<double> x_unclamped_;  // x at the grid points before clamping at 0 (the rows' x)
   std::vector<double> x_, u_, lin_, weight_x_;  // at the grid points (weight_x_: where the objective's weights are taken)
   std::vector<char> active_;
   std::vector<std::size_t> row_keys_;  // per model row

@@ -108,5 +108,20 @@ TEST(FirstExit, AtTheBoundAndLeavingAtOnceIsZero) {
   EXPECT_EQ(first_exit(0.5, 0.0, 0.0, 0.0, 1.0), kInf);
 }
 
+// A tiny leading coefficient (an axis that does not move: q_sss of 1e-308 from rounding in the
+// spline) leaves where p3 s^3 reaches L, far out, not at 0: the quotient L / p3 overflowed to
+// inf, the exit came out 0 and made a speed cap of 0 inside a stretch (posted programs found
+// no third-order profile). Closed form: s = cbrt(L / |p3|), computed in long double.
+TEST(FirstExit, ADenormalLeadingCoefficientLeavesFarOutNotAtOnce) {
+  for (const double p3 : {-7.02044e-308, 7.02044e-308, 3e-320, -1e-300}) {
+    const double expected = static_cast<double>(std::cbrt(50.0L / std::abs(static_cast<long double>(p3))));
+    const double exit = first_exit(0.0, 0.0, 0.0, p3, 50.0);
+    EXPECT_NEAR(exit / expected, 1.0, 1e-12) << "p3 " << p3 << " exit " << exit;
+    // With a (tiny) quadratic term as well: the general branch's root bound must not overflow.
+    const double general = first_exit(0.0, 0.0, 1e-300, p3, 50.0);
+    EXPECT_GT(general, 1e100) << "p3 " << p3;
+  }
+}
+
 }  // namespace
 }  // namespace vmsim::planner::detail
