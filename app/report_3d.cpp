@@ -253,7 +253,7 @@ View3dData view3d_data(const View3dInputs& inputs) {
     const std::size_t lines = static_cast<std::size_t>(view.nu) * static_cast<std::size_t>(view.nv);
     // The budget is shared by line count; a small view keeps at least a few thousand vertices.
     const std::size_t budget = std::max<std::size_t>(
-        std::min<std::size_t>(lines, 2000),
+        std::min<std::size_t>({lines, 2000, inputs.max_vertices}),
         static_cast<std::size_t>(static_cast<double>(inputs.max_vertices) * static_cast<double>(lines) /
                                  static_cast<double>(std::max<std::size_t>(all_lines, 1))));
     const int cell_lines = cell_lines_for(view.nu, view.nv, std::max<std::size_t>(budget, 1));
