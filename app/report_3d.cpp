@@ -143,6 +143,8 @@ NearestSegment::NearestSegment(std::vector<Eigen::Vector3d> points_W_m, std::vec
   cells_x_ = std::max(1, static_cast<int>(std::ceil(width / cell_m_)));
   cells_y_ = std::max(1, static_cast<int>(std::ceil(height / cell_m_)));
   cells_.resize(static_cast<std::size_t>(cells_x_) * static_cast<std::size_t>(cells_y_));
+  cell_z_min_.assign(cells_.size(), std::numeric_limits<double>::infinity());
+  cell_z_max_.assign(cells_.size(), -std::numeric_limits<double>::infinity());
   const auto cell_x = [this](double x) { return std::clamp(static_cast<int>((x - x0_) / cell_m_), 0, cells_x_ - 1); };
   const auto cell_y = [this](double y) { return std::clamp(static_cast<int>((y - y0_) / cell_m_), 0, cells_y_ - 1); };
   for (long k : segments_) {
@@ -150,7 +152,10 @@ NearestSegment::NearestSegment(std::vector<Eigen::Vector3d> points_W_m, std::vec
     const Eigen::Vector3d& b = points_[static_cast<std::size_t>(k)];
     for (int j = cell_y(std::min(a.y(), b.y())); j <= cell_y(std::max(a.y(), b.y())); ++j) {
       for (int i = cell_x(std::min(a.x(), b.x())); i <= cell_x(std::max(a.x(), b.x())); ++i) {
-        cells_[static_cast<std::size_t>(i) + static_cast<std::size_t>(cells_x_) * static_cast<std::size_t>(j)].push_back(k);
+        const std::size_t cell = static_cast<std::size_t>(i) + static_cast<std::size_t>(cells_x_) * static_cast<std::size_t>(j);
+        cells_[cell].push_back(k);
+        cell_z_min_[cell] = std::min({cell_z_min_[cell], a.z(), b.z()});
+        cell_z_max_[cell] = std::max({cell_z_max_[cell], a.z(), b.z()});
       }
     }
   }
@@ -172,7 +177,14 @@ long NearestSegment::nearest(const Eigen::Vector3d& point_W_m) const {
       const bool edge_row = j == cj - r || j == cj + r;
       for (int i = ci - r; i <= ci + r; i += (edge_row || r == 0) ? 1 : 2 * r) {
         if (i < 0 || i >= cells_x_) continue;
-        for (long k : cells_[static_cast<std::size_t>(i) + static_cast<std::size_t>(cells_x_) * static_cast<std::size_t>(j)]) {
+        const std::size_t cell = static_cast<std::size_t>(i) + static_cast<std::size_t>(cells_x_) * static_cast<std::size_t>(j);
+        if (cells_[cell].empty()) continue;
+        // The nearest point of a segment lies in a cell that lists it: this cell's box bounds it.
+        const double dx = std::max({0.0, x0_ + i * cell_m_ - point_W_m.x(), point_W_m.x() - (x0_ + (i + 1) * cell_m_)});
+        const double dy = std::max({0.0, y0_ + j * cell_m_ - point_W_m.y(), point_W_m.y() - (y0_ + (j + 1) * cell_m_)});
+        const double dz = std::max({0.0, cell_z_min_[cell] - point_W_m.z(), point_W_m.z() - cell_z_max_[cell]});
+        if (std::sqrt(dx * dx + dy * dy + dz * dz) > best_distance + 1e-12) continue;
+        for (long k : cells_[cell]) {
           const double distance =
               segment_distance(point_W_m, points_[static_cast<std::size_t>(k) - 1], points_[static_cast<std::size_t>(k)]);
           if (distance < best_distance || (distance == best_distance && k < best)) {

@@ -63,10 +63,14 @@ class NearestSegment {
   std::vector<Eigen::Vector3d> points_;
   std::vector<long> segments_;  ///< end point indices of the cutting segments
   // A uniform grid in x, y over the segments' bounds: each cell lists the segments whose box
-  // meets it; a query searches rings of cells outwards until no nearer segment can be found.
+  // meets it, and the z range of those boxes; a query searches rings of cells outwards until no
+  // nearer segment can be found, and skips a cell whose box (x, y of the cell, its z range) is
+  // further than the nearest segment found (a ball's centre path runs a radius above the
+  // surface: without it every query would test every segment within a radius).
   double x0_ = 0.0, y0_ = 0.0, cell_m_ = 1.0;
   int cells_x_ = 0, cells_y_ = 0;
   std::vector<std::vector<long>> cells_;
+  std::vector<double> cell_z_min_, cell_z_max_;
 };
 
 /// `bytes` as base64 (RFC 4648, with padding).

@@ -1533,7 +1533,9 @@ Json simulate_part(const SimulatePartOptions& options, const ProgressSink& progr
   report["surface"] = surface;
   std::vector<std::string> images;
   write_renders(context, production, reference, comparisons, staging, report, images);
+  const auto view3d_start = Clock::now();
   report["view_3d"] = write_view3d(staging, view3d_inputs(context, production, comparisons, curated), vtkjs_bundle());
+  report["view_3d"]["seconds"] = seconds_since(view3d_start);
   if (report["view_3d"].value("available", false)) {
     progress("3-D view: " + std::to_string(report["view_3d"]["vertices"].get<std::size_t>()) + " vertices, " +
              format_double(std::round(report["view_3d"]["data_bytes"].get<double>() / 1e4) / 1e2) + " MB of data");

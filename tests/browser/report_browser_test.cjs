@@ -95,15 +95,18 @@ async function imageStatistics(page, png, blocksX, blocksY) {
     return route.abort();
   });
   const url = pathToFileURL(path.join(folder, 'report.html')).href;
+  const opened = Date.now();
   await page.goto(url, { waitUntil: 'load' });
   await page.waitForFunction(() => window.vmsimView3d && (window.vmsimView3d.ready || window.vmsimView3d.error),
                              null, { timeout: 60000 }).catch(() => {});
   const view = await page.evaluate(() => window.vmsimView3d ? {
     ready: window.vmsimView3d.ready, error: window.vmsimView3d.error,
-    vertices: window.vmsimView3d.vertices, triangles: window.vmsimView3d.triangles } : null);
+    vertices: window.vmsimView3d.vertices, triangles: window.vmsimView3d.triangles,
+    timings: window.vmsimView3d.timings_ms,
+    scriptsLoaded: performance.getEntriesByType('navigation')[0].domContentLoadedEventEnd } : null);
   // Two frames for the first render to reach the canvas.
   await page.evaluate(() => new Promise((done) => requestAnimationFrame(() => requestAnimationFrame(done))));
-  const loadedMs = Date.now() - started;
+  const loadedMs = Date.now() - started, pageMs = Date.now() - opened;
   check(view && view.ready && !view.error, '3-D view came up' + (view && view.error ? ': ' + view.error : ''));
   check(view && view.triangles > 1000, '3-D view has a surface (' + (view ? view.triangles : 0) + ' triangles, ' +
         (view ? view.vertices : 0) + ' vertices)');
@@ -184,7 +187,9 @@ async function imageStatistics(page, png, blocksX, blocksY) {
 
   check(problems.length === 0, 'no console error, failed or network request' +
         (problems.length ? ':\n  ' + problems.join('\n  ') : ''));
-  console.log('report loaded and 3-D view up in ' + loadedMs + ' ms (chromium start included)');
+  console.log('report opened to 3-D view drawn: ' + pageMs + ' ms (' + loadedMs + ' ms with chromium\'s start); ' +
+              'page and scripts parsed at ' + Math.round(view ? view.scriptsLoaded : 0) + ' ms, then the viewer: ' +
+              JSON.stringify(view ? view.timings : {}, (k, v) => (typeof v === 'number' ? Math.round(v) : v)));
   fs.writeFileSync(path.join(shotsFolder, 'page_text.txt'), text);
   await browser.close();
   const passed = failures.length === 0;

@@ -7,7 +7,8 @@
 // window.vmsimView3d tells the browser test (tests/browser/) whether the view came up.
 (async function () {
   'use strict';
-  const state = { ready: false, error: null, vertices: 0, triangles: 0 };
+  const state = { ready: false, error: null, vertices: 0, triangles: 0, timings_ms: {} };
+  const started = performance.now();
   window.vmsimView3d = state;
 
   const container = document.getElementById('view3d');
@@ -315,6 +316,7 @@
   try {
     blocks = JSON.parse(new TextDecoder().decode(await inflate(data.blocks)));
     for (const entry of views) await unpackView(entry);
+    state.timings_ms.unpack = performance.now() - started;
     data.views.forEach((view, index) => {
       const option = document.createElement('option');
       option.value = String(index);
@@ -327,6 +329,7 @@
       link.addEventListener('click', () => showMark(Number(link.dataset.rank)));
     }
     show(0);
+    state.timings_ms.first_frame = performance.now() - started;
   } catch (error) {
     return fail(String(error));
   }
