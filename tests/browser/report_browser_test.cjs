@@ -111,8 +111,10 @@ async function imageStatistics(page, png, blocksX, blocksY) {
   check(view && view.triangles > 1000, '3-D view has a surface (' + (view ? view.triangles : 0) + ' triangles, ' +
         (view ? view.vertices : 0) + ' vertices)');
 
-  // The whole page, and the view alone, against the baseline.
-  await page.screenshot({ path: path.join(shotsFolder, 'report_page.png'), fullPage: false });
+  // The page at its 3-D section, and the view alone, against the baseline.
+  await page.locator('#view-3d').scrollIntoViewIfNeeded();
+  await page.evaluate(() => document.getElementById('view-3d').scrollIntoView());
+  await page.screenshot({ path: path.join(shotsFolder, 'report_view3d_section.png'), fullPage: false });
   const viewShot = await page.locator('#view3d').screenshot({ path: path.join(shotsFolder, 'view3d.png') });
   const statistics = await imageStatistics(page, viewShot, 16, 8);
   console.log('view statistics: foreground ' + statistics.foreground.toFixed(3) + ', blue ' + statistics.blue.toFixed(4) +
