@@ -442,9 +442,8 @@ std::string html_report(const Json& report, const std::vector<std::string>& imag
           "pre.program span.marked{font-weight:bold;background:#fff3b0}"
           ".verdict{border:2px solid;padding:4px 14px;margin:10px 0}"
           "#view3d{position:relative;width:100%;height:540px;border:1px solid #999;margin:6px 0}"
-          // vtk.js's own style sheet widens every select: this one stays on the line.
-          ".view3d-controls label{display:inline}.view3d-controls select{width:auto!important;"
-          "display:inline-block!important;margin:0 8px}"
+          // A view's title can be long (a cylinder's axis and angles): the select stays on the line.
+          ".view3d-controls select{max-width:640px;margin:0 8px}"
           "#view3d-pick{min-height:3em}#view3d-pick th{background:#f2f2f2}"
           ".view3d-failed{padding:12px;color:#b00}"
           "img{max-width:100%}img.thumbnail{width:160px}figure{margin:14px 0}figcaption{color:#333;font-size:92%}"

@@ -163,6 +163,18 @@ async function imageStatistics(page, png, blocksX, blocksY) {
     await page.screenshot({ path: path.join(shotsFolder, 'report_pick.png') });
   }
 
+  // Every surface view of the selector comes up (walls, spheres, cylinders: their own meshes).
+  if (view && view.ready) {
+    const options = await page.locator('#view3d-view option').evaluateAll((list) => list.map((o) => o.value));
+    for (const value of options.slice(1)) {
+      await page.locator('#view3d-view').selectOption(value);
+      await page.evaluate(() => new Promise((done) => requestAnimationFrame(() => requestAnimationFrame(done))));
+      const shown = await page.evaluate(() => ({ id: window.vmsimView3d.view, triangles: window.vmsimView3d.triangles }));
+      check(shown.triangles > 100, 'surface view ' + shown.id + ' comes up (' + shown.triangles + ' triangles)');
+      await page.locator('#view3d').screenshot({ path: path.join(shotsFolder, 'view3d_' + shown.id + '.png') });
+    }
+  }
+
   // A page to forward: no absolute path, no code identifier in what it shows.
   const text = await page.evaluate(() => document.body.innerText);
   const absolute = text.match(/(^|[\s("'=:])\/(work|tmp|root|home|usr|opt|var|srv|mnt)\/[^\s]*/m);

@@ -26,6 +26,7 @@
   const data = window.vmsimDeviationMesh;
   if (typeof vtk === 'undefined') return fail('the viewer library (3d/vtk.js) did not load.');
   if (!data || data.format !== 1) return fail('its data (3d/deviation_mesh.js) did not load.');
+  if (!data.views.length) return fail('the data holds no surface.');
 
   // Base64, then zlib (the browser's own DecompressionStream: no library, no network), to bytes.
   async function inflate(text) {
