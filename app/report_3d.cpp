@@ -81,7 +81,7 @@ int cell_lines_for(int nu, int nv, std::size_t max_cells) {
 }
 
 WorstOfCells keep_worst_of_cells(int nu, int nv, const std::vector<double>& deviation_m, int cell_lines,
-                                 const std::vector<bool>* usable) {
+                                 const std::vector<bool>* usable, double significant_m) {
   const std::size_t lines = static_cast<std::size_t>(std::max(nu, 0)) * static_cast<std::size_t>(std::max(nv, 0));
   if (cell_lines < 1 || nu < 1 || nv < 1 || deviation_m.size() != lines || (usable && usable->size() != lines)) {
     throw std::invalid_argument("keep_worst_of_cells: sizes do not match the grid");
@@ -104,8 +104,9 @@ WorstOfCells keep_worst_of_cells(int nu, int nv, const std::vector<double>& devi
         for (int iu = u0; iu < u1; ++iu) {
           const std::size_t line = static_cast<std::size_t>(iu) + static_cast<std::size_t>(nu) * static_cast<std::size_t>(iv);
           if (usable && !(*usable)[line]) continue;
-          const double size = std::abs(deviation_m[line]);
+          double size = std::abs(deviation_m[line]);
           if (!std::isfinite(size)) continue;
+          if (size <= significant_m) size = 0.0;
           const long du = 2L * iu - cu2, dv = 2L * iv - cv2;
           const long centre_distance = du * du + dv * dv;
           if (size > best_size || (size == best_size && centre_distance < best_centre_distance)) {
@@ -272,11 +273,8 @@ View3dData view3d_data(const View3dInputs& inputs) {
     const std::vector<bool>* usable = view.has_material.empty() ? nullptr : &view.has_material;
     // Below the mark threshold a deviation is no mark: such cells keep their centre line, and the
     // mesh stays regular (and evenly shaded) where there is nothing to see.
-    std::vector<double> significant_m = *view.deviation_m;
-    for (double& d : significant_m) {
-      if (std::abs(d) <= inputs.mark_threshold_um * 1e-6) d = 0.0;
-    }
-    const WorstOfCells cells = keep_worst_of_cells(view.nu, view.nv, significant_m, cell_lines, usable);
+    const WorstOfCells cells = keep_worst_of_cells(view.nu, view.nv, *view.deviation_m, cell_lines, usable,
+                                                   inputs.mark_threshold_um * 1e-6);
 
     std::vector<unsigned char> positions, deviations, mark_bytes;
     std::vector<std::uint32_t> block_index;

@@ -41,11 +41,12 @@ struct WorstOfCells {
 int cell_lines_for(int nu, int nv, std::size_t max_cells);
 
 /// Cells of cell_lines x cell_lines lines (the last row and column may be narrower), each
-/// keeping the line of largest |deviation_m| among those `usable` (nullptr: all); on ties the
-/// line nearest the cell's centre. A cell without a usable line keeps none
-/// (line = SIZE_MAX). Throws std::invalid_argument on a size mismatch or cell_lines < 1.
+/// keeping the line of largest |deviation_m| among those `usable` (nullptr: all), a deviation
+/// of at most `significant_m` counting as 0; on ties the line nearest the cell's centre. A cell
+/// without a usable line keeps none (line = SIZE_MAX). Throws std::invalid_argument on a size
+/// mismatch or cell_lines < 1.
 WorstOfCells keep_worst_of_cells(int nu, int nv, const std::vector<double>& deviation_m, int cell_lines,
-                                 const std::vector<bool>* usable = nullptr);
+                                 const std::vector<bool>* usable = nullptr, double significant_m = 0.0);
 
 /// The programmed path as segments, for "the nearest path point" of a picked point: segment k
 /// runs from point k-1 to point k (the motion of block block[k]). Points are where the tool's

@@ -122,13 +122,16 @@ TEST(Report3d, EachCellKeepsItsWorstLineAndAMarkNeverVanishes) {
 
 TEST(Report3d, FlatCellsKeepTheirCentreAndLinesWithoutMaterialAreNeverKept) {
   const int nu = 9, nv = 6;
-  const std::vector<double> flat(static_cast<std::size_t>(nu * nv), 0.0);
+  // Deviations within the threshold (here 1 um) count as none.
+  std::vector<double> flat(static_cast<std::size_t>(nu * nv), 0.0);
+  flat[0] = 0.9e-6;
+  flat[static_cast<std::size_t>(5 + nu * 2)] = -1e-6;
   std::vector<bool> usable(flat.size(), true);
   for (int iu = 6; iu < 9; ++iu) {
     for (int iv = 0; iv < 3; ++iv) usable[static_cast<std::size_t>(iu + nu * iv)] = false;  // cell (2, 0)
   }
   usable[static_cast<std::size_t>(1 + nu * 1)] = false;  // the centre of cell (0, 0)
-  const WorstOfCells cells = keep_worst_of_cells(nu, nv, flat, 3, &usable);
+  const WorstOfCells cells = keep_worst_of_cells(nu, nv, flat, 3, &usable, 1e-6);
   EXPECT_EQ(cells.line[1], static_cast<std::size_t>(4 + nu * 1));  // cell (1, 0): its centre
   EXPECT_EQ(cells.line[2], kNone);                                 // no material at all
   const std::size_t first = cells.line[0];
