@@ -100,8 +100,10 @@
         }
       }
     }
-    // Vertices without surface still need finite coordinates (no triangle uses them).
-    const points = Float32Array.from(positions, (x) => (Number.isNaN(x) ? 0 : x));
+    // Vertices without surface still need finite coordinates (no triangle uses them): those of
+    // a vertex that has one, so that they do not widen the bounds the camera is fitted to.
+    const first = deviation.findIndex((x) => !Number.isNaN(x));
+    const points = Float32Array.from(positions, (x, k) => (Number.isNaN(x) ? (first < 0 ? 0 : positions[3 * first + (k % 3)]) : x));
     const colours = Float32Array.from(deviation, (x) => (Number.isNaN(x) ? 0 : x));
     const polyData = vtk.Common.DataModel.vtkPolyData.newInstance();
     polyData.getPoints().setData(points, 3);
