@@ -133,6 +133,7 @@
     entry.half = half;
     entry.cells = cells.length / 4;
     entry.polyData = polyData;
+    entry.surface = surface;
   }
 
   const dot = (a, b) => a[0] * b[0] + a[1] * b[1] + a[2] * b[2];
@@ -305,11 +306,22 @@
     }
     const camera = renderer.getActiveCamera();
     const target = m.deepest_point_mm;
-    const direction = camera.getDirectionOfProjection();
+    // Seen along the surface's normal there (turned a little towards where the camera was, and
+    // to the camera's side of the surface): a mark on a wall is not seen edge on.
+    let nearest = 0, nearestDistance = Infinity;
+    for (let i = 0; i < shown.deviation.length; ++i) {
+      const d = Math.hypot(...[0, 1, 2].map((k) => shown.positions[3 * i + k] - target[k]));
+      if (d < nearestDistance) { nearestDistance = d; nearest = i; }
+    }
+    const wasToCamera = camera.getDirectionOfProjection().map((x) => -x);
+    let normal = shown.surface.getPointData().getNormals().getTuple(nearest);
+    if (dot(normal, wasToCamera) < 0) normal = normal.map((x) => -x);
+    const toCamera = unit(normal.map((x, k) => x + 0.6 * wasToCamera[k]));
     const width = 4;  // mm across
     const distance = width / 2 / Math.tan((camera.getViewAngle() * Math.PI) / 360);
     camera.setFocalPoint(...target);
-    camera.setPosition(...target.map((x, k) => x - direction[k] * distance));
+    camera.setPosition(...target.map((x, k) => x + toCamera[k] * distance));
+    camera.setViewUp(...(Math.abs(toCamera[2]) > 0.95 ? [0, 1, 0] : [0, 0, 1]));
     renderer.resetCameraClippingRange();
     renderWindow.render();
     return true;
