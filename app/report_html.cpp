@@ -1,5 +1,6 @@
 #include "report_html.hpp"
 
+#include <algorithm>
 #include <cmath>
 #include <cstdio>
 #include <map>
@@ -136,7 +137,12 @@ void checks_section(std::ostringstream& html, const Json& report) {
 
 std::string anchor_of(int line) { return "line-" + std::to_string(line); }
 
+bool has_view_3d(const Json& report) {
+  return report.contains("view_3d") && report["view_3d"].value("available", false);
+}
+
 void marks_section(std::ostringstream& html, const Json& report) {
+  const bool with_3d = has_view_3d(report);
   html << "<h2>Marks</h2>\n";
   const Json& marks = report["marks"];
   const double tolerance = report.contains("verdict") && report["verdict"]["tolerance_um"].is_number()
@@ -158,7 +164,12 @@ void marks_section(std::ostringstream& html, const Json& report) {
       if (shown++ == kHtmlMarkRows) break;
       const double depth = mark.value("depth_um", 0.0);
       const bool beyond = tolerance >= 0 && depth > tolerance;
-      html << "<tr" << (beyond ? " class=\"beyond\"" : "") << "><td>" << mark.value("rank", 0) << "</td><td>"
+      html << "<tr" << (beyond ? " class=\"beyond\"" : "") << "><td>" << mark.value("rank", 0);
+      if (with_3d) {
+        html << " <a class=\"show-in-3d\" href=\"#view-3d\" data-rank=\"" << mark.value("rank", 0)
+             << "\" title=\"show this mark in the 3-D view\">3-D</a>";
+      }
+      html << "</td><td>"
            << fixed(depth, 2) << "</td><td>" << html_escape(mark.value("kind", "")) << "</td><td>"
            << fixed(mark.value("area_mm2", 0.0), 3) << "</td><td>"
            << point_text(mark.value("deepest_point_mm", Json())) << " (" << html_escape(mark.value("view", ""))
@@ -192,6 +203,45 @@ void marks_section(std::ostringstream& html, const Json& report) {
          << fixed(specks.value("deepest_um", 0.0), 2)
          << " um) are too small for a mark a cutter leaves (specks on steep walls, lines grazed at their "
             "ends); <a href=\"marks.csv\">marks.csv</a> lists them.</p>\n";
+  }
+}
+
+/// The interactive view (app/report_3d.hpp): vtk.js and the data in the folder's 3d/, loaded
+/// by relative paths (no network); without them, what to do to get it.
+void view_3d_section(std::ostringstream& html, const Json& report) {
+  if (!report.contains("view_3d")) return;
+  const Json& view = report["view_3d"];
+  html << "<h2 id=\"view-3d\">3-D view</h2>\n";
+  if (!view.value("available", false)) {
+    html << "<p class=\"view3d-missing\"><b>No 3-D view in this report:</b> " << html_escape(view.value("reason", ""))
+         << ".</p>\n";
+    return;
+  }
+  std::size_t lines = 0;
+  int cell_lines = 1;
+  for (const auto& entry : view.value("views", Json::array())) {
+    lines += entry.value("lines", std::size_t{0});
+    cell_lines = std::max(cell_lines, entry.value("cell_lines", 1));
+  }
+  html << "<p>The production surface, coloured by its deviation from the reference surface (production minus "
+          "reference, in um: <span style=\"color:#3b4cc0\"><b>blue, negative: gouge</b></span>, the production run "
+          "cut deeper; <span style=\"color:#b40426\"><b>red, positive: excess material</b></span>; grey: none). "
+          "Drag to rotate, scroll to zoom, shift + drag to pan; click a point to read its deviation, position and "
+          "program line (of its mark, and of the nearest programmed path). The 3-D links in the marks table "
+          "centre the view on a mark. Coordinates in mm, in the workpiece frame.</p>\n"
+          "<p class=\"view3d-size\">Decimated for size: "
+       << view.value("vertices", std::size_t{0}) << " points of " << lines
+       << " surface lines (cells of up to " << cell_lines << " x " << cell_lines
+       << " lines, each keeping its line of largest deviation, so no mark is lost); data "
+       << fixed(view.value("data_bytes", 0.0) / 1e6, 2) << " MB, viewer library (vtk.js) "
+       << fixed(view.value("library_bytes", 0.0) / 1e6, 2) << " MB, all in the folder 3d/: it works offline.</p>\n";
+  html << "<div class=\"view3d-controls\"><label>Surface view <select id=\"view3d-view\"></select></label> "
+          "<button type=\"button\" id=\"view3d-reset\">Whole surface</button></div>\n"
+          "<div id=\"view3d\"></div>\n<div id=\"view3d-pick\">Click the surface to read a point.</div>\n"
+          "<noscript><p>The 3-D view needs JavaScript.</p></noscript>\n";
+  const Json& files = view["files"];
+  for (const char* key : {"library", "data", "viewer"}) {
+    html << "<script src=\"" << html_escape(files.value(key, "")) << "\"></script>\n";
   }
 }
 
@@ -328,21 +378,28 @@ void program_section(std::ostringstream& html, const Json& report) {
   html << "</pre>\n";
 }
 
+/// A stage's key in words ("load_and_inverse_kinematics" -> "load and inverse kinematics").
+std::string stage_in_words(std::string stage) {
+  std::replace(stage.begin(), stage.end(), '_', ' ');
+  return stage;
+}
+
 void times_section(std::ostringstream& html, const Json& report) {
   if (!report.contains("stage_seconds")) return;
   html << "<h2>Computing time</h2><table><tr><th>stage</th><th>seconds</th></tr>\n";
   for (const auto& [stage, value] : report["stage_seconds"].items()) {
     if (value.is_number()) {
-      html << "<tr><td>" << html_escape(stage) << "</td><td>" << fixed(value.get<double>(), 2) << "</td></tr>\n";
+      html << "<tr><td>" << html_escape(stage_in_words(stage)) << "</td><td>" << fixed(value.get<double>(), 2)
+           << "</td></tr>\n";
     } else if (value.is_object()) {
       double total = 0.0;
       std::string parts;
       for (const auto& [part, seconds] : value.items()) {
         if (!seconds.is_number()) continue;
         total += seconds.get<double>();
-        parts += (parts.empty() ? "" : ", ") + part + " " + fixed(seconds.get<double>(), 2);
+        parts += (parts.empty() ? "" : ", ") + stage_in_words(part) + " " + fixed(seconds.get<double>(), 2);
       }
-      html << "<tr><td>" << html_escape(stage) << " run</td><td>" << fixed(total, 2) << " (" << html_escape(parts)
+      html << "<tr><td>" << html_escape(stage_in_words(stage)) << " run</td><td>" << fixed(total, 2) << " (" << html_escape(parts)
            << ")</td></tr>\n";
     }
   }
@@ -384,6 +441,11 @@ std::string html_report(const Json& report, const std::vector<std::string>& imag
           "pre.program{background:#f7f7f7;padding:6px;overflow-x:auto}"
           "pre.program span.marked{font-weight:bold;background:#fff3b0}"
           ".verdict{border:2px solid;padding:4px 14px;margin:10px 0}"
+          "#view3d{position:relative;width:100%;height:540px;border:1px solid #999;margin:6px 0}"
+          // A view's title can be long (a cylinder's axis and angles): the select stays on the line.
+          ".view3d-controls select{max-width:640px;margin:0 8px}"
+          "#view3d-pick{min-height:3em}#view3d-pick th{background:#f2f2f2}"
+          ".view3d-failed{padding:12px;color:#b00}"
           "img{max-width:100%}img.thumbnail{width:160px}figure{margin:14px 0}figcaption{color:#333;font-size:92%}"
           "</style></head><body>\n";
   html << "<h1>" << html_escape(name) << "</h1>\n<p>" << html_escape(report["part"].value("description", ""))
@@ -392,6 +454,7 @@ std::string html_report(const Json& report, const std::vector<std::string>& imag
   context_section(html, report);
   checks_section(html, report);
   marks_section(html, report);
+  view_3d_section(html, report);
   following_error_section(html, report);
   method_section(html, report);
   views_section(html, report);

@@ -18,6 +18,7 @@
 #include "tool_table.hpp"
 #include "json_text.hpp"
 #include "nc_modes.hpp"
+#include "report_3d.hpp"
 #include "report_html.hpp"
 #include "report_marks.hpp"
 #include "part_file.hpp"
@@ -1101,6 +1102,48 @@ std::string path_for_report(const std::string& path, const std::string& part_pat
 
 std::string millimetres_text(double metres) { return format_double(std::round(metres * 1e7) / 1e4); }
 
+// What the report's 3-D view shows: every view's production surface, its deviation and marks,
+// and the programmed path to name the nearest block of a picked point.
+View3dInputs view3d_inputs(const Context& context, const Run& production,
+                           const std::vector<ViewComparison>& comparisons, const Json& curated) {
+  View3dInputs inputs;
+  for (std::size_t v = 0; v < context.views.size(); ++v) {
+    const removal::NBuffer& buffer = production.buffers[v];
+    const removal::NBuffer& uncut = context.uncut[v];
+    View3dInput view;
+    view.id = context.views[v].id;
+    view.title = context.views[v].title;
+    view.nu = buffer.nu();
+    view.nv = buffer.nv();
+    view.surface_point_W_m = [&buffer](int iu, int iv) { return buffer.surface_point(iu, iv); };
+    view.deviation_m = &comparisons[v].deviation_m;
+    view.mark_label = &comparisons[v].marks.label;
+    view.has_material.resize(buffer.line_count());
+    for (int iv = 0; iv < view.nv; ++iv) {
+      for (int iu = 0; iu < view.nu; ++iu) {
+        view.has_material[static_cast<std::size_t>(iu) + static_cast<std::size_t>(view.nu) * static_cast<std::size_t>(iv)] =
+            uncut.length(iu, iv) > 0.0;
+      }
+    }
+    inputs.views.push_back(std::move(view));
+  }
+  const std::vector<bool> rapid_end = rapid_ends(context.inputs);
+  for (std::size_t k = 0; k < context.inputs.path.size(); ++k) {
+    const kinematics::ToolPose& pose = context.inputs.path[k].pose;
+    const double corner_radius_m = k < context.point_tools.size() ? context.point_tools[k].corner_radius() : 0.0;
+    inputs.path_centre_W_m.push_back(pose.tip_W_m + corner_radius_m * pose.axis_W);
+    inputs.path_block.push_back(context.inputs.path[k].block);
+    inputs.path_cutting.push_back(k < rapid_end.size() ? !rapid_end[k] : true);
+  }
+  for (const toolpath::SourceBlock& block : context.inputs.toolpath.blocks) {
+    inputs.blocks.push_back({std::filesystem::path(block.file).filename().string(), block.line, block.block_number,
+                             block.text});
+  }
+  inputs.curated_marks = curated;
+  inputs.mark_threshold_um = context.options.mark_threshold_m * 1e6;
+  return inputs;
+}
+
 // What the run was: the report's "context" (shown at the top of report.html).
 Json report_context(const Context& context, const FeedSetting& production_feed, const FeedSetting& reference_feed) {
   const SimulatePartOptions& options = context.options;
@@ -1490,6 +1533,15 @@ Json simulate_part(const SimulatePartOptions& options, const ProgressSink& progr
   report["surface"] = surface;
   std::vector<std::string> images;
   write_renders(context, production, reference, comparisons, staging, report, images);
+  const auto view3d_start = Clock::now();
+  report["view_3d"] = write_view3d(staging, view3d_inputs(context, production, comparisons, curated), vtkjs_bundle());
+  report["view_3d"]["seconds"] = seconds_since(view3d_start);
+  if (report["view_3d"].value("available", false)) {
+    progress("3-D view: " + std::to_string(report["view_3d"]["vertices"].get<std::size_t>()) + " vertices, " +
+             format_double(std::round(report["view_3d"]["data_bytes"].get<double>() / 1e4) / 1e2) + " MB of data");
+  } else {
+    progress("3-D view skipped: " + report["view_3d"].value("reason", ""));
+  }
   end_stage("outputs");
   stage_seconds["production"] = stage_times(production);
   stage_seconds["reference"] = stage_times(reference);

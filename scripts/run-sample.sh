@@ -7,6 +7,7 @@
 set -euo pipefail
 cd "$(dirname "$0")/.."
 bash scripts/setup-debian.sh
+bash scripts/setup-web.sh  # vtk.js for the report's 3-D view (npm, pinned in viz/web)
 bash scripts/build.sh
 build_dir=${VMSIM_BUILD_DIR:-build}
 out=${VMSIM_OUT:-out/sample}

@@ -12,6 +12,7 @@ packages=(
   libyaml-cpp-dev        # machine description files
   nlohmann-json3-dev     # JSON reports
   libcli11-dev           # the vmsim command line
+  zlib1g-dev             # the report's 3-D view data, compressed
   liburdfdom-dev         # robots loaded from URDF
   liborocos-kdl-dev      # independent reference for the kinematics tests
   libtbb-dev             # parallel loops
@@ -22,6 +23,12 @@ packages=(
   python3 time           # bench/scaling.py (peak memory and CPU from /usr/bin/time -v)
   "$@"
 )
+# Node.js and npm install the report's 3-D viewer library (scripts/setup-web.sh). Debian's packages
+# only where no node/npm is there already (a machine may have Node.js from elsewhere, with npm
+# built in: Debian's npm would conflict with it).
+if ! command -v node > /dev/null || ! command -v npm > /dev/null; then
+  packages+=(nodejs npm)
+fi
 
 missing=()
 for package in "${packages[@]}"; do
