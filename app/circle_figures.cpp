@@ -209,9 +209,13 @@ CircleFigures circle_figures(const DataArc& arc, double radius_m, const FigureOp
     reversal.valid = before.valid && after.valid && !spike_x.empty();
     if (reversal.valid) {
       reversal.step_m = after.at(0.0) - before.at(0.0);
+      // Beyond both steady lines: a step that takes a few samples to complete (the motor
+      // crossing a backlash gap) lies between them and is no spike.
       double peak = 0.0;
       for (std::size_t i = 0; i < spike_x.size(); ++i) {
-        const double off = spike_y[i] - after.at(spike_x[i]);
+        const double high = std::max(before.at(spike_x[i]), after.at(spike_x[i]));
+        const double low = std::min(before.at(spike_x[i]), after.at(spike_x[i]));
+        const double off = spike_y[i] > high ? spike_y[i] - high : (spike_y[i] < low ? spike_y[i] - low : 0.0);
         if (std::abs(off) > std::abs(peak)) peak = off;
       }
       reversal.spike_m = peak;

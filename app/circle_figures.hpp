@@ -46,8 +46,8 @@ std::vector<DataArc> find_data_arcs(const PlanePath& path, double radius_m, doub
 struct Reversal {
   int axis = 0;            ///< 0: u, 1: v
   double angle_rad = 0.0;  ///< 0, pi / 2, pi or 3 pi / 2
-  /// Signed peak of the deviation off the steady line after the reversal, within `settle`
-  /// after it [m] (a reversal spike: positive outwards).
+  /// Signed peak of the deviation beyond both steady lines (above the higher, below the
+  /// lower), within `settle` after the reversal [m] (a reversal spike: positive outwards).
   double spike_m = 0.0;
   /// Jump of the steady line across the reversal, the line after minus the line before, both
   /// extended to the reversal [m] (a backlash step: positive outwards).

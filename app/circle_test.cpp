@@ -69,6 +69,9 @@ struct Effect {
   std::string name;    // "dry friction of X"
   std::string detail;  // the parameters, for the JSON
   std::function<void(kinematics::MachineModel&)> switch_off;
+  /// Nonlinear (dry friction, backlash, cogging, pitch error): what departs from the linear
+  /// loops, all switched off together for the attribution's reference.
+  bool nonlinear = false;
 };
 
 // What a run gives: the tip in the plane, actual and commanded.
@@ -406,7 +409,7 @@ std::vector<Effect> plane_effects(const kinematics::MachineModel& machine, const
                            m.axes[i].effects.stribeck.enabled = false;
                            m.axes[i].effects.asymmetric_friction.dry_positive_A = 0.0;
                            m.axes[i].effects.asymmetric_friction.dry_negative_A = 0.0;
-                         }});
+                         }, true});
     }
     const bool viscous = axis.drive.friction_viscous_A_per_joint_unit_per_s > 0.0 ||
                          (e.asymmetric_friction.enabled &&
@@ -423,15 +426,15 @@ std::vector<Effect> plane_effects(const kinematics::MachineModel& machine, const
     }
     if (e.backlash.enabled) {
       effects.push_back({"backlash of " + axis.name, "gap " + text_of(um(e.backlash.gap)) + " um",
-                         [i](kinematics::MachineModel& m) { m.axes[i].effects.backlash.enabled = false; }});
+                         [i](kinematics::MachineModel& m) { m.axes[i].effects.backlash.enabled = false; }, true});
     }
     if (e.cogging.enabled) {
       effects.push_back({"cogging of " + axis.name, text_of(e.cogging.amplitude_N_m) + " N m",
-                         [i](kinematics::MachineModel& m) { m.axes[i].effects.cogging.enabled = false; }});
+                         [i](kinematics::MachineModel& m) { m.axes[i].effects.cogging.enabled = false; }, true});
     }
     if (e.pitch_error.enabled) {
       effects.push_back({"pitch error of " + axis.name, text_of(um(e.pitch_error.amplitude)) + " um",
-                         [i](kinematics::MachineModel& m) { m.axes[i].effects.pitch_error.enabled = false; }});
+                         [i](kinematics::MachineModel& m) { m.axes[i].effects.pitch_error.enabled = false; }, true});
     }
     if (e.compliance.enabled) {
       effects.push_back({"compliance of " + axis.name, "k " + text_of(e.compliance.stiffness) + " N/m",
@@ -530,6 +533,10 @@ struct Attribution {
   std::string where;    // "at 0 and 180 deg"
   double value_m = 0.0;
   std::vector<std::pair<const Effect*, double>> shares;  // effect, share [m]
+  /// The feature with every nonlinear effect off at once (the linear loops alone): what
+  /// the one-at-a-time shares leave to effects acting together (a largest-value feature such
+  /// as H or G is not a sum of shares).
+  double all_off_m = 0.0;
 };
 
 std::string sentence_of(const std::string& context, const Attribution& a) {
@@ -540,16 +547,26 @@ std::string sentence_of(const std::string& context, const Attribution& a) {
             [](const auto& x, const auto& y) { return std::abs(x.second) > std::abs(y.second); });
   const double threshold = std::max(0.01e-6, 0.05 * std::abs(a.value_m));
   std::string listed;
+  double listed_sum = 0.0;
   for (const auto& [effect, share] : shares) {
     if (std::abs(share) < threshold) continue;
-    listed += (listed.empty() ? "" : ", ") + effect->name + " (" + (share > 0 ? "" : "") + text_of(um(share)) + " um)";
+    listed_sum += share;
+    listed += (listed.empty() ? "" : ", ") + effect->name + " (" + (share > 0 ? "+" : "") + text_of(um(share)) + " um";
+    // An effect that works against the feature: say what it would be without it.
+    if (share * a.value_m < 0.0 || std::abs(share) > std::abs(a.value_m)) {
+      listed += "; without it " + text_of(um(a.value_m - share)) + " um";
+    }
+    listed += ")";
   }
   if (listed.empty()) {
-    out << ": no single effect of the drive model makes 5 % of it (it comes from the linear loops "
-           "they share, or from several effects together)";
+    out << ": no single effect of the drive model makes 5 % of it";
   } else {
     out << ": " << listed;
+    // Shares that add up to far more than the feature: the effects make it together (backlash
+    // steps at a reversal need the friction that holds the table on a flank).
+    if (std::abs(listed_sum) > 1.5 * std::abs(a.value_m)) out << " (acting together: each one off removes most of it)";
   }
+  out << "; the linear loops alone (no dry friction, backlash, cogging, pitch error) " << text_of(um(a.all_off_m)) << " um";
   return out.str();
 }
 
@@ -676,7 +693,7 @@ TestResult evaluate(const kinematics::MachineModel& machine, const PlaneSetup& p
 
 std::vector<Attribution> attribute(const kinematics::MachineModel& machine, const PlaneSetup& plane,
                                    const Features& all, const std::vector<Effect>& effects,
-                                   const std::vector<Features>& without) {
+                                   const std::vector<Features>& without, const Features& all_off) {
   const std::string u = machine.axes[static_cast<std::size_t>(plane.u)].name;
   const std::string v = machine.axes[static_cast<std::size_t>(plane.v)].name;
   std::vector<Attribution> list;
@@ -686,6 +703,7 @@ std::vector<Attribution> attribute(const kinematics::MachineModel& machine, cons
     a.where = std::move(where);
     a.value_m = value;
     for (std::size_t k = 0; k < effects.size(); ++k) a.shares.emplace_back(&effects[k], value - pick(without[k]));
+    a.all_off_m = pick(all_off);
     list.push_back(std::move(a));
   };
   add("reversal spikes of " + u, "at 0 and 180 deg (mean height)", all.spike_m[0], [](const Features& f) { return f.spike_m[0]; });
@@ -864,9 +882,15 @@ Json run_circle_test(const CircleTestOptions& options, const ProgressSink& progr
           effect.switch_off(variant);
           without.push_back(evaluate(variant, plane, test_spec, plans, feed).features);
         }
+        kinematics::MachineModel linear = machine;
+        for (const Effect& effect : effects) {
+          if (effect.nonlinear) effect.switch_off(linear);
+        }
+        const Features all_off = evaluate(linear, plane, test_spec, plans, feed).features;
         Json attribution = Json::array();
-        for (const Attribution& a : attribute(machine, plane, result.features, effects, without)) {
-          Json item{{"feature", a.feature}, {"where", a.where}, {"value_um", um(a.value_m)}};
+        for (const Attribution& a : attribute(machine, plane, result.features, effects, without, all_off)) {
+          Json item{{"feature", a.feature}, {"where", a.where}, {"value_um", um(a.value_m)},
+                    {"linear_loops_alone_um", um(a.all_off_m)}};
           Json shares = Json::array();
           for (const auto& [effect, share] : a.shares) {
             shares.push_back({{"effect", effect->name}, {"parameters", effect->detail}, {"share_um", um(share)}});

@@ -37,6 +37,8 @@ struct AxisSpec {
   double dry_friction_A = 0.0;
   double viscous_A_s_per_m = 1.0;
   double backlash_um = 0.0;
+  /// P velocity loop of this bandwidth [Hz] instead of the PI at 100 Hz (0: the PI).
+  double p_velocity_loop_hz = 0.0;
 };
 
 // Drive values shared by all axes (the closed form below reads the same numbers).
@@ -59,8 +61,12 @@ std::string axis_yaml(const std::string& name, const std::string& travel, const 
       << "\n      torque_max_N_m: 50\n      torque_rate_max_N_m_per_s: 5000\n"
       << "    controller:\n"
       << "      position: {kv_per_s: " << spec.kv_per_s << ", period_us: 125, output_delay_samples: 0}\n"
-      << "      velocity: {type: PI, gain_N_m_s_per_rad: " << kVelocityGain
-      << ", integral_time_ms: " << kIntegralTime_s * 1e3 << ", period_us: 125, output_delay_samples: 0}\n"
+      << (spec.p_velocity_loop_hz > 0.0
+              ? "      velocity: {type: P, gain_N_m_s_per_rad: " + std::to_string(2.0 * kPi * spec.p_velocity_loop_hz * kInertia) +
+                    ", period_us: 125, output_delay_samples: 0}\n"
+              : "      velocity: {type: PI, gain_N_m_s_per_rad: " + std::to_string(kVelocityGain) +
+                    ", integral_time_ms: " + std::to_string(kIntegralTime_s * 1e3) +
+                    ", period_us: 125, output_delay_samples: 0}\n")
       << "      current: {model: ideal}\n"
       << "      saturation: {current_A: 100, motor_speed_rev_per_min: 6000}\n";
   if (spec.backlash_um > 0.0) out << "    effects:\n      backlash: {gap_um: " << spec.backlash_um << "}\n";
@@ -100,12 +106,16 @@ const Json& test_at(const Json& report, const std::string& plane, double feed_mm
 // Closed-loop response q / q_cmd of one axis: position P loop (Kv) around a PI velocity loop on
 // the drive inertia with viscous friction; the loops' sampling as delays (a zero-order hold:
 // half a period forward; the velocity differenced over one period: half a period in feedback).
-std::complex<double> position_response(double kv_per_s, double viscous_A_s_per_m, double w_rad_per_s) {
+std::complex<double> position_response(double kv_per_s, double viscous_A_s_per_m, double w_rad_per_s,
+                                       double p_velocity_loop_hz = 0.0) {
   const std::complex<double> s(0.0, w_rad_per_s);
   const double ratio = kLead_m / (2.0 * kPi);  // m per motor rad
   const double damping = kTorqueConstant * viscous_A_s_per_m * ratio;  // N m per motor rad/s
   const auto delay = [&](double time_s) { return std::exp(-s * time_s); };
-  const std::complex<double> controller = kVelocityGain * (1.0 + 1.0 / (s * kIntegralTime_s));
+  // The gains as written into the machine file (std::to_string: 6 decimals).
+  const double gain = std::stod(std::to_string(p_velocity_loop_hz > 0.0 ? 2.0 * kPi * p_velocity_loop_hz * kInertia : kVelocityGain));
+  const std::complex<double> controller =
+      p_velocity_loop_hz > 0.0 ? std::complex<double>(gain) : gain * (1.0 + 1.0 / (s * kIntegralTime_s));
   const std::complex<double> plant = 1.0 / (kInertia * s + damping);
   const std::complex<double> forward = controller * delay(0.5 * kPeriod_s) * plant;
   const std::complex<double> velocity_loop = forward / (1.0 + forward * delay(0.5 * kPeriod_s));
@@ -160,7 +170,12 @@ double axis_difference_deg(double a, double b) {
 
 TEST(CircleTest, RadiusReductionOfTheLinearCascadeIsOneMinusTheClosedLoopMagnitude) {
   const auto folder = fresh_folder("circle_radius");
-  const std::string machine = write_machine(folder, AxisSpec{}, AxisSpec{});
+  // A P velocity loop at 40 Hz with viscous friction: its lag is a visible part of the radius
+  // reduction (a PI loop's is of second order: it would go unseen).
+  AxisSpec axis;
+  axis.p_velocity_loop_hz = 40.0;
+  axis.viscous_A_s_per_m = 5.0;
+  const std::string machine = write_machine(folder, axis, axis);
   const auto out = folder / "out";
   const RunResult run = run_vmsim_with_env("env -u DISPLAY", "circle-test --machine " + machine + " --out " + out.string() +
                                            " --radius-mm 50 --feeds-mm-min 2000,4000 --no-attribution");
@@ -169,11 +184,11 @@ TEST(CircleTest, RadiusReductionOfTheLinearCascadeIsOneMinusTheClosedLoopMagnitu
   for (double feed_mm_per_min : {2000.0, 4000.0}) {
     const double radius = 0.05;
     const double w = feed_mm_per_min / 6e4 / radius;
-    const double expected = radius * (std::abs(position_response(20.0, 1.0, w)) - 1.0);
+    const double expected = radius * (std::abs(position_response(20.0, 5.0, w, 40.0)) - 1.0);
     // Without the velocity loop (Kv / (s + Kv)) the reduction would differ by several percent:
     // the comparison resolves it.
     const double first_order = radius * (20.0 / std::hypot(20.0, w) - 1.0);
-    ASSERT_GT(std::abs(expected - first_order), 0.03 * std::abs(expected));
+    ASSERT_GT(std::abs(expected - first_order), 0.1 * std::abs(expected)) << expected << " " << first_order;
     for (const char* direction : {"CCW", "CW"}) {
       const Json& f = test_at(report, "XY", feed_mm_per_min)["simulated"][direction];
       const double simulated = f["mean_radius_deviation_um"].get<double>() * 1e-6;
@@ -263,7 +278,8 @@ TEST(CircleTest, DryFrictionOfXMakesSpikesAtXReversalsOnly) {
   const RunResult run = run_vmsim_with_env("env -u DISPLAY", "circle-test --machine " + machine + " --out " + out.string() +
                                            " --radius-mm 50 --feeds-mm-min 1000");
   ASSERT_EQ(run.exit_code, 0) << run.output;
-  const Json& test = test_at(read_json(out / "circle_test.json"), "XY", 1000.0);
+  const Json report = read_json(out / "circle_test.json");
+  const Json& test = test_at(report, "XY", 1000.0);
   for (const char* direction : {"CCW", "CW"}) {
     const Json& f = test["simulated"][direction];
     // X reverses at 0 and 180 deg (X = R cos t has its extremes there); the spike points outwards.
@@ -283,14 +299,18 @@ TEST(CircleTest, DryFrictionOfXMakesSpikesAtXReversalsOnly) {
 
 TEST(CircleTest, BacklashOfYMakesAStepAtYReversals) {
   const auto folder = fresh_folder("circle_backlash");
+  // Friction on the table (far above the force that accelerates it on the circle) keeps the
+  // table on one flank until Y reverses: the gap is crossed at the reversal, as on a machine.
   AxisSpec y;
   y.backlash_um = 10.0;
+  y.dry_friction_A = 0.5;
   const std::string machine = write_machine(folder, AxisSpec{}, y);
   const auto out = folder / "out";
   const RunResult run = run_vmsim_with_env("env -u DISPLAY", "circle-test --machine " + machine + " --out " + out.string() +
                                            " --radius-mm 50 --feeds-mm-min 1000");
   ASSERT_EQ(run.exit_code, 0) << run.output;
-  const Json& test = test_at(read_json(out / "circle_test.json"), "XY", 1000.0);
+  const Json report = read_json(out / "circle_test.json");
+  const Json& test = test_at(report, "XY", 1000.0);
   for (const char* direction : {"CCW", "CW"}) {
     const Json& f = test["simulated"][direction];
     // After Y reverses, the table lags by the gap on the other flank: the path steps out by
@@ -298,9 +318,20 @@ TEST(CircleTest, BacklashOfYMakesAStepAtYReversals) {
     for (double angle : {90.0, 270.0}) EXPECT_NEAR(reversal_value(f, angle, "step_um"), 10.0, 2.5) << direction << angle;
     for (double angle : {0.0, 180.0}) EXPECT_LT(std::abs(reversal_value(f, angle, "step_um")), 1.0) << direction << angle;
   }
-  const auto [effect, share] = main_cause(test, "backlash step of Y");
-  EXPECT_EQ(effect, "backlash of Y");
-  EXPECT_GT(share, 7.0);
+  // Backlash and the friction that holds the table on a flank make the step together: each
+  // one off removes most of it.
+  for (const Json& item : test["attribution"]) {
+    if (item["feature"] != "backlash step of Y") continue;
+    for (const Json& share : item["shares"]) {
+      if (share["effect"] == "backlash of Y") EXPECT_GT(share["share_um"].get<double>(), 0.8 * item["value_um"].get<double>());
+      if (share["effect"] == "dry friction of X") EXPECT_LT(std::abs(share["share_um"].get<double>()), 0.5);
+    }
+    EXPECT_NE(item["sentence"].get<std::string>().find("backlash of Y"), std::string::npos);
+  }
+  // The gap crossing (between the two levels) is no inward spike; the table's impact on the
+  // flank may overshoot outwards.
+  const Json& ccw = test["simulated"]["CCW"];
+  EXPECT_GT(reversal_value(ccw, 90.0, "spike_um"), -0.5);
 }
 
 // A measured trace from a simulation written here: each axis a first-order lag x' = Kv (x_c - x)
@@ -360,7 +391,8 @@ TEST(CircleTest, MeasuredTraceFiguresRecoverAKnownEllipse) {
       "env -u DISPLAY", "circle-test --machine " + machine + " --out " + out.string() + " --radius-mm 50 --trace " +
                             (folder / "measured.csv").string() + " --feeds-mm-min 2000 --no-attribution");
   ASSERT_EQ(run.exit_code, 0) << run.output;
-  const Json& test = test_at(read_json(out / "circle_test.json"), "XY", 2000.0);
+  const Json report = read_json(out / "circle_test.json");
+  const Json& test = test_at(report, "XY", 2000.0);
   ASSERT_TRUE(test.contains("measured")) << test.dump();
   const double w = feed / radius;
   const std::complex<double> g_x = kv_x / std::complex<double>(kv_x, w), g_y = kv_y / std::complex<double>(kv_y, w);
