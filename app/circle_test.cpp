@@ -547,10 +547,11 @@ std::string sentence_of(const std::string& context, const Attribution& a) {
             [](const auto& x, const auto& y) { return std::abs(x.second) > std::abs(y.second); });
   const double threshold = std::max(0.01e-6, 0.05 * std::abs(a.value_m));
   std::string listed;
-  double listed_sum = 0.0;
+  double same_sign_sum = 0.0;  // of the listed shares that make the feature (not work against it)
+  int same_sign_count = 0;
   for (const auto& [effect, share] : shares) {
     if (std::abs(share) < threshold) continue;
-    listed_sum += share;
+    if (share * a.value_m > 0.0) same_sign_sum += std::abs(share), ++same_sign_count;
     listed += (listed.empty() ? "" : ", ") + effect->name + " (" + (share > 0 ? "+" : "") + text_of(um(share)) + " um";
     // An effect that works against the feature: say what it would be without it.
     if (share * a.value_m < 0.0 || std::abs(share) > std::abs(a.value_m)) {
@@ -564,9 +565,11 @@ std::string sentence_of(const std::string& context, const Attribution& a) {
     out << ": " << listed;
     // Shares that add up to far more than the feature: the effects make it together (backlash
     // steps at a reversal need the friction that holds the table on a flank).
-    if (std::abs(listed_sum) > 1.5 * std::abs(a.value_m)) out << " (acting together: each one off removes most of it)";
+    if (same_sign_count > 1 && same_sign_sum > 1.5 * std::abs(a.value_m)) {
+      out << " (acting together: each one off removes most of it)";
+    }
   }
-  out << "; the linear loops alone (no dry friction, backlash, cogging, pitch error) " << text_of(um(a.all_off_m)) << " um";
+  out << "; linear loops alone " << text_of(um(a.all_off_m)) << " um";
   return out.str();
 }
 
@@ -785,7 +788,8 @@ Json run_circle_test(const CircleTestOptions& options, const ProgressSink& progr
       "angles from the plane's first axis towards its second (XY: X to Y, YZ: Y to Z, ZX: Z to X), CCW = growing "
       "angle; radial deviation = distance of the tool tip (spindle gauge point) from the nominal centre minus the "
       "nominal radius, positive outwards; G about the least-squares circle's centre (ISO 230-4), H and the CSV about "
-      "the nominal centre; an effect's share = the feature with every effect minus the feature with that effect off";
+      "the nominal centre; an effect's share = the feature with every effect minus the feature with that effect off; "
+      "'linear loops alone' = the feature with every nonlinear effect (dry friction, backlash, cogging, pitch error) off";
   Json tests = Json::array();
   std::vector<std::string> explanations;
   std::ostringstream csv;

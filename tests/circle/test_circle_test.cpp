@@ -15,6 +15,7 @@
 #include <nlohmann/json.hpp>
 
 #include <cmath>
+#include <cstdlib>
 #include <complex>
 #include <filesystem>
 #include <fstream>
@@ -410,6 +411,22 @@ TEST(CircleTest, MeasuredTraceFiguresRecoverAKnownEllipse) {
   int measured_rows = 0;
   for (std::string line; std::getline(csv, line);) measured_rows += line.find(",measured,") != std::string::npos;
   EXPECT_EQ(measured_rows, 2 * 720);
+}
+
+// Under a display (ctest runs it once more under xvfb-run): the polar plot is a PNG.
+TEST(CircleTest, PolarPlotIsAPngUnderADisplay) {
+  if (!std::getenv("DISPLAY")) GTEST_SKIP() << "no display (ctest runs this under xvfb-run)";
+  const auto folder = fresh_folder("circle_png");
+  const std::string machine = write_machine(folder, AxisSpec{}, AxisSpec{});
+  const auto out = folder / "out";
+  const RunResult run = run_vmsim("circle-test --machine " + machine + " --out " + out.string() +
+                                  " --radius-mm 50 --feeds-mm-min 3000 --no-attribution");
+  ASSERT_EQ(run.exit_code, 0) << run.output;
+  std::ifstream png(out / "polar_XY_F3000.png", std::ios::binary);
+  std::string magic(8, '\0');
+  png.read(magic.data(), 8);
+  EXPECT_EQ(magic, std::string("\x89PNG\r\n\x1a\n", 8));
+  EXPECT_EQ(read_json(out / "circle_test.json")["tests"][0]["plot"], "polar_XY_F3000.png");
 }
 
 TEST(CircleTest, BadInputIsLocatedAndWritesNothing) {
