@@ -39,7 +39,7 @@ constexpr double kPi = std::numbers::pi;
 constexpr double kDeg = kPi / 180.0;
 constexpr std::array<Direction, 2> kDirections{Direction::ccw, Direction::cw};
 
-double rounded(double value, double step) { return std::round(value / step) / std::round(1.0 / step); }
+double rounded(double value, double step) { return std::round(value / step) / std::round(1.0 / step) + 0.0; }  // no -0
 double um(double metres, double step = 0.01) { return rounded(metres * 1e6, step); }
 double mm_per_min(double m_per_s) { return rounded(m_per_s * 6e4, 0.1); }
 std::string text_of(double value) { return format_double(value); }
