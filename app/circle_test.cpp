@@ -206,7 +206,11 @@ double overrun_rad(const kinematics::MachineModel& machine, const PlaneSetup& pl
     jerk = smallest(jerk, axis.limits.jerk_max);
     kv = smallest(kv, axis.controller.position_gain_kv_per_s);
   }
-  const double v = feed_m_per_s;
+  // The feed the axes can hold on the circle (centripetal acceleration v^2 / R, jerk v^3 / R^2
+  // of each axis's sinusoid): the planner slows the circle to it.
+  double v = feed_m_per_s;
+  if (acceleration > 0.0) v = std::min(v, std::sqrt(acceleration * radius_m));
+  if (jerk > 0.0) v = std::min(v, std::cbrt(jerk * radius_m * radius_m));
   double distance = 0.0;
   if (acceleration > 0.0) distance += v * v / (2.0 * acceleration);
   if (acceleration > 0.0 && jerk > 0.0) distance += v * acceleration / jerk;
@@ -770,6 +774,7 @@ Json run_circle_test(const CircleTestOptions& options, const ProgressSink& progr
     }
   }
   std::sort(feeds.begin(), feeds.end());
+  feeds.erase(std::unique(feeds.begin(), feeds.end(), [](double a, double b) { return std::abs(a - b) < 1e-9; }), feeds.end());
 
   std::vector<std::string> inputs{options.machine_path};
   if (!options.trace_path.empty()) inputs.push_back(options.trace_path);
@@ -792,6 +797,8 @@ Json run_circle_test(const CircleTestOptions& options, const ProgressSink& progr
       "'linear loops alone' = the feature with every nonlinear effect (dry friction, backlash, cogging, pitch error) off";
   Json tests = Json::array();
   std::vector<std::string> explanations;
+  std::vector<std::string> warnings;  // printed by the command as warnings
+  for (const std::string& warning : machine.warnings) warnings.push_back(warning);
   std::ostringstream csv;
   csv << "plane,source,direction,feed_mm_per_min,angle_deg,radial_deviation_um\n";
   const std::vector<double> grid = half_degree_grid();
@@ -831,7 +838,10 @@ Json run_circle_test(const CircleTestOptions& options, const ProgressSink& progr
                          {"overrun_deg", rounded(test_spec.overrun_rad / kDeg, 0.01)},
                          {"data_arc_start_deg", rounded(test_spec.data_start_rad / kDeg, 0.01)},
                          {"duration_s", {rounded(plans[0].duration_s, 0.001), rounded(plans[1].duration_s, 0.001)}}};
-      if (!notes.empty()) test["program"]["notes"] = notes;
+      if (!notes.empty()) {
+        test["program"]["notes"] = notes;
+        warnings.push_back(context + ": " + notes.front());
+      }
       Json simulated;
       for (std::size_t d = 0; d < 2; ++d) {
         const DirectionResult& r = result.simulated[d];
@@ -839,6 +849,14 @@ Json run_circle_test(const CircleTestOptions& options, const ProgressSink& progr
         csv_rows(plane.name, "simulated", r.arc, feed);
       }
       simulated["circular_hysteresis_H_um"] = um(result.hysteresis_m);
+      const double arc_feed = result.simulated[0].arc.angular_speed_rad_per_s * options.radius_m;
+      if (arc_feed < 0.98 * feed) {
+        const std::string note = context + ": the planned circle runs at " + feed_label(arc_feed) +
+                                 " mm/min, below the feed: the axes' acceleration or jerk limits (v^2 / R, v^3 / R^2) "
+                                 "do not allow more on R " + mm_text(options.radius_m) + " mm";
+        test["program"]["notes"].push_back(note);
+        warnings.push_back(note);
+      }
       test["simulated"] = simulated;
       std::string line = "  " + context + ": H " + text_of(um(result.hysteresis_m)) + " um";
       for (std::size_t d = 0; d < 2; ++d) {
@@ -952,6 +970,7 @@ Json run_circle_test(const CircleTestOptions& options, const ProgressSink& progr
   }
   report["tests"] = tests;
   report["explanations"] = explanations;
+  report["warnings"] = warnings;
   if (!renders) report["renders_skipped"] = why_no_renders;
   report["run_time_s"] = rounded(std::chrono::duration<double>(std::chrono::steady_clock::now() - started).count(), 0.01);
   write_file_atomically((folder / "circle_deviation.csv").string(), csv.str());

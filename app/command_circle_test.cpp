@@ -63,6 +63,7 @@ int run(const CircleCommandOptions& command, const CommandContext& context) {
   options.renders = !command.no_renders;
   options.command_line = context.command_line;
   const nlohmann::json report = run_circle_test(options, [&](const std::string& line) { context.say(line); });
+  for (const auto& warning : report["warnings"]) context.warn(warning.get<std::string>());
   if (report.contains("renders_skipped")) context.warn("polar plots skipped: " + report["renders_skipped"].get<std::string>());
   for (const auto& test : report["tests"]) {
     if (!test.contains("measured")) continue;
