@@ -141,18 +141,21 @@ std::vector<DataArc> find_data_arcs(const PlanePath& path, double radius_m, doub
     const double middle = 0.5 * (unwrapped[begin] + unwrapped[end]);
     DataArc arc;
     arc.direction = sign > 0 ? Direction::ccw : Direction::cw;
+    double first_angle = 0.0, last_angle = 0.0;
     for (std::size_t j = begin; j <= end; ++j) {
       // The 360 degrees around the middle, half-open so that no angle is taken twice.
       const double from_middle = (unwrapped[j] - middle) * sign;
       if (from_middle < -kPi || from_middle >= kPi) continue;
       const std::size_t k = index[j];
+      if (arc.t_s.empty()) first_angle = unwrapped[j];
+      last_angle = unwrapped[j];
       arc.t_s.push_back(path.t_s[k]);
       arc.angle_rad.push_back(positive_angle(unwrapped[j]));
       arc.radius_m.push_back(std::hypot(path.u_m[k], path.v_m[k]));
     }
     if (arc.t_s.size() < 16) continue;
     const double duration = arc.t_s.back() - arc.t_s.front();
-    arc.angular_speed_rad_per_s = duration > 0.0 ? kTwoPi / duration : 0.0;
+    arc.angular_speed_rad_per_s = duration > 0.0 ? std::abs(last_angle - first_angle) / duration : 0.0;
     arcs.push_back(std::move(arc));
   }
   return arcs;
@@ -213,9 +216,9 @@ CircleFigures circle_figures(const DataArc& arc, double radius_m, const FigureOp
       // crossing a backlash gap) lies between them and is no spike.
       double peak = 0.0;
       for (std::size_t i = 0; i < spike_x.size(); ++i) {
-        const double high = std::max(before.at(spike_x[i]), after.at(spike_x[i]));
-        const double low = std::min(before.at(spike_x[i]), after.at(spike_x[i]));
-        const double off = spike_y[i] > high ? spike_y[i] - high : (spike_y[i] < low ? spike_y[i] - low : 0.0);
+        const double upper = std::max(before.at(spike_x[i]), after.at(spike_x[i]));
+        const double lower = std::min(before.at(spike_x[i]), after.at(spike_x[i]));
+        const double off = spike_y[i] > upper ? spike_y[i] - upper : (spike_y[i] < lower ? spike_y[i] - lower : 0.0);
         if (std::abs(off) > std::abs(peak)) peak = off;
       }
       reversal.spike_m = peak;

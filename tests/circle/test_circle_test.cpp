@@ -324,8 +324,12 @@ TEST(CircleTest, BacklashOfYMakesAStepAtYReversals) {
   for (const Json& item : test["attribution"]) {
     if (item["feature"] != "backlash step of Y") continue;
     for (const Json& share : item["shares"]) {
-      if (share["effect"] == "backlash of Y") EXPECT_GT(share["share_um"].get<double>(), 0.8 * item["value_um"].get<double>());
-      if (share["effect"] == "dry friction of X") EXPECT_LT(std::abs(share["share_um"].get<double>()), 0.5);
+      if (share["effect"] == "backlash of Y") {
+        EXPECT_GT(share["share_um"].get<double>(), 0.8 * item["value_um"].get<double>());
+      }
+      if (share["effect"] == "viscous friction of X") {
+        EXPECT_LT(std::abs(share["share_um"].get<double>()), 0.5);
+      }
     }
     EXPECT_NE(item["sentence"].get<std::string>().find("backlash of Y"), std::string::npos);
   }
