@@ -55,17 +55,26 @@ SortedArc sorted_arc(const DataArc& arc, double radius_m) {
   return out;
 }
 
-// Weighted least squares of the deviation on 1, cos t, sin t (and cos 2t, sin 2t).
-Eigen::VectorXd harmonic_fit(const SortedArc& arc, int harmonics) {
-  const int columns = 1 + 2 * harmonics;
+// Weighted least squares of the deviation on 1, cos t, sin t (and cos 2t, sin 2t), and with
+// `direction_sign` != 0 the lost-motion patterns of both axes (CircleFigures::lost_motion_m).
+Eigen::VectorXd harmonic_fit(const SortedArc& arc, int harmonics, double direction_sign = 0.0) {
+  const int columns = 1 + 2 * harmonics + (direction_sign != 0.0 ? 2 : 0);
   Eigen::MatrixXd normal = Eigen::MatrixXd::Zero(columns, columns);
   Eigen::VectorXd right = Eigen::VectorXd::Zero(columns);
   Eigen::VectorXd basis(columns);
   for (std::size_t i = 0; i < arc.angle_rad.size(); ++i) {
     basis(0) = 1.0;
+    const double t = arc.angle_rad[i];
     for (int k = 1; k <= harmonics; ++k) {
-      basis(2 * k - 1) = std::cos(k * arc.angle_rad[i]);
-      basis(2 * k) = std::sin(k * arc.angle_rad[i]);
+      basis(2 * k - 1) = std::cos(k * t);
+      basis(2 * k) = std::sin(k * t);
+    }
+    if (direction_sign != 0.0) {
+      // A table lagging its motion by g / 2 on each axis: u moves towards -u where s sin t > 0
+      // (u = R cos t), v towards -v where s cos t < 0; radially g/2 cos t and g/2 sin t.
+      const auto sign = [](double x) { return x > 0.0 ? 1.0 : (x < 0.0 ? -1.0 : 0.0); };
+      basis(1 + 2 * harmonics) = 0.5 * direction_sign * sign(std::sin(t)) * std::cos(t);
+      basis(2 + 2 * harmonics) = -0.5 * direction_sign * sign(std::cos(t)) * std::sin(t);
     }
     normal += arc.weight_rad[i] * basis * basis.transpose();
     right += arc.weight_rad[i] * arc.deviation_m[i] * basis;
@@ -182,14 +191,18 @@ CircleFigures circle_figures(const DataArc& arc, double radius_m, const FigureOp
     high = std::max(high, residual[i] - lsc(0));
   }
   figures.circular_deviation_G_m = high - low;
-  const Eigen::VectorXd second = harmonic_fit(sorted, 2);
+  // The ellipse with the axes' lost motion fitted beside it: the steps of a backlash have a
+  // second harmonic of 0.85 g at 45 / 135 degrees, which would read as a servo mismatch.
+  const double direction_sign = arc.direction == Direction::ccw ? 1.0 : -1.0;
+  const Eigen::VectorXd second = harmonic_fit(sorted, 2, direction_sign);
+  figures.lost_motion_m = {second(5), second(6)};
   figures.ellipse_size_m = 2.0 * std::hypot(second(3), second(4));
   double major_deg = 0.5 * std::atan2(second(4), second(3)) * 180.0 / kPi;
   if (major_deg < 0.0) major_deg += 180.0;
   if (major_deg >= 180.0) major_deg -= 180.0;
   figures.ellipse_major_axis_deg = major_deg;
 
-  const double sign = arc.direction == Direction::ccw ? 1.0 : -1.0;
+  const double sign = direction_sign;
   for (int quadrant = 0; quadrant < 4; ++quadrant) {
     Reversal reversal;
     reversal.axis = quadrant % 2;

@@ -8,6 +8,7 @@
 // (CCW) is the direction of growing angle. The radial deviation is the distance from the nominal
 // centre minus the nominal radius (positive: outside the circle). Axis u reverses at 0 and 180
 // degrees, axis v at 90 and 270 degrees.
+#include <array>
 #include <string>
 #include <vector>
 
@@ -74,9 +75,14 @@ struct CircleFigures {
   double lsc_centre_v_m = 0.0;
   /// The servo-mismatch ellipse from the second harmonic a2 cos 2t + b2 sin 2t of the radial
   /// deviation: major minus minor semi-axis = 2 sqrt(a2^2 + b2^2) [m], and the angle of the
-  /// major axis in [0, 180) degrees from +u.
+  /// major axis in [0, 180) degrees from +u. Fitted together with the lost motion below (a
+  /// backlash's steps have a second harmonic at 45 / 135 degrees of 0.85 times the gap).
   double ellipse_size_m = 0.0;
   double ellipse_major_axis_deg = 0.0;
+  /// Lost motion of each axis (u, v) fitted over the whole arc [m]: the table lagging its
+  /// motion by g / 2 on that axis (a backlash of g), i.e. a radial deviation of g / 2 cos t
+  /// (u) or g / 2 sin t (v) whose sign changes at that axis's reversals. Positive: lagging.
+  std::array<double, 2> lost_motion_m{};
   std::vector<Reversal> reversals;  ///< at 0, 90, 180, 270 degrees
   double angular_speed_rad_per_s = 0.0;
 };

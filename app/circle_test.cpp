@@ -157,7 +157,13 @@ PlaneSetup make_plane(const kinematics::MachineModel& machine, const std::string
   for (int k = 0; k < 3; ++k) {
     const int index = machine.axis_index(std::string(1, xyz[static_cast<std::size_t>(k)]));
     if (index < 0 || machine.axes[static_cast<std::size_t>(index)].type != kinematics::AxisType::linear) continue;
-    plane.q_centre(index) = centre_of(machine.axes[static_cast<std::size_t>(index)], options.centre_m, k);
+    const kinematics::Axis& axis = machine.axes[static_cast<std::size_t>(index)];
+    plane.q_centre(index) = centre_of(axis, options.centre_m, k);
+    if (!axis.continuous && (plane.q_centre(index) < axis.travel_min - 1e-12 || plane.q_centre(index) > axis.travel_max + 1e-12)) {
+      throw InputError(machine.source_file + ": axis " + axis.name + ", travel [" + mm_text(axis.travel_min) + ", " +
+                       mm_text(axis.travel_max) + "] mm: --centre-mm puts " + axis.name + " at " +
+                       mm_text(plane.q_centre(index)) + " mm, outside it");
+    }
   }
   // The circle (and the lead-in inside it) within the travel of both axes.
   for (int index : {plane.u, plane.v}) {
@@ -513,6 +519,8 @@ Json figures_json(const CircleFigures& f, const PlaneSetup& plane, const kinemat
   j["lsc_centre_offset_um"] = {um(f.lsc_centre_u_m), um(f.lsc_centre_v_m)};
   j["ellipse"] = {{"size_um", um(f.ellipse_size_m)}, {"major_axis_deg", rounded(f.ellipse_major_axis_deg, 0.1)}};
   if (lag) j["lag_ms"] = rounded(*lag * 1e3, 0.001);
+  j["lost_motion_fit_um"] = {{machine.axes[static_cast<std::size_t>(plane.u)].name, um(f.lost_motion_m[0])},
+                             {machine.axes[static_cast<std::size_t>(plane.v)].name, um(f.lost_motion_m[1])}};
   Json reversals = Json::array();
   for (const circle::Reversal& r : f.reversals) {
     const int index = r.axis == 0 ? plane.u : plane.v;

@@ -79,6 +79,11 @@ TEST(CircleFigures, BacklashStepAndReversalSpikeOfKnownSize) {
     const std::vector<DataArc> arcs = find_data_arcs(run(radius, 0.0, 0.0, ccw, shape), radius, 1e-3);
     ASSERT_EQ(arcs.size(), 1u);
     const CircleFigures f = circle_figures(arcs[0], radius);
+    // The lost motion fitted over the whole arc (the spikes leak a little into it), and no
+    // ellipse left by the steps' second harmonic.
+    EXPECT_NEAR(f.lost_motion_m[0], gap, 0.05 * gap);
+    EXPECT_NEAR(f.lost_motion_m[1], 0.0, 0.02 * gap);
+    EXPECT_LT(f.ellipse_size_m, 0.05 * gap);
     ASSERT_EQ(f.reversals.size(), 4u);
     for (const Reversal& r : f.reversals) {
       ASSERT_TRUE(r.valid);

@@ -318,6 +318,9 @@ TEST(CircleTest, BacklashOfYMakesAStepAtYReversals) {
     // about the gap at 90 and 270 deg, not at X's reversals.
     for (double angle : {90.0, 270.0}) EXPECT_NEAR(reversal_value(f, angle, "step_um"), 10.0, 2.5) << direction << angle;
     for (double angle : {0.0, 180.0}) EXPECT_LT(std::abs(reversal_value(f, angle, "step_um")), 1.0) << direction << angle;
+    // Fitted over the whole arc: the lost motion of Y, and no ellipse made of the steps.
+    EXPECT_NEAR(f["lost_motion_fit_um"]["Y"].get<double>(), 10.0, 2.5) << direction;
+    EXPECT_LT(std::abs(f["lost_motion_fit_um"]["X"].get<double>()), 1.0) << direction;
   }
   // Backlash and the friction that holds the table on a flank make the step together: each
   // one off removes most of it.
