@@ -26,5 +26,6 @@ void add_plot_command(CLI::App& app, CommandContext& context);
 void add_identify_command(CLI::App& app, CommandContext& context);
 void add_diagnose_command(CLI::App& app, CommandContext& context);
 void add_remove_command(CLI::App& app, CommandContext& context);
+void add_circle_test_command(CLI::App& app, CommandContext& context);
 
 }  // namespace vmsim::app

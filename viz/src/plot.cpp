@@ -195,6 +195,7 @@ void write_line_plot_png(const std::string& png_path, const LinePlot& plot,
       case LineStyle::dotted: line->GetPen()->SetLineType(vtkPen::DOT_LINE); break;
     }
     if (series.right_axis) chart->SetPlotCorner(line, 1);  // bottom and right axes
+    if (!series.in_legend) line->SetLegendVisibility(false);
   }
   if (!plot.x_markers.empty()) {
     // Across the left axis's range: the data's, or the one given.
@@ -219,6 +220,12 @@ void write_line_plot_png(const std::string& png_path, const LinePlot& plot,
   }
   if (plot.x_range) fix_axis(chart->GetAxis(vtkAxis::BOTTOM), *plot.x_range);
   if (plot.y_range) fix_axis(chart->GetAxis(vtkAxis::LEFT), *plot.y_range);
+  if (!plot.axis_numbers) {
+    for (int axis : {vtkAxis::LEFT, vtkAxis::BOTTOM}) {
+      chart->GetAxis(axis)->SetLabelsVisible(false);
+      chart->GetAxis(axis)->SetGridVisible(false);
+    }
+  }
 
   detail::write_window_png(chart_view.view->GetRenderWindow(), png_path);
 }
@@ -409,6 +416,99 @@ void plot_deviation_histogram(const std::string& png_path, const std::vector<dou
   if (log_counts) plot.y_title = "lines, log10(1 + count)";
   plot.histogram = make_histogram(scaled(deviation_m, 1e6), bin_count);
   write_histogram_png(png_path, plot, size);
+}
+
+double polar_division_m(double largest_deviation_m) {
+  const double largest_um = std::abs(largest_deviation_m) * 1e6;
+  for (int exponent = -2; exponent < 9; ++exponent) {
+    for (double mantissa : {1.0, 2.0, 5.0}) {
+      const double division_um = mantissa * std::pow(10.0, exponent);
+      if (4.0 * division_um >= largest_um) return division_um * 1e-6;
+    }
+  }
+  return 1e3;  // 1 m a ring: deviations beyond any circle test
+}
+
+void plot_polar_deviation(const std::string& png_path, const PolarDeviationPlotInput& input,
+                          const ImageSize& size) {
+  double largest = 0.0;
+  bool any_point = false;
+  for (std::size_t k = 0; k < input.curves.size(); ++k) {
+    const PolarCurve& curve = input.curves[k];
+    if (curve.angle_rad.size() != curve.deviation_m.size()) {
+      throw InputError("polar plot '" + input.title + "', curve '" + curve.name + "': " +
+                       std::to_string(curve.angle_rad.size()) + " angles, " +
+                       std::to_string(curve.deviation_m.size()) + " deviations");
+    }
+    for (std::size_t i = 0; i < curve.deviation_m.size(); ++i) {
+      if (!std::isfinite(curve.deviation_m[i]) || !std::isfinite(curve.angle_rad[i])) {
+        throw InputError("polar plot '" + input.title + "', curve '" + curve.name + "': point " +
+                         std::to_string(i) + " is not finite");
+      }
+      largest = std::max(largest, std::abs(curve.deviation_m[i]));
+    }
+    any_point = any_point || !curve.angle_rad.empty();
+  }
+  if (!any_point) throw InputError("polar plot '" + input.title + "': no curve with points");
+  const double division = input.division_m > 0.0 ? input.division_m : polar_division_m(largest);
+  // In ring units: the nominal circle at 8, rings 4 ... 12; a deviation beyond 7.5 rings inwards
+  // is drawn at 0.5 (the centre region stays readable).
+  constexpr double kNominal = 8.0;
+  LinePlot plot;
+  plot.title = input.title;
+  plot.axis_numbers = false;
+  plot.legend_outside = false;  // in a corner the circle leaves free: the plot area stays square
+  plot.x_range = Range{-13.5, 13.5};
+  plot.y_range = Range{-13.5, 13.5};
+  const auto circle = [](double radius, std::vector<double>& x, std::vector<double>& y) {
+    for (int i = 0; i <= 360; ++i) {
+      const double t = i * std::numbers::pi / 180.0;
+      x.push_back(radius * std::cos(t));
+      y.push_back(radius * std::sin(t));
+    }
+  };
+  for (int ring = -4; ring <= 4; ++ring) {
+    Series series;
+    circle(kNominal + ring, series.x, series.y);
+    series.colour = ring == 0 ? Rgb{0.0, 0.0, 0.0} : Rgb{0.75, 0.75, 0.75};
+    series.style = ring == 0 ? LineStyle::dashed : LineStyle::dotted;
+    series.line_width_px = ring == 0 ? 1.5 : 1.0;
+    series.name = "nominal circle";
+    series.in_legend = ring == 0;
+    plot.series.push_back(std::move(series));
+  }
+  for (int spoke = 0; spoke < 4; ++spoke) {
+    Series series;
+    const double t = spoke * std::numbers::pi / 2.0;
+    series.x = {0.0, (kNominal + 4.5) * std::cos(t)};
+    series.y = {0.0, (kNominal + 4.5) * std::sin(t)};
+    series.colour = Rgb{0.75, 0.75, 0.75};
+    series.style = LineStyle::dotted;
+    series.line_width_px = 1.0;
+    series.name = "axes";
+    series.in_legend = false;
+    plot.series.push_back(std::move(series));
+  }
+  for (const PolarCurve& curve : input.curves) {
+    if (curve.angle_rad.empty()) continue;
+    Series series;
+    series.name = curve.name;
+    series.style = curve.style;
+    series.colour = curve.colour;
+    for (std::size_t i = 0; i <= curve.angle_rad.size(); ++i) {
+      const std::size_t k = i % curve.angle_rad.size();  // closed: back to the first point
+      const double radius = std::max(0.5, kNominal + curve.deviation_m[k] / division);
+      series.x.push_back(radius * std::cos(curve.angle_rad[k]));
+      series.y.push_back(radius * std::sin(curve.angle_rad[k]));
+    }
+    plot.series.push_back(std::move(series));
+  }
+  const std::string scale = format_double(std::round(division * 1e8) / 1e2) + " um per ring";
+  plot.x_title = "+" + input.u_name + " ->   radial deviation magnified: " + scale +
+                 " (nominal circle R " + format_double(std::round(input.nominal_radius_m * 1e6) / 1e3) +
+                 " mm dashed)";
+  plot.y_title = "+" + input.v_name + " ->";
+  write_line_plot_png(png_path, plot, size);
 }
 
 }  // namespace vmsim::viz

@@ -46,6 +46,7 @@ struct Series {
   std::optional<Rgb> colour{};  ///< default: the next colour of a fixed palette
   double line_width_px = 2.0;
   bool right_axis = false;  ///< plotted against the right y axis (LinePlot::y2_title)
+  bool in_legend = true;    ///< false: drawn, but not listed in the legend (grid rings, spokes)
 };
 
 struct LinePlot {
@@ -61,6 +62,9 @@ struct LinePlot {
   bool legend_outside = true;
   /// Vertical dotted lines across the plot (e.g. where the marks are), at these x values.
   std::vector<double> x_markers;
+  /// false: no tick numbers and no grid on the axes (a drawing whose coordinates mean nothing
+  /// by themselves, such as a magnified polar plot whose scale is stated in the titles).
+  bool axis_numbers = true;
 };
 
 /// Checks the plot's data; throws vmsim::InputError naming the series, the field and the index.
@@ -167,5 +171,38 @@ void plot_residuals(const std::string& png_path, const ResidualPlotInput& input,
 void plot_deviation_histogram(const std::string& png_path, const std::vector<double>& deviation_m,
                               int bin_count = 50, const std::string& title = "Deviation",
                               const ImageSize& size = {}, bool log_counts = false);
+
+/// One curve of a polar deviation plot: the radial deviation [m] at polar angles [rad].
+struct PolarCurve {
+  std::string name;
+  std::vector<double> angle_rad;
+  std::vector<double> deviation_m;  ///< same length as angle_rad
+  LineStyle style = LineStyle::solid;
+  std::optional<Rgb> colour{};
+};
+
+/// The picture of a circular test as ballbar software draws it: the radial deviation magnified
+/// about the nominal circle (drawn dashed), with rings every `division_m` of deviation (four
+/// inside, four outside) and spokes along the axes; the scale is printed in the axis titles.
+struct PolarDeviationPlotInput {
+  std::string title;
+  std::string u_name = "X";  ///< the horizontal axis (polar angle 0)
+  std::string v_name = "Y";  ///< the vertical axis (polar angle 90 degrees)
+  double nominal_radius_m = 0.0;  ///< for the caption
+  std::vector<PolarCurve> curves;  ///< at least one with points
+  /// Deviation per ring [m]; 0 = the smallest of 1, 2, 5 x 10^k um that fits the largest
+  /// deviation within four rings (polar_division_m).
+  double division_m = 0.0;
+};
+
+/// The ring spacing for deviations up to `largest_deviation_m` [m]: the smallest of 1, 2, 5 x
+/// 10^k um (k from -2 up) with 4 rings >= the deviation.
+double polar_division_m(double largest_deviation_m);
+
+/// Draws `input` (polar radius = 8 rings + deviation / division_m, in ring units) and writes a
+/// PNG. Throws NoDisplayError without a display, vmsim::InputError for bad data (naming the
+/// curve and the index).
+void plot_polar_deviation(const std::string& png_path, const PolarDeviationPlotInput& input,
+                          const ImageSize& size = {900, 820});
 
 }  // namespace vmsim::viz
