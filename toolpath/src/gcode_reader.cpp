@@ -712,6 +712,11 @@ class GcodeReader {
            "(ReaderOptions::axis_words_to_pose)");
     }
 
+    if (exit_pending_ && arc) {
+      // The move after G40 leaves the offset contour (from where compensation left the tool,
+      // the current position since G40): a line, as on LinuxCNC.
+      fail(reported, "the move after G40 (cutter compensation off) must be a line (G0 / G1), not an arc");
+    }
     std::optional<ArcGeometry> arc_geometry;
     if (arc) arc_geometry = arc_geometry_of(start_mm, target_mm, ijk, r_word, reported);
     point.block = add_source_block(block_number);
@@ -722,11 +727,8 @@ class GcodeReader {
       for (std::size_t k = 0; k < 3; ++k) position_[k] = target_f[static_cast<Eigen::Index>(k)];
       return;
     }
-    if (exit_pending_) {
-      // The move after G40 leaves the offset contour (from where compensation left the tool,
-      // the current position since G40): a line, as on LinuxCNC.
-      if (arc) fail(reported, "the move after G40 (cutter compensation off) must be a line (G0 / G1), not an arc");
-      if (g53_word || (target_mm.head<2>() - start_mm.head<2>()).norm() > 1e-9) exit_pending_ = false;
+    if (exit_pending_ && (g53_word || (target_mm.head<2>() - start_mm.head<2>()).norm() > 1e-9)) {
+      exit_pending_ = false;
     }
     const std::size_t first_point = path_.points.size();
     if (!arc) {

@@ -103,14 +103,14 @@ class CutterCompensator {
   /// An offset element whose start is fixed and whose end waits for the next element.
   struct Pending {
     bool arc = false;
-    Eigen::Vector2d corner;       ///< the programmed end point
-    Eigen::Vector2d off_start;    ///< the offset element's own start and end (untrimmed)
-    Eigen::Vector2d off_end;
-    Eigen::Vector2d centre;       ///< arcs
-    double radius = 0.0;          ///< arcs: the offset radius
-    double sweep_rad = 0.0;       ///< arcs: the programmed (and offset) sweep
-    Eigen::Vector2d start;        ///< the fixed start (off_start or a concave intersection)
-    Eigen::Vector2d end_tangent;  ///< the unit direction of motion at the end
+    Eigen::Vector2d corner = Eigen::Vector2d::Zero();     ///< the programmed end point
+    Eigen::Vector2d off_start = Eigen::Vector2d::Zero();  ///< the offset element's own start
+    Eigen::Vector2d off_end = Eigen::Vector2d::Zero();    ///< and end (untrimmed)
+    Eigen::Vector2d centre = Eigen::Vector2d::Zero();     ///< arcs
+    double radius = 0.0;     ///< arcs: the offset radius
+    double sweep_rad = 0.0;  ///< arcs: the programmed (and offset) sweep
+    Eigen::Vector2d start = Eigen::Vector2d::Zero();  ///< the fixed start (off_start or a concave intersection)
+    Eigen::Vector2d end_tangent = Eigen::Vector2d::UnitX();  ///< unit direction of motion at the end
     double start_w_mm = 0.0, end_w_mm = 0.0;
     int tag = 0;
   };
