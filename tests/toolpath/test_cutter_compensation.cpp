@@ -164,6 +164,28 @@ TEST(CutterCompensation, OutsideSquareRollsAboutEachCorner) {
   }
 }
 
+// The pocket programmed incrementally (G91: each move from the programmed, not the compensated,
+// point) and in inch (the table's radius stays 5 mm) gives the same tool-centre points.
+TEST(CutterCompensation, IncrementalAndInchProgramsGiveTheSamePocket) {
+  const std::string incremental =
+      "G17 G21 G90 G94\nG0 X20 Y20 Z5\nG1 Z-2 F300\nG91 G41 D1 Y-20\nX20\nY40\nX-40\nY-40\nX20\nG40 Y20\n";
+  std::ostringstream inch;
+  inch.precision(17);
+  inch << "G17 G20 G90 G94\nG0 X" << 20 / 25.4 << " Y" << 20 / 25.4 << " Z" << 5 / 25.4 << "\nG1 Z" << -2 / 25.4
+       << " F12\nG41 D1 Y0\nX" << 40 / 25.4 << "\nY" << 40 / 25.4 << "\nX0\nY0\nX" << 20 / 25.4 << "\nG40 Y"
+       << 20 / 25.4 << "\n";
+  for (const std::string& program : {incremental, inch.str()}) {
+    const Toolpath path = parse_gcode(program, "pocket.nc", with_radius(5.0));
+    expect_xy(end_of_line(path, 4), 20.0 + std::sqrt(15.0), 5.0);
+    expect_xy(end_of_line(path, 5), 35.0, 5.0);
+    expect_xy(end_of_line(path, 6), 35.0, 35.0);
+    expect_xy(end_of_line(path, 7), 5.0, 35.0);
+    expect_xy(end_of_line(path, 8), 5.0, 5.0);
+    expect_xy(end_of_line(path, 9), 20.0, 5.0);
+    expect_xy(end_of_line(path, 10), 20.0, 25.0 - 5.0 * (program == incremental ? 0.0 : 1.0));
+  }
+}
+
 // G41.1 D<diameter> (LinuxCNC) is G41 with the diameter in the block.
 TEST(CutterCompensation, DynamicCompensationTakesTheDiameterFromTheBlock) {
   const std::string program = "G17 G21 G90\nG0 X20 Y20 Z5\nG1 Z-2 F300\nG41.1 D10 X20 Y0\nX40\nY40\nG40 X20 Y20\n";
