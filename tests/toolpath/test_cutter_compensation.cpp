@@ -482,6 +482,53 @@ TEST(CutterCompensation, StillOnAtTheEndIsEndedAsByG40) {
   EXPECT_TRUE(warned);
 }
 
+// --- Siemens 840D: G41 / G42 with the active tool's radius, NORM entry ---------------------------
+
+ReaderOptions siemens_options() {
+  ReaderOptions options;
+  options.cutter_radius_mm = {{1, 5.0}};  // by T number: the cutting edge D1 of T1
+  options.tool_length_mm = {{1, 0.0}};
+  return options;
+}
+
+// The pocket of InsideSquareCornersAreTheOffsetsIntersections on an 840D: the same corners; the
+// entry (NORM) goes straight to the first side's offset start (20, 5). Under MIRROR X0 every point
+// is mirrored (the tool stays inside the mirrored pocket: the control turns G41 into G42 there).
+TEST(CutterCompensationSiemens, PocketWithNormEntryAndUnderAMirror) {
+  for (const bool mirrored : {false, true}) {
+    const std::string program = std::string("G17 G71 G90 G94\nT1 M6\n") + (mirrored ? "MIRROR X0\n" : "G0 X20\n") +
+                                "G0 X20 Y20 Z5\nG1 Z-2 F300\nG41 X20 Y0\nX40\nY40\nX0\nY0\nX20\nG40 X20 Y20\nM30\n";
+    const Toolpath path = parse_siemens(program, "pocket.mpf", siemens_options());
+    const double sx = mirrored ? -1.0 : 1.0;
+    expect_xy(end_of_line(path, 6), sx * 20.0, 5.0);
+    expect_xy(end_of_line(path, 7), sx * 35.0, 5.0);
+    expect_xy(end_of_line(path, 8), sx * 35.0, 35.0);
+    expect_xy(end_of_line(path, 9), sx * 5.0, 35.0);
+    expect_xy(end_of_line(path, 10), sx * 5.0, 5.0);
+    expect_xy(end_of_line(path, 11), sx * 20.0, 5.0);
+    expect_xy(end_of_line(path, 12), sx * 20.0, 20.0);
+  }
+}
+
+TEST(CutterCompensationSiemens, ErrorsAreLocated) {
+  const std::string start = "G17 G71 G90 G94\nT1 M6\nG0 X20 Y20 Z5\nG1 Z-2 F300\nG41 X20 Y0\n";  // 1-5
+  const auto error = [](const std::string& program) {
+    return input_error_of([&] { parse_siemens(program, "t.mpf", siemens_options()); });
+  };
+  EXPECT_NE(error(start + "TRANS X10\n").find("t.mpf:6:1: 'TRANS': TRANS under cutter compensation is not supported"),
+            std::string::npos)
+      << error(start + "TRANS X10\n");
+  EXPECT_NE(error(start + "CIP X40 Y0 I1=30 J1=-5\n").find("t.mpf:6:1: 'CIP'"), std::string::npos);
+  EXPECT_NE(error(start + "X40\nG3 X46 Y0 CR=3\n").find("t.mpf:7:1: 'G3': tool radius larger than arc radius"),
+            std::string::npos)
+      << error(start + "X40\nG3 X46 Y0 CR=3\n");
+  ReaderOptions no_radius = siemens_options();
+  no_radius.cutter_radius_mm.clear();
+  EXPECT_NE(input_error_of([&] { parse_siemens(start, "t.mpf", no_radius); })
+                .find("t.mpf:5:1: 'G41': no cutter radius for T1 D1"),
+            std::string::npos);
+}
+
 // --- Property: random convex polygons offset outward -------------------------------------------
 
 // For each random convex polygon and tool radius, the outside contour is programmed both ways

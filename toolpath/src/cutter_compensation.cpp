@@ -35,11 +35,12 @@ std::string mm(double value) { return detail::format_number(std::round(value * 1
 }  // namespace
 
 CutterCompensator::CutterCompensator(CompensationSide side, double radius_mm,
-                                     const Eigen::Vector2d& tool_mm, double tool_w_mm)
+                                     const Eigen::Vector2d& tool_mm, double tool_w_mm, EntryRule entry_rule)
     : side_sign_(side == CompensationSide::left ? 1.0 : -1.0),
       radius_mm_(radius_mm),
       tool_mm_(tool_mm),
-      tool_w_mm_(tool_w_mm) {
+      tool_w_mm_(tool_w_mm),
+      entry_rule_(entry_rule) {
   if (!(radius_mm > 0.0) || !std::isfinite(radius_mm)) {
     throw CompensationError("the cutter radius must be positive, got " + mm(radius_mm) + " mm");
   }
@@ -87,7 +88,9 @@ CompensatedMove CutterCompensator::move_to(const Pending& element, const Eigen::
   move.end_w_mm = element.end_w_mm;
   move.tag = element.tag;
   bool backwards = false;
-  if (!element.arc) {
+  if (element.normal_entry) {
+    // Straight to wherever the next element starts.
+  } else if (!element.arc) {
     const Eigen::Vector2d d = element.end_tangent;
     backwards = (end - element.off_start).dot(d) < (element.start - element.off_start).dot(d) - kLengthMm;
   } else {
@@ -208,6 +211,21 @@ std::vector<CompensatedMove> CutterCompensator::add(const PlaneElement& element)
     }
     const Eigen::Vector2d& p = element.end;
     const double distance = (p - tool_mm_).norm();
+    if (entry_rule_ == EntryRule::normal_to_next) {
+      Pending entry;
+      entry.corner = p;
+      entry.off_start = tool_mm_;
+      // Without a next element (G40 at once): r to the side of the entry itself.
+      entry.off_end = p + side_sign_ * radius_mm_ * left_normal((p - tool_mm_).normalized());
+      entry.start = tool_mm_;
+      entry.end_tangent = (p - tool_mm_).normalized();
+      entry.start_w_mm = element.start_w_mm;
+      entry.end_w_mm = element.end_w_mm;
+      entry.tag = element.tag;
+      entry.normal_entry = true;
+      pending_ = entry;
+      return moves;
+    }
     if (!(distance > radius_mm_)) {
       throw CompensationError("the move that starts cutter compensation is " + mm(distance) +
                               " mm long in the plane, not longer than the tool radius " + mm(radius_mm_) + " mm");
@@ -238,7 +256,10 @@ std::vector<CompensatedMove> CutterCompensator::add(const PlaneElement& element)
   const double turn_cosine = a.end_tangent.dot(start_tangent);
   std::optional<CompensatedMove> corner_arc;
   Eigen::Vector2d a_end = a.off_end;
-  if (std::abs(turn_sine) <= kTangentSine && turn_cosine > 0.0) {
+  if (a.normal_entry) {
+    a_end = b.off_start;
+    b.start = b.off_start;
+  } else if (std::abs(turn_sine) <= kTangentSine && turn_cosine > 0.0) {
     b.start = b.off_start;  // tangent: the offset ends meet (to rounding)
   } else if (side_sign_ * turn_sine > 0.0 && turn_cosine > -1.0 + kTangentSine) {
     // Concave: both end at the intersection of their offset curves nearest the corner.

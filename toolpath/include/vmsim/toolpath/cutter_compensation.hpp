@@ -19,6 +19,8 @@
 //    than r. It goes from where the tool is to the point T at distance r from its programmed end
 //    P where it is tangent to the circle of radius r about P, the tool on the chosen side (the
 //    tool touches P there); its joint with the next element is then as any other.
+//    EntryRule::normal_to_next (Siemens 840D NORM, the default there): the entry move goes
+//    straight to the next element's offset start, r from P along that element's normal.
 //  - Exit (finish(), G40): the last element ends at its own offset end; the move after G40 goes
 //    from there to the programmed point (the reader's part).
 //  - Moves along w only (a Z plunge or retract inside the contour) keep the plane position: they
@@ -37,6 +39,10 @@ namespace vmsim::toolpath {
 
 /// G41: the tool on the left of the programmed contour; G42: on the right.
 enum class CompensationSide { left, right };
+
+/// Where the entry move (the first move in the plane) ends: LinuxCNC's tangent point on the tool
+/// circle about its programmed end, or (Siemens NORM) the next element's offset start.
+enum class EntryRule { tangent_to_tool_circle, normal_to_next };
 
 /// A programmed element in the compensation plane [mm]: a line, or an arc about `centre`
 /// sweeping `sweep_rad` (> 0 counter-clockwise, |sweep| <= 2 pi; start == end with 2 pi: a full
@@ -79,7 +85,7 @@ class CutterCompensator {
  public:
   /// Compensation switched on with the tool centre at tool_mm (w: tool_w_mm); radius_mm > 0.
   CutterCompensator(CompensationSide side, double radius_mm, const Eigen::Vector2d& tool_mm,
-                    double tool_w_mm);
+                    double tool_w_mm, EntryRule entry_rule = EntryRule::tangent_to_tool_circle);
 
   /// The next programmed element (its start is the previous element's programmed end; the
   /// first one's, the tool position). Returns the moves fixed by it, in order. Throws
@@ -113,6 +119,7 @@ class CutterCompensator {
     Eigen::Vector2d end_tangent = Eigen::Vector2d::UnitX();  ///< unit direction of motion at the end
     double start_w_mm = 0.0, end_w_mm = 0.0;
     int tag = 0;
+    bool normal_entry = false;  ///< EntryRule::normal_to_next: ends where the next one starts
   };
   struct NormalMove {
     double end_w_mm;
@@ -129,6 +136,7 @@ class CutterCompensator {
   double radius_mm_;
   Eigen::Vector2d tool_mm_;
   double tool_w_mm_;
+  EntryRule entry_rule_;
   bool finished_ = false;
   std::optional<Pending> pending_;
   std::vector<NormalMove> normal_moves_;

@@ -238,7 +238,13 @@
 //  - Tools: T<n> or T="name" selects (a name: PathPoint::tool_number -1, the part file's tool),
 //    M6 loads it and activates D1; D<n> (D0: none) switches the length
 //    (ReaderOptions::tool_length_mm by T number, else default_tool_length_mm; a length needed
-//    and unknown is an error naming T and D). G40 accepted; G41/G42 errors.
+//    and unknown is an error naming T and D).
+//  - Cutter radius compensation G41 / G42 (G40 cancels), as for G-code above (G17, the same
+//    offset geometry and errors, CIP / CT, frame instructions, CYCLE800, TRAORI, T / D / M6
+//    changes refused under it), with the radius of the active tool (ReaderOptions::
+//    cutter_radius_mm by T number, else default_cutter_radius_mm; D0: none) and the 840D's
+//    default approach NORM: the entry move goes straight to the first element's offset start.
+//    The points go through the frames, so under MIRROR the tool stays on the mirrored side.
 //  - 5-axis: TRAORI / TRAORI(n) on, TRAFOOF off; under TRAORI X Y Z are the tip and the tool
 //    axis is A3 B3 C3 (ORIWKS: in the workpiece frame, turned by the frames' rotation), or the
 //    rotary words A B C through ReaderOptions::rotary_words_to_tool_axis; outside TRAORI rotary
