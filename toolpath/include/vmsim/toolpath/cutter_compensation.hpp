@@ -1,6 +1,7 @@
 #pragma once
 // Cutter radius compensation (G41 / G42) in one plane, on a small list of 2-D elements: the
-// geometry the G-code reader uses under G41 / G42, kept apart so that it can be tested alone.
+// geometry the G-code and Siemens 840D readers use under G41 / G42, kept apart so that it can be
+// tested alone.
 // Lengths in mm, in the plane's two axes (u, v) = (X, Y) under G17; w is the axis normal to the
 // plane (Z), carried along (a helix or a ramp keeps its w motion). The rules are LinuxCNC's
 // (docs "Cutter Compensation", interp_convert.cc):
