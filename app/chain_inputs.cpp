@@ -4,6 +4,7 @@
 #include <filesystem>
 #include <cmath>
 #include <limits>
+#include <map>
 #include <numbers>
 #include <sstream>
 #include <optional>
@@ -205,9 +206,17 @@ ChainInputs load_chain_inputs(const ChainInputOptions& options) {
   std::string toolpath_path = options.toolpath_path;
   double tool_length_m = options.tool_length_mm >= 0.0 ? options.tool_length_mm * 1e-3 : -1.0;
   std::optional<MachineSetup> setup;
+  // Cutter radii for G41 / G42 D<n> [mm]: the part file's tools by T number, or its one tool
+  // for every D where it has no table.
+  std::map<int, double> cutter_radius_mm;
+  std::optional<double> default_cutter_radius_mm;
   if (!options.part_path.empty()) {
     const PartDescription part = load_part(options.part_path);
     setup = part.setup;
+    for (const NumberedTool& numbered : part.tools) {
+      cutter_radius_mm[numbered.number] = 0.5 * numbered.tool.diameter_m * 1e3;
+    }
+    if (part.tools.empty()) default_cutter_radius_mm = 0.5 * part.tool.diameter_m * 1e3;
     inputs.warnings.insert(inputs.warnings.end(), part.warnings.begin(), part.warnings.end());
     if (machine_path.empty()) machine_path = part.machine_path;
     if (toolpath_path.empty()) toolpath_path = part.toolpath_path;
@@ -266,6 +275,8 @@ ChainInputs load_chain_inputs(const ChainInputOptions& options) {
     return toolpath::AxisWordPose{pose.tip_W_m, pose.axis_W};
   };
   apply_machine_setup(machine, setup, tool_length_m, reader, options.part_path);
+  reader.cutter_radius_mm = cutter_radius_mm;
+  reader.default_cutter_radius_mm = default_cutter_radius_mm;
   inputs.toolpath = toolpath::read_toolpath(toolpath_path, reader);
   if (inputs.toolpath.points.empty()) {
     throw InputError(toolpath_path + ": the tool path has no motion");

@@ -264,7 +264,10 @@ int run_remove(const RemoveOptions& o, const CommandContext& context) {
     source = o.trace_path + " (" + signal + " columns, direct kinematics of " + machine_path + ")";
   } else {
     if (toolpath_path.empty()) throw InputError("no trajectory: give --toolpath, --trace or --part");
-    const toolpath::Toolpath path = toolpath::read_toolpath(toolpath_path);
+    // G41 / G42 D<n>: the one tool of the run for every D.
+    toolpath::ReaderOptions reader;
+    reader.default_cutter_radius_mm = 0.5 * tool.diameter_m * 1e3;
+    const toolpath::Toolpath path = toolpath::read_toolpath(toolpath_path, reader);
     for (const auto& w : path.warnings) context.warn(w.file + ":" + std::to_string(w.line) + ": " + w.message);
     for (const auto& p : path.points) poses.push_back(removal::Pose{p.tip_W_m, p.axis_W});
     source = toolpath_path + " (commanded tool path)";

@@ -7,6 +7,7 @@
 
 #include <Eigen/Core>
 
+#include <algorithm>
 #include <cmath>
 #include <limits>
 #include <filesystem>
@@ -256,6 +257,59 @@ TEST(PostedProgramFiveAxis, RotaryAxesAreTheProgrammedWords) {
     ++checked;
   }
   EXPECT_GE(checked, 1000u);
+}
+
+// A contour programmed on the part with G41 D1 (tests/data/posted/fanuc_cutter_comp): the
+// control offsets the boss's contour (60 x 40, 6 mm corners) by the tool table's radius, 5 mm
+// (the part file's T1, 10 mm). Every axis position of the contour blocks (between the lead-in
+// and the lead-out arcs) has the tool centre 5 mm from the boss: 11 mm from the rectangle
+// 48 x 28 the corners round, computed here from the boss's numbers, at the pass's depth.
+TEST(PostedProgramCutterCompensation, TheToolCentreRunsAtTheToolRadiusFromTheContour) {
+  const fs::path part = kCorpus / "fanuc_cutter_comp/part.yaml";
+  const fs::path out = test::fresh_folder("posted_cutter_comp");
+  const test::RunResult kinematics =
+      test::run_vmsim("kinematics --part " + part.string() + " --out " + (out / "k.csv").string());
+  ASSERT_EQ(kinematics.exit_code, 0) << kinematics.output;
+  const test::RunResult plan = test::run_vmsim("plan --no-plot --no-third-order --part " + part.string() + " --out " +
+                                               (out / "plan").string());
+  ASSERT_EQ(plan.exit_code, 0) << plan.output;
+
+  const TraceRows trace = read_trace(out / "k.csv");
+  const int x_column = column_of(trace, "X.cmd"), y_column = column_of(trace, "Y.cmd"),
+            z_column = column_of(trace, "Z.cmd");
+  ASSERT_GE(x_column, 0);
+  ASSERT_GE(y_column, 0);
+  ASSERT_GE(z_column, 0);
+  // The contour blocks: from the second line after each G41 (the lead-in arc is the first) to
+  // the second line before its G40 (the lead-out arc is the one before G40); the pass's depth is
+  // the Z of the G1 plunge before the G41.
+  std::istringstream lines(read_text(kCorpus / "fanuc_cutter_comp/program.nc"));
+  std::vector<std::string> text;
+  for (std::string line; std::getline(lines, line);) text.push_back(line);
+  std::size_t checked = 0;
+  int passes = 0;
+  for (std::size_t i = 0; i < text.size(); ++i) {
+    if (text[i].rfind("G41", 0) != 0) continue;
+    std::size_t g40 = i;
+    while (g40 < text.size() && text[g40].rfind("G40", 0) != 0) ++g40;
+    ASSERT_LT(g40, text.size());
+    const double depth_mm = std::stod(text[i - 1].substr(text[i - 1].find('Z') + 1));
+    ++passes;
+    for (std::size_t line = i + 2; line + 2 <= g40; ++line) {
+      const auto rows = trace.rows_of_line.find(static_cast<int>(line) + 1);
+      ASSERT_NE(rows, trace.rows_of_line.end()) << text[line];
+      for (std::size_t r : rows->second) {
+        const std::vector<double>& v = trace.rows[r];
+        const double x = v[static_cast<std::size_t>(x_column)], y = v[static_cast<std::size_t>(y_column)];
+        const double outside_x = std::max(0.0, std::abs(x) - 24.0), outside_y = std::max(0.0, std::abs(y) - 14.0);
+        EXPECT_NEAR(std::hypot(outside_x, outside_y), 11.0, 2e-3) << text[line] << ": " << x << ", " << y;
+        EXPECT_NEAR(v[static_cast<std::size_t>(z_column)], depth_mm + 30.0 - kTipAboveWAtZ0Mm, 2e-3) << text[line];
+        ++checked;
+      }
+    }
+  }
+  EXPECT_EQ(passes, 2);
+  EXPECT_GE(checked, 40u);
 }
 
 // The whole chain on a program that blends its corners (LinuxCNC G64 P0.01) over a circle of

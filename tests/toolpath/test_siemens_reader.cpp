@@ -386,7 +386,7 @@ TEST(SiemensErrors, NameFileLineColumnAndWord) {
   struct Case { const char* text; const char* where; const char* what; };
   const Case cases[] = {
       {"G0 X0 Y0 Z0\nG1 X1 Q5 F100\n", "part.mpf:2:7: 'Q5'", "unsupported"},
-      {"G0 X0 Y0 Z0\nG41 G1 X1 F100\n", "part.mpf:2:1: 'G41'", "compensation"},
+      {"G0 X0 Y0 Z0\nG18 G41 G1 X1 F100\n", "part.mpf:2:5: 'G41'", "compensation outside the G17 plane"},
       {"G0 X0 Y0 Z0\nCYCLE800(1,\"T\",0,192,0,0,0,10,20,0,0,0,0,1)\n", "part.mpf:2:1:", "axis-by-axis"},
       {"G0 X0 Y0 Z0\nGOTOF NOWHERE\n", "part.mpf:2:1:", "NOWHERE"},
       {"G0 X0 Y0 Z0\nWHILE R1<2\nG1 X1 F100\n", "part.mpf:2:", "ENDWHILE"},

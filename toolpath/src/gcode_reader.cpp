@@ -19,6 +19,7 @@
 #include "gcode_program.hpp"
 #include "toolpath_detail.hpp"
 #include "vmsim/common/errors.hpp"
+#include "vmsim/toolpath/cutter_compensation.hpp"
 #include "vmsim/toolpath/toolpath.hpp"
 
 namespace vmsim::toolpath {
@@ -125,6 +126,11 @@ class GcodeReader {
       expanded_ = nullptr;
       return !ended_;
     });
+    if (compensator_) {
+      warn("cutter compensation is still on at the end of the program (no G40): its last element ends at its "
+           "offset end");
+      end_compensation(nullptr);
+    }
     detail::require_motion(path_, file_);
     return std::move(path_);
   }
@@ -283,6 +289,9 @@ class GcodeReader {
     const Word* l_word = nullptr;
     const Word* e_word = nullptr;
     const Word* m6_word = nullptr;
+    const Word* d_word = nullptr;
+    const Word* compensation_word = nullptr;  // G40 G41 G42 G41.1 G42.1
+    long compensation_code = 0;
     std::array<const Word*, 3> xyz{}, abc{}, ijk{}, vec{};
     long block_number = -1;
 
@@ -359,11 +368,14 @@ class GcodeReader {
             case 610: case 611: case 640: case 51: case 50: case 1870: set_path(); break;
             case 980: to_initial = true; break;
             case 990: to_initial = false; break;
-            // Harmless: cutter compensation off, polar and scaling cancels.
-            case 400: case 150: case 500: break;
+            case 400: case 410: case 420: case 411: case 421:
+              if (compensation_word) fail(word, "a second cutter compensation G-code in one block");
+              compensation_word = &word;
+              compensation_code = code;
+              break;
+            // Harmless: polar and scaling cancels.
+            case 150: case 500: break;
             case 80: lookahead_word = &word; break;  // G8 P1 / P0: look-ahead, no geometry
-            case 410: case 420:
-              fail(word, "cutter radius compensation is not supported: program the tool tip");
             case 681: fail(word, "3-D coordinate rotation is not supported");
             case 510: case 511: fail(word, "scaling / mirroring is not supported");
             case 160: fail(word, "polar coordinates are not supported");
@@ -391,7 +403,10 @@ class GcodeReader {
           require_within(word, word.value, 0.0, detail::kMaxSpindleRevPerMin, "spindle speed",
                          "rev/min");
           break;
-        case 'O': case 'D':
+        case 'O':
+          require_within(word, word.value, 0.0, detail::kMaxIgnoredWordValue, "value", "");
+          break;
+        case 'D': set_once(d_word, word);
           require_within(word, word.value, 0.0, detail::kMaxIgnoredWordValue, "value", "");
           break;
         case 'T': set_once(t_word, word);
@@ -414,6 +429,11 @@ class GcodeReader {
         default: fail(word, "unsupported word");
       }
     }
+
+    // Cutter compensation: G40 ends it before anything else of its block (the block's motion is
+    // the exit move); while it is on, what would move the offset contour is refused.
+    if (compensation_word && compensation_code == 400) end_compensation(compensation_word);
+    if (compensation_side_) refuse_under_compensation(words, inch);
 
     // Modal settings first: they apply to this block's own numbers.
     if (plane) plane_ = *plane;
@@ -493,6 +513,12 @@ class GcodeReader {
       h_mm_ = tool_length_of(h_word, *h_word);
     }
 
+    if (compensation_word && compensation_code != 400) {
+      start_compensation(*compensation_word, compensation_code, d_word);
+    } else if (d_word) {
+      set_d_number(*d_word);
+    }
+
     if (offset_word) select_offset(*offset_word, offset_name, p_word);
     if (path_word) set_path_mode(*path_word, path_code, p_word, q_word, r_word, e_word);
     if (cancel_cycle_word) {
@@ -568,6 +594,11 @@ class GcodeReader {
     if (!first_motion_word) return;
     if (!motion_) fail(*first_motion_word, "axis word before any motion mode G0/G1/G2/G3");
     if (cycle) {
+      if (compensation_side_) {
+        fail(motion_word ? *motion_word : *first_motion_word,
+             "canned cycles under cutter compensation are not supported: cancel it (G40) first");
+      }
+      exit_pending_ = false;
       if (const Word* extra = first_of({abc[0], abc[1], abc[2], vec[0], vec[1], vec[2]})) {
         fail(*extra, "rotary and tool vector words in a canned cycle block are not supported");
       }
@@ -681,16 +712,266 @@ class GcodeReader {
            "(ReaderOptions::axis_words_to_pose)");
     }
 
+    if (exit_pending_ && arc) {
+      // The move after G40 leaves the offset contour (from where compensation left the tool,
+      // the current position since G40): a line, as on LinuxCNC.
+      fail(reported, "the move after G40 (cutter compensation off) must be a line (G0 / G1), not an arc");
+    }
+    std::optional<ArcGeometry> arc_geometry;
+    if (arc) arc_geometry = arc_geometry_of(start_mm, target_mm, ijk, r_word, reported);
     point.block = add_source_block(block_number);
     point.rotary_words_deg = rotary_words_deg(rotary_deg_);
+    if (compensating()) {
+      compensated_motion(point, start_mm, target_mm, arc_geometry ? &*arc_geometry : nullptr,
+                         exact_stop_here, reported);
+      for (std::size_t k = 0; k < 3; ++k) position_[k] = target_f[static_cast<Eigen::Index>(k)];
+      return;
+    }
+    if (exit_pending_ && (g53_word || (target_mm.head<2>() - start_mm.head<2>()).norm() > 1e-9)) {
+      exit_pending_ = false;
+    }
     const std::size_t first_point = path_.points.size();
     if (!arc) {
       linear_points(point, start_f, target_f, start_rotary_deg, any_abc, reported);
     } else {
-      arc_points(point, start_mm, target_mm, ijk, r_word, reported);
+      arc_points(point, start_mm, target_mm, *arc_geometry, reported);
     }
     finish_block_points(first_point, exact_stop_here);
     for (std::size_t k = 0; k < 3; ++k) position_[k] = target_f[static_cast<Eigen::Index>(k)];
+  }
+
+  /// A G2/G3 arc in the plane's axes (u, v) [mm]: centre, start and end radius, start angle and
+  /// signed sweep (> 0 counter-clockwise).
+  struct ArcGeometry {
+    Eigen::Vector2d centre = Eigen::Vector2d::Zero();
+    double r_start = 0.0, r_end = 0.0;
+    double a0 = 0.0;
+    double sweep = 0.0;
+  };
+
+  // --- Cutter radius compensation (G40 G41 G42 G41.1 G42.1; cutter_compensation.hpp) -----------
+  //
+  // Under G41 / G42 the reader hands each motion, in program coordinates, to the compensator as
+  // a plane element (X Y, with Z along) and makes the points of the moves it gives back, which
+  // come one element late (the end of an element depends on the next). position_ stays the
+  // programmed position, so incremental words and arcs read as programmed.
+
+  bool compensating() const { return compensation_side_.has_value() && compensation_radius_mm_ > 0.0; }
+
+  /// While compensation is on: words that would change the frame, the plane, the units or the
+  /// tool axis of the contour being offset (LinuxCNC refuses them too).
+  void refuse_under_compensation(const std::vector<Word>& words, const std::optional<bool>& inch) const {
+    const std::string cancel = " under cutter compensation is not supported: cancel it (G40) first";
+    for (const Word& word : words) {
+      const std::string& a = word.address;
+      if (!word.has_value) {
+        fail(word, "tool-centre-point mode" + cancel);
+      }
+      if (a == "A" || a == "B" || a == "C" || a == "A3" || a == "B3" || a == "C3") {
+        fail(word, "a rotary axis or tool vector word" + cancel);
+      }
+      if (a == "H") fail(word, "a tool length change" + cancel);
+      if (a != "G") continue;
+      const long code = std::lround(word.value * 10.0);
+      switch (code) {
+        case 180: case 190: fail(word, "a plane change" + cancel);
+        case 200: case 210:
+          if (inch && (*inch ? kMillimetresPerInch : 1.0) != mm_per_unit_) fail(word, "a change of units" + cancel);
+          break;
+        case 430: case 434: case 435: case 490: fail(word, "a tool length or tool-centre-point change" + cancel);
+        case 930: fail(word, "inverse-time feed (G93)" + cancel);
+        case 540: case 550: case 560: case 570: case 580: case 590: case 541:
+          fail(word, "a work offset change" + cancel);
+        case 680: case 690: fail(word, "a coordinate rotation change" + cancel);
+        case 100: case 520: case 920: case 921: fail(word, "an offset change" + cancel);
+        case 280: case 300: fail(word, "a reference point return" + cancel);
+        case 530: fail(word, "a move in machine coordinates (G53)" + cancel);
+        default: break;
+      }
+    }
+  }
+
+  /// D outside G41 / G42 (Fanuc: modal, taken by a later G41 / G42 without D).
+  void set_d_number(const Word& d_word) {
+    if (d_word.value != std::round(d_word.value)) fail(d_word, "D must be a whole number (a tool number)");
+    const int number = static_cast<int>(std::lround(d_word.value));
+    if (compensating() && number != d_number_.value_or(-1)) {
+      fail(d_word, "a new D under cutter compensation is not supported: cancel it (G40) first");
+    }
+    d_number_ = number;
+  }
+
+  /// The cutter radius [mm] of G41 / G42: D from the tool table (ReaderOptions::cutter_radius_mm),
+  /// else the D given before, else the tool in the spindle (LinuxCNC); D0 is no radius.
+  double cutter_radius_of(const Word* d_word, const Word& word) {
+    int number = -1;
+    if (d_word) {
+      set_d_number(*d_word);
+      number = *d_number_;
+    } else if (d_number_) {
+      number = *d_number_;
+    } else if (tool_number_ >= 0) {
+      number = tool_number_;
+    } else {
+      fail(word, "G41 / G42 without D and without a tool in the spindle (T.. M6): the cutter radius is unknown");
+    }
+    if (number == 0) return 0.0;
+    double radius_mm = 0.0;
+    if (const auto it = options_.cutter_radius_mm.find(number); it != options_.cutter_radius_mm.end()) {
+      radius_mm = it->second;
+    } else if (options_.default_cutter_radius_mm) {
+      radius_mm = *options_.default_cutter_radius_mm;
+    } else {
+      std::string known;
+      for (const auto& [n, r] : options_.cutter_radius_mm) known += (known.empty() ? "D" : ", D") + std::to_string(n);
+      fail(d_word ? *d_word : word, "no cutter radius for D" + std::to_string(number) + " (the tool table has " +
+                                        (known.empty() ? std::string("none") : known) +
+                                        "; the part file's tools: diameter_mm)");
+    }
+    if (!(radius_mm >= 0.0 && radius_mm <= 0.5 * detail::kMaxCutterDiameterMm)) {
+      fail(d_word ? *d_word : word, "the cutter radius of D" + std::to_string(number) + ", " +
+                                        detail::format_number(radius_mm) + " mm, is not within [0, " +
+                                        detail::format_number(0.5 * detail::kMaxCutterDiameterMm) + "] mm");
+    }
+    return radius_mm;
+  }
+
+  void start_compensation(const Word& word, long code, const Word* d_word) {
+    const CompensationSide side = code == 410 || code == 411 ? CompensationSide::left : CompensationSide::right;
+    if (plane_ != Plane::xy) {
+      fail(word, std::string("cutter radius compensation in the ") + plane_name(plane_) +
+                     " plane is not supported (G17 only)");
+    }
+    if (tcp_ != Tcp::off) {
+      fail(word, "cutter radius compensation under tool-centre-point mode (G43.4 / G43.5 / TRAORI) is not supported");
+    }
+    if (inverse_time_) fail(word, "cutter radius compensation under inverse-time feed (G93) is not supported");
+    double radius_mm = 0.0;
+    if (code == 411 || code == 421) {
+      // LinuxCNC's dynamic compensation: D is the cutter diameter, in program units.
+      if (!d_word) fail(word, "G41.1 / G42.1 need D (the cutter diameter)");
+      radius_mm = 0.5 * d_word->value * mm_per_unit_;
+      require_within(*d_word, 2.0 * radius_mm, 0.0, detail::kMaxCutterDiameterMm, "cutter diameter", "mm");
+    } else {
+      radius_mm = cutter_radius_of(d_word, word);
+    }
+    if (compensation_side_) {
+      if (*compensation_side_ == side && radius_mm == compensation_radius_mm_) return;  // repeated
+      fail(word, "cutter compensation is already on: cancel it (G40) before changing its side or radius");
+    }
+    compensation_side_ = side;
+    compensation_radius_mm_ = radius_mm;
+  }
+
+  /// G40 (word) or the end of the program (nullptr): the last element ends at its offset end,
+  /// and the position is the tool's from here on.
+  void end_compensation(const Word* word) {
+    if (compensator_) {
+      const bool entered = compensator_->entered();
+      emit_compensated(compensation_call(word, [&] { return compensator_->finish(); }), word);
+      if (entered) {
+        const Eigen::Vector3d programmed = from_frame(filled_frame_position());
+        const Eigen::Vector3d f = to_frame(Eigen::Vector3d(compensator_->tool_mm().x(), compensator_->tool_mm().y(),
+                                                           programmed.z()));
+        for (std::size_t k = 0; k < 3; ++k) position_[k] = f[static_cast<Eigen::Index>(k)];
+        exit_pending_ = true;
+      }
+      compensator_.reset();
+    }
+    compensation_side_.reset();
+    compensation_radius_mm_ = 0.0;
+  }
+
+  template <typename Call>
+  std::vector<CompensatedMove> compensation_call(const Word* word, Call call) const {
+    try {
+      return call();
+    } catch (const CompensationError& error) {
+      if (word) fail(*word, error.what());
+      fail(0, error.what());
+    }
+  }
+
+  /// One motion under compensation: a plane element, or a move along Z only.
+  void compensated_motion(const PathPoint& point, const Eigen::Vector3d& start_mm, const Eigen::Vector3d& end_mm,
+                          const ArcGeometry* arc, bool exact_stop_here, const Word& reported) {
+    if (!compensator_) {
+      compensator_.emplace(*compensation_side_, compensation_radius_mm_, Eigen::Vector2d(start_mm.x(), start_mm.y()),
+                           start_mm.z());
+      exit_pending_ = false;
+    }
+    const int tag = next_compensation_tag_++;
+    compensated_sources_[tag] = {point, exact_stop_here};
+    PlaneElement element;
+    element.arc = arc != nullptr;
+    element.start = start_mm.head<2>();
+    element.end = end_mm.head<2>();
+    if (arc) {
+      element.centre = arc->centre;
+      element.sweep_rad = arc->sweep;
+    }
+    element.start_w_mm = start_mm.z();
+    element.end_w_mm = end_mm.z();
+    element.tag = tag;
+    const bool in_plane = arc || (element.end - element.start).norm() > 1e-9;
+    emit_compensated(compensation_call(&reported, [&] {
+                       return in_plane ? compensator_->add(element)
+                                       : compensator_->add_normal_move(element.end_w_mm, tag);
+                     }),
+                     &reported);
+  }
+
+  /// The points of compensated moves (program coordinates, through the frame as any point).
+  void emit_compensated(const std::vector<CompensatedMove>& moves, const Word* word) {
+    for (const CompensatedMove& move : moves) {
+      const auto source = compensated_sources_.find(move.tag);
+      if (source == compensated_sources_.end()) continue;
+      PathPoint point = source->second.point;
+      const std::size_t first = path_.points.size();
+      if (!move.arc) {
+        set_pose(point, to_frame(Eigen::Vector3d(move.end.x(), move.end.y(), move.end_w_mm)), rotary_deg_);
+        detail::append_point(path_, point, options_, file_, line_);
+      } else {
+        if (point.kind != MotionKind::rapid) point.kind = MotionKind::arc;
+        const double radius = (move.start - move.centre).norm();
+        const double a0 = std::atan2(move.start.y() - move.centre.y(), move.start.x() - move.centre.x());
+        const double tolerance_mm = options_.arc_chord_tolerance_m / kMetresPerMillimetre;
+        const double segments_real = detail::arc_chord_count(radius, move.sweep_rad, tolerance_mm);
+        const std::string what = "the compensated arc (radius " + detail::format_number(radius) + " mm, " +
+                                 detail::format_number(std::abs(move.sweep_rad) * 180.0 / std::numbers::pi) +
+                                 " deg)";
+        if (!(segments_real <= static_cast<double>(options_.max_points_per_block))) {
+          fail(word ? word->column : 0, what + " expands to " + detail::format_number(segments_real) +
+                                            " points, more than the limit of " +
+                                            std::to_string(options_.max_points_per_block) +
+                                            " points per block (ReaderOptions::max_points_per_block)");
+        }
+        const long segments = std::max(1L, static_cast<long>(segments_real));
+        detail::require_room_for_points(path_, static_cast<std::size_t>(segments), options_, file_, line_,
+                                        word ? word->column : 0, what);
+        for (long k = 1; k <= segments; ++k) {
+          Eigen::Vector3d p_mm(move.end.x(), move.end.y(), move.end_w_mm);
+          if (k < segments) {
+            const double t = static_cast<double>(k) / static_cast<double>(segments);
+            const double angle = a0 + t * move.sweep_rad;
+            p_mm = Eigen::Vector3d(move.centre.x() + radius * std::cos(angle),
+                                   move.centre.y() + radius * std::sin(angle),
+                                   move.start_w_mm + t * (move.end_w_mm - move.start_w_mm));
+          }
+          set_pose(point, to_frame(p_mm), rotary_deg_);
+          detail::append_point(path_, point, options_, file_, line_);
+        }
+      }
+      if (move.corner) {
+        // The roll about a corner is tangent to the elements on both sides: no corner of its own.
+        for (std::size_t i = first; i < path_.points.size(); ++i) {
+          if (path_.points[i].corner_tolerance_m == 0.0) path_.points[i].corner_tolerance_m = PathPoint::kNotProgrammed;
+        }
+      } else {
+        finish_block_points(first, source->second.exact_stop);
+        compensated_sources_.erase(source);
+      }
+    }
   }
 
   // --- Coordinate systems ---------------------------------------------------------------------
@@ -1027,6 +1308,7 @@ class GcodeReader {
     if (tcp_ != Tcp::off) {
       fail(word, "reference point return in tool-centre-point mode: cancel it first (G49)");
     }
+    exit_pending_ = false;
     // Rotary words (Mastercam's `G28 X0. Y0. A0.`): the named rotary axes go to the word's
     // value (the intermediate position) with the linear axes, then to their reference.
     RotaryDeg rotary_reference = rotary_deg_;
@@ -1392,9 +1674,9 @@ class GcodeReader {
            "arc_radius_relative_tolerance)";
   }
 
-  void arc_points(PathPoint point, const Eigen::Vector3d& start_mm, const Eigen::Vector3d& end_mm,
-                  const std::array<const Word*, 3>& ijk, const Word* r_word,
-                  const Word& reported) {
+  ArcGeometry arc_geometry_of(const Eigen::Vector3d& start_mm, const Eigen::Vector3d& end_mm,
+                              const std::array<const Word*, 3>& ijk, const Word* r_word,
+                              const Word& reported) const {
     const auto [u, v, w] = plane_axes(plane_);
     const bool ccw = *motion_ == 3;
     for (int k = 0; k < 3; ++k) {
@@ -1466,8 +1748,20 @@ class GcodeReader {
       r_start = (s - c).norm();
       r_end = r_start;
     }
-    const double a0 = std::atan2(s.y() - c.y(), s.x() - c.x());
-    const double sweep = detail::arc_sweep_rad(s, e, c, ccw, full_circle);
+    ArcGeometry arc;
+    arc.centre = c;
+    arc.r_start = r_start;
+    arc.r_end = r_end;
+    arc.a0 = std::atan2(s.y() - c.y(), s.x() - c.x());
+    arc.sweep = detail::arc_sweep_rad(s, e, c, ccw, full_circle);
+    return arc;
+  }
+
+  void arc_points(PathPoint point, const Eigen::Vector3d& start_mm, const Eigen::Vector3d& end_mm,
+                  const ArcGeometry& arc, const Word& reported) {
+    const auto [u, v, w] = plane_axes(plane_);
+    const Eigen::Vector2d& c = arc.centre;
+    const double r_start = arc.r_start, r_end = arc.r_end, a0 = arc.a0, sweep = arc.sweep;
     const double r_max = std::max(r_start, r_end);
     const double tolerance_mm = options_.arc_chord_tolerance_m / kMetresPerMillimetre;
     const double segments_real = detail::arc_chord_count(r_max, sweep, tolerance_mm);
@@ -1547,6 +1841,18 @@ class GcodeReader {
   std::array<std::optional<double>, 3> position_;  // frame position [mm]
   std::array<std::optional<double>, 3> rotary_deg_;
   Eigen::Vector3d axis_W_ = Eigen::Vector3d::UnitZ();
+  // Cutter radius compensation.
+  std::optional<CompensationSide> compensation_side_;
+  double compensation_radius_mm_ = 0.0;
+  std::optional<int> d_number_;  // the last D (Fanuc: modal)
+  std::optional<CutterCompensator> compensator_;  // from the first motion under G41 / G42
+  struct CompensatedSource {
+    PathPoint point;  // the block's point: kind, feed, block, modes
+    bool exact_stop = false;
+  };
+  std::map<int, CompensatedSource> compensated_sources_;  // by element tag, until its moves are made
+  int next_compensation_tag_ = 0;
+  bool exit_pending_ = false;  // G40 given: the next move in the plane must be a line
 };
 
 }  // namespace

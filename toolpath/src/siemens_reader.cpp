@@ -20,6 +20,7 @@
 
 #include "toolpath_detail.hpp"
 #include "vmsim/common/errors.hpp"
+#include "vmsim/toolpath/cutter_compensation.hpp"
 #include "vmsim/toolpath/toolpath.hpp"
 
 namespace vmsim::toolpath {
@@ -171,6 +172,11 @@ class SiemensReader {
     detail::require_utf8_text(text, file_);
     programs_.push_back(load_program(std::string(text), file_));
     run(0);
+    if (compensator_) {
+      warn("cutter compensation is still on at the end of the program (no G40): its last element ends at its "
+           "offset end");
+      end_compensation(nullptr);
+    }
     detail::require_motion(path_, file_);
     return std::move(path_);
   }
@@ -901,6 +907,19 @@ class SiemensReader {
     const std::vector<Word> words = words_of(code);
     if (words.empty()) return;
 
+    // Cutter radius compensation: G40 ends it before anything else of its block (the block's
+    // motion is the exit); while it is on, what would move the offset contour is refused.
+    const Word* compensation_word = nullptr;
+    for (const Word& word : words) {
+      if (word.address != "G" || !word.has_value || word.assignment || word.value.text) continue;
+      const double v = word.number();
+      if (v != 40.0 && v != 41.0 && v != 42.0) continue;
+      if (compensation_word) fail(word, "a second cutter compensation G-code in one block");
+      compensation_word = &word;
+    }
+    if (compensation_word && compensation_word->number() == 40.0) end_compensation(compensation_word);
+    if (compensation_side_) refuse_under_compensation(words);
+
     std::optional<Motion> motion;
     const Word* motion_word = nullptr;
     bool exact_stop_here = false, machine_coordinates = false, dwell = false;
@@ -1013,6 +1032,7 @@ class SiemensReader {
       });
     }
     if (d_word) change_geometry([&] { d_ = static_cast<int>(std::lround(d_word->number())); });
+    if (compensation_word && compensation_word->number() != 40.0) start_compensation(*compensation_word);
 
     if (f_word && !dwell) {
       if (!(f_word->number() > 0.0)) fail(*f_word, "the feed rate must be positive");
@@ -1141,8 +1161,7 @@ class SiemensReader {
       case 17: plane_ = Plane::xy; return;
       case 18: plane_ = Plane::zx; return;
       case 19: plane_ = Plane::yz; return;
-      case 40: return;
-      case 41: case 42: fail(word, "cutter radius compensation is not supported: program the tool tip");
+      case 40: case 41: case 42: return;  // cutter compensation: block() did it
       case 53: case 153: machine_coordinates = true; return;
       case 60: path_mode_ = PathMode::exact; refresh_corner_tolerance(); return;
       case 601: case 602: case 603: return;  // exact stop windows (fine, coarse, interpolator end)
@@ -1548,6 +1567,16 @@ class SiemensReader {
 
     point.block = add_source_block(block_number);
     point.rotary_words_deg = rotary_words_deg(rotary_deg_);
+    if (compensating()) {
+      compensated_motion(point, motion, start_p, target_p, ijk, mid, cr_word, exact_stop_here, reported);
+      for (std::size_t k = 0; k < 3; ++k) position_[k] = target_f[static_cast<Eigen::Index>(k)];
+      return;
+    }
+    if (exit_pending_) {
+      // The move after G40 leaves the contour from where compensation left the tool: a line.
+      if (arc) fail(reported, "the move after G40 (cutter compensation off) must be a line (G0 / G1), not an arc");
+      if (machine_coordinates || (target_p.head<2>() - start_p.head<2>()).norm() > 1e-9) exit_pending_ = false;
+    }
     const std::size_t first_point = path_.points.size();
     if (!arc) {
       linear_points(point, start_f, target_f, start_rotary, any_abc, reported);
@@ -1562,6 +1591,189 @@ class SiemensReader {
     }
     if (exact_stop_here && first_point < path_.points.size()) path_.points.back().corner_tolerance_m = 0.0;
     for (std::size_t k = 0; k < 3; ++k) position_[k] = target_f[static_cast<Eigen::Index>(k)];
+  }
+
+  // --- Cutter radius compensation (G40 G41 G42; cutter_compensation.hpp) ------------------------
+  //
+  // As in the G-code reader: each motion under G41 / G42 goes, in program coordinates, to the
+  // compensator, whose moves come one element late and go through the frames point by point
+  // (a mirror turns the offset side with the contour, as the control does). The entry is the
+  // 840D's NORM: straight to the first element's offset start.
+
+  bool compensating() const { return compensation_side_.has_value() && compensation_radius_mm_ > 0.0; }
+
+  void refuse_under_compensation(const std::vector<Word>& words) const {
+    const std::string cancel = " under cutter compensation is not supported: cancel it (G40) first";
+    for (const Word& word : words) {
+      const std::string& a = word.address;
+      if (word.assignment) continue;
+      if (word.has_arguments && (a == "CYCLE800" || a == "TRAORI")) fail(word, a + cancel);
+      if (!word.has_value) {
+        if (a == "TRAORI" || a == "TRAFOOF" || a == "TRANS" || a == "ATRANS" || a == "ROT" || a == "AROT" ||
+            a == "MIRROR" || a == "AMIRROR" || a == "SUPA" || a == "CIP" || a == "CT") {
+          fail(word, a + cancel);
+        }
+        continue;
+      }
+      if (a == "T" || a == "D" || a == "A" || a == "B" || a == "C" || a == "A3" || a == "B3" || a == "C3") {
+        fail(word, "a tool, rotary axis or tool vector word" + cancel);
+      }
+      if (a == "M" && word.number() == 6.0) fail(word, "a tool change" + cancel);
+      if (a != "G") continue;
+      const long code = std::lround(word.number());
+      if (code == 18 || code == 19 || code == 70 || code == 71 || code == 700 || code == 710 || code == 53 ||
+          code == 153 || code == 93 || code == 500 || (code >= 54 && code <= 57) || (code >= 505 && code <= 599)) {
+        fail(word, "a change of plane, units, work offset, feed mode or a machine-coordinate move" + cancel);
+      }
+    }
+  }
+
+  /// The radius [mm] of the active tool's cutting edge: ReaderOptions::cutter_radius_mm by T
+  /// number (default_cutter_radius_mm for a named tool or one not in the table); D0: none.
+  double cutter_radius_of(const Word& word) const {
+    if (d_ == 0 || tool_number_ == 0) return 0.0;
+    double radius_mm = 0.0;
+    if (const auto it = options_.cutter_radius_mm.find(tool_number_); it != options_.cutter_radius_mm.end()) {
+      radius_mm = it->second;
+    } else if (options_.default_cutter_radius_mm) {
+      radius_mm = *options_.default_cutter_radius_mm;
+    } else {
+      std::string known;
+      for (const auto& [n, r] : options_.cutter_radius_mm) known += (known.empty() ? "T" : ", T") + std::to_string(n);
+      fail(word, "no cutter radius for " + (tool_number_ >= 0 ? "T" + std::to_string(tool_number_) : std::string("the tool")) +
+                     " D" + std::to_string(d_) + " (the tool table has " + (known.empty() ? std::string("none") : known) +
+                     "; the part file's tools: diameter_mm)");
+    }
+    if (!(radius_mm >= 0.0 && radius_mm <= 0.5 * detail::kMaxCutterDiameterMm)) {
+      fail(word, "the cutter radius " + detail::format_number(radius_mm) + " mm is not within [0, " +
+                     detail::format_number(0.5 * detail::kMaxCutterDiameterMm) + "] mm");
+    }
+    return radius_mm;
+  }
+
+  void start_compensation(const Word& word) {
+    const CompensationSide side = word.number() == 41.0 ? CompensationSide::left : CompensationSide::right;
+    if (plane_ != Plane::xy) fail(word, "cutter radius compensation outside the G17 plane is not supported");
+    if (tip_mode()) fail(word, "cutter radius compensation under TRAORI or a CYCLE800 swivel is not supported");
+    if (inverse_time_) fail(word, "cutter radius compensation under inverse-time feed (G93) is not supported");
+    const double radius_mm = cutter_radius_of(word);
+    if (compensation_side_) {
+      if (*compensation_side_ == side && radius_mm == compensation_radius_mm_) return;  // repeated
+      fail(word, "cutter compensation is already on: cancel it (G40) before changing its side");
+    }
+    compensation_side_ = side;
+    compensation_radius_mm_ = radius_mm;
+  }
+
+  void end_compensation(const Word* word) {
+    if (compensator_) {
+      const bool entered = compensator_->entered();
+      emit_compensated(compensation_call(word, [&] { return compensator_->finish(); }), word);
+      if (entered) {
+        const Vec3 programmed = from_frame(filled_frame_position());
+        const Vec3 f = to_frame(Vec3(compensator_->tool_mm().x(), compensator_->tool_mm().y(), programmed.z()));
+        for (std::size_t k = 0; k < 3; ++k) position_[k] = f[static_cast<Eigen::Index>(k)];
+        exit_pending_ = true;
+        last_tangent_p_.reset();
+      }
+      compensator_.reset();
+    }
+    compensation_side_.reset();
+    compensation_radius_mm_ = 0.0;
+  }
+
+  template <typename Call>
+  std::vector<CompensatedMove> compensation_call(const Word* word, Call call) const {
+    try {
+      return call();
+    } catch (const CompensationError& error) {
+      if (word) fail(*word, error.what());
+      fail(0, error.what());
+    }
+  }
+
+  void compensated_motion(const PathPoint& point, Motion motion, const Vec3& start_p, const Vec3& end_p,
+                          const std::array<const Word*, 3>& ijk, const std::array<const Word*, 3>& mid,
+                          const Word* cr_word, bool exact_stop_here, const Word& reported) {
+    if (motion == Motion::cip || motion == Motion::ct) {
+      fail(reported, "CIP / CT under cutter compensation are not supported: program G2 / G3");
+    }
+    if (const Word* w = first_of({mid[0], mid[1], mid[2]})) fail(*w, "I1 J1 K1 (the intermediate point) need CIP");
+    PlaneElement element;
+    if (motion == Motion::cw || motion == Motion::ccw) {
+      const detail::SpaceArc arc = plane_arc(motion == Motion::ccw, start_p, end_p, ijk, cr_word, reported);
+      element.arc = true;
+      element.centre = arc.centre.head<2>();
+      element.sweep_rad = motion == Motion::ccw ? arc.sweep_rad : -arc.sweep_rad;
+    }
+    if (!compensator_) {
+      compensator_.emplace(*compensation_side_, compensation_radius_mm_, Eigen::Vector2d(start_p.x(), start_p.y()),
+                           start_p.z(), EntryRule::normal_to_next);
+      exit_pending_ = false;
+    }
+    const int tag = next_compensation_tag_++;
+    compensated_sources_[tag] = {point, exact_stop_here};
+    element.start = start_p.head<2>();
+    element.end = end_p.head<2>();
+    element.start_w_mm = start_p.z();
+    element.end_w_mm = end_p.z();
+    element.tag = tag;
+    const bool in_plane = element.arc || (element.end - element.start).norm() > 1e-9;
+    emit_compensated(compensation_call(&reported, [&] {
+                       return in_plane ? compensator_->add(element)
+                                       : compensator_->add_normal_move(element.end_w_mm, tag);
+                     }),
+                     &reported);
+  }
+
+  void emit_compensated(const std::vector<CompensatedMove>& moves, const Word* word) {
+    for (const CompensatedMove& move : moves) {
+      const auto source = compensated_sources_.find(move.tag);
+      if (source == compensated_sources_.end()) continue;
+      PathPoint point = source->second.point;
+      const std::size_t first = path_.points.size();
+      if (!move.arc) {
+        set_pose(point, to_frame(Vec3(move.end.x(), move.end.y(), move.end_w_mm)), rotary_deg_);
+        detail::append_point(path_, point, options_, current_file(), line_);
+      } else {
+        if (point.kind != MotionKind::rapid) point.kind = MotionKind::arc;
+        const double radius = (move.start - move.centre).norm();
+        const double a0 = std::atan2(move.start.y() - move.centre.y(), move.start.x() - move.centre.x());
+        const double tolerance_mm = options_.arc_chord_tolerance_m / kMetresPerMillimetre;
+        const double segments_real = detail::arc_chord_count(radius, move.sweep_rad, tolerance_mm);
+        const std::string what = "the compensated arc (radius " + detail::format_number(radius) + " mm)";
+        if (!(segments_real <= static_cast<double>(options_.max_points_per_block))) {
+          fail(word ? word->column : 0, what + " expands to " + detail::format_number(segments_real) +
+                                            " points, more than the limit of " +
+                                            std::to_string(options_.max_points_per_block) +
+                                            " points per block (ReaderOptions::max_points_per_block)");
+        }
+        const long segments = std::max(1L, static_cast<long>(segments_real));
+        detail::require_room_for_points(path_, static_cast<std::size_t>(segments), options_, current_file(), line_,
+                                        word ? word->column : 0, what);
+        for (long k = 1; k <= segments; ++k) {
+          Vec3 p(move.end.x(), move.end.y(), move.end_w_mm);
+          if (k < segments) {
+            const double t = static_cast<double>(k) / static_cast<double>(segments);
+            const double angle = a0 + t * move.sweep_rad;
+            p = Vec3(move.centre.x() + radius * std::cos(angle), move.centre.y() + radius * std::sin(angle),
+                     move.start_w_mm + t * (move.end_w_mm - move.start_w_mm));
+          }
+          set_pose(point, to_frame(p), rotary_deg_);
+          detail::append_point(path_, point, options_, current_file(), line_);
+        }
+      }
+      // Points inside a move are no corners; a corner arc has none of its own (tangent both ways).
+      for (std::size_t i = first; i < path_.points.size(); ++i) {
+        if (path_.points[i].corner_tolerance_m == 0.0 && (move.corner || i + 1 < path_.points.size())) {
+          path_.points[i].corner_tolerance_m = PathPoint::kNotProgrammed;
+        }
+      }
+      if (!move.corner) {
+        if (source->second.exact_stop && first < path_.points.size()) path_.points.back().corner_tolerance_m = 0.0;
+        compensated_sources_.erase(source);
+      }
+    }
   }
 
   PathPoint new_point(MotionKind kind) const {
@@ -1946,6 +2158,17 @@ class SiemensReader {
   RotaryDeg rotary_deg_;
   Vec3 axis_W_ = Vec3::UnitZ();
   std::optional<Vec3> last_tangent_p_;
+  // Cutter radius compensation.
+  std::optional<CompensationSide> compensation_side_;
+  double compensation_radius_mm_ = 0.0;
+  std::optional<CutterCompensator> compensator_;  // from the first motion under G41 / G42
+  struct CompensatedSource {
+    PathPoint point;
+    bool exact_stop = false;
+  };
+  std::map<int, CompensatedSource> compensated_sources_;  // by element tag, until its moves are made
+  int next_compensation_tag_ = 0;
+  bool exit_pending_ = false;  // G40 given: the next move in the plane must be a line
   // NC modes.
   PathMode path_mode_ = PathMode::g64;  // unspecified until the program says: NaN tolerance
   double adis_mm_ = 0.0;

@@ -733,6 +733,55 @@ def five_axis_tcp():
     wr.write(os.path.join(HERE, "five_axis_tcp", "program.nc"))
 
 
+def fanuc_cutter_comp():
+    """A Fanuc contour finishing pass programmed on the part's contour with cutter radius
+    compensation (G41 D1: the control offsets by the tool table's radius): a 60 x 40 boss with
+    6 mm corners, climb (clockwise, tool on the left), a line and a tangent arc lead-in and an arc
+    lead-out, G40 on the exit line, two depths."""
+    wr = Writer(decimals=3)
+    wr.raw("%")
+    wr.raw("O1019 (BOSS FINISH - CUTTER COMP)")
+    wr.raw("(T1 D=10. FLAT END MILL - D1 RADIUS 5. IN THE OFFSET TABLE)")
+    wr.raw("G90 G94 G17 G49 G40 G80")
+    wr.raw("G21")
+    wr.raw("G28 G91 Z0.")
+    wr.raw("G90")
+    wr.raw("T1 M6")
+    wr.raw("S8000 M3")
+    wr.raw("G54 G0 X-60. Y-10.")
+    wr.raw("G43 Z15. H1")
+    wr.raw("M8")
+    a, b, rc, lead = 30.0, 20.0, 6.0, 10.0
+    n = wr.num
+    for z in (-2.5, -5.0):
+        wr.raw("(PASS Z%s)" % n(z))
+        wr.raw("G0 X-60. Y-10.")
+        wr.raw("Z2.")
+        wr.raw("G1 Z%s F300." % n(z))
+        wr.raw("G41 D1 X%s Y%s F800." % (n(-a - lead), n(-lead)))
+        wr.raw("G3 X%s Y0. I0. J%s" % (n(-a), n(lead)))
+        wr.raw("G1 Y%s" % n(b - rc))
+        wr.raw("G2 X%s Y%s I%s J0." % (n(-a + rc), n(b), n(rc)))
+        wr.raw("G1 X%s" % n(a - rc))
+        wr.raw("G2 X%s Y%s I0. J%s" % (n(a), n(b - rc), n(-rc)))
+        wr.raw("G1 Y%s" % n(-b + rc))
+        wr.raw("G2 X%s Y%s I%s J0." % (n(a - rc), n(-b), n(-rc)))
+        wr.raw("G1 X%s" % n(-a + rc))
+        wr.raw("G2 X%s Y%s I0. J%s" % (n(-a), n(-b + rc), n(rc)))
+        wr.raw("G1 Y0.")
+        wr.raw("G3 X%s Y%s I%s J0." % (n(-a - lead), n(lead), n(-lead)))
+        wr.raw("G40 G1 X-60.")
+        wr.raw("G0 Z2.")
+    wr.raw("G0 Z15.")
+    wr.raw("M9")
+    wr.raw("M5")
+    wr.raw("G28 G91 Z0.")
+    wr.raw("G90")
+    wr.raw("M30")
+    wr.raw("%")
+    wr.write(os.path.join(HERE, "fanuc_cutter_comp", "program.nc"))
+
+
 def write_text(name, file_name, text):
     os.makedirs(os.path.join(HERE, name), exist_ok=True)
     with open(os.path.join(HERE, name, file_name), "w", newline="") as f:
@@ -750,3 +799,4 @@ if __name__ == "__main__":
     write_text("linuxcnc_macros", "program.ngc", LINUXCNC_MACROS)
     write_text("fanuc_macro_b", "program.nc", FANUC_MACRO_B)
     five_axis_tcp()
+    fanuc_cutter_comp()

@@ -62,7 +62,7 @@
 //  - Words: a letter and a decimal number (X10 is 10 mm: decimal-point programming), Siemens
 //    `X=10` and extended addresses `A3=0.5`; comments `( ... )` and after `;`; `%` lines and O
 //    program numbers skipped; N is kept as SourceBlock::block_number; a block starting with `/`
-//    (block delete) is skipped with a warning. S and D words are accepted and ignored; M2/M30
+//    (block delete) is skipped with a warning. S words are accepted and ignored (D: cutter compensation, below); M2/M30
 //    end the program (the rest of the file is not read); M98/M99 and G65 are subprogram calls
 //    (below, "G-code programs"); other M codes are ignored. An address twice in one block is an
 //    error.
@@ -164,9 +164,25 @@
 //    block that turns a word by 180 deg or more is split into equal steps of at most 90 deg in
 //    axis space (as the NC interpolates the axes), since the chain follows poses and the inverse
 //    kinematics takes the nearest solution from one pose to the next.
-//  - Accepted and ignored: G4 dwell (with X or P), G40 G15 G50, G80 (ends a cycle), G8 P1/P0
+//  - Cutter radius compensation (cutter_compensation.hpp has the geometry and LinuxCNC's rules):
+//    G41 (tool left of the contour) / G42 (right) with D<n>: the radius is
+//    ReaderOptions::cutter_radius_mm[n] (else default_cutter_radius_mm, else an error naming D);
+//    without D the last D given, else the tool in the spindle; D0: radius 0 (no offset).
+//    LinuxCNC's G41.1 / G42.1 D<diameter> give the diameter in the block. G40 cancels. G17
+//    only (G18 / G19, tool-centre-point mode and G93 are errors), XY lines and arcs offset to
+//    the side, concave corners at the offsets' intersection, convex ones rolled about the
+//    corner (arcs of the tool radius), moves along Z only at the offset position; the first
+//    move in the plane (the entry) must be a line longer than the radius and ends where it is
+//    tangent to the tool circle about its programmed end; G40 ends the last element at its
+//    offset end and the position is the tool's from there (the next move in the plane must be a
+//    line). Errors: an inside arc not larger than the tool, a gouge (an offset element running
+//    backwards, a concave corner the tool does not fit), and under compensation a plane, unit,
+//    work offset, G52 / G92 / G10, G68 / G69, G43 / G49 / H, G53, G28 / G30, canned cycle,
+//    rotary or tool vector word, or a new D. A G41 / G42 still on at the end of the program is
+//    ended as by G40 (with a warning).
+//  - Accepted and ignored: G4 dwell (with X or P), G15 G50, G80 (ends a cycle), G8 P1/P0
 //    (look-ahead), the Q of G64 (LinuxCNC's folding of collinear points).
-//    Errors naming the word: G41/G42 cutter compensation, G68.1 3-D rotation, G51 scaling, G16
+//    Errors naming the word: G68.1 3-D rotation, G51 scaling, G16
 //    polar, G87 G88, any other G-code, and words outside this list (U V W, Siemens keywords
 //    other than TRAORI/TRAFOOF); P Q L E where their G-code does not use them.
 //
@@ -222,7 +238,13 @@
 //  - Tools: T<n> or T="name" selects (a name: PathPoint::tool_number -1, the part file's tool),
 //    M6 loads it and activates D1; D<n> (D0: none) switches the length
 //    (ReaderOptions::tool_length_mm by T number, else default_tool_length_mm; a length needed
-//    and unknown is an error naming T and D). G40 accepted; G41/G42 errors.
+//    and unknown is an error naming T and D).
+//  - Cutter radius compensation G41 / G42 (G40 cancels), as for G-code above (G17, the same
+//    offset geometry and errors, CIP / CT, frame instructions, CYCLE800, TRAORI, T / D / M6
+//    changes refused under it), with the radius of the active tool (ReaderOptions::
+//    cutter_radius_mm by T number, else default_cutter_radius_mm; D0: none) and the 840D's
+//    default approach NORM: the entry move goes straight to the first element's offset start.
+//    The points go through the frames, so under MIRROR the tool stays on the mirrored side.
 //  - 5-axis: TRAORI / TRAORI(n) on, TRAFOOF off; under TRAORI X Y Z are the tip and the tool
 //    axis is A3 B3 C3 (ORIWKS: in the workpiece frame, turned by the frames' rotation), or the
 //    rotary words A B C through ReaderOptions::rotary_words_to_tool_axis; outside TRAORI rotary
@@ -499,6 +521,10 @@ struct ReaderOptions {
   /// default_tool_length_mm where given, else is an error.
   std::map<int, double> tool_length_mm;
   std::optional<double> default_tool_length_mm;
+  /// Cutter radii by D number [mm] (the tool table's diameter / 2), for G41 / G42 D<n>; a
+  /// number not in the table takes default_cutter_radius_mm where given, else is an error.
+  std::map<int, double> cutter_radius_mm;
+  std::optional<double> default_cutter_radius_mm;
   /// Canned cycles: G83 stops this far [mm] above the previous peck's depth before feeding on;
   /// G73 backs off this far [mm] after each peck (Fanuc parameters 5115 and 5114, machine
   /// dependent).
