@@ -148,7 +148,8 @@ Json make_verdict(const Json& curated, const Json& checks, const Tolerance& tole
     const Json& mark = marks[0];
     summary = "The deepest mark is " + std::string(mark.value("kind", "") == "gouge" ? "a gouge" : "excess material") +
               " of " + figure(worst) + " um over " + figure(mark.value("area_mm2", 0.0)) + " mm2 at " +
-              point_text(mark.value("deepest_point_mm", Json())) + " (" + mark.value("view", "") + " view)";
+              point_text(mark.value("deepest_point_mm", Json())) + " on the " +
+              mark.value("surface", mark.value("view", "") + " view");
     if (mark.value("line", 0) > 0) {
       summary += ", made by program line " + std::to_string(mark.value("line", 0));
       const std::string text = mark.value("block_text", "");
@@ -193,8 +194,10 @@ Json make_verdict(const Json& curated, const Json& checks, const Tolerance& tole
   for (const auto& check : checks) {
     const std::string status = check.value("status", "");
     if (status != "ok") {
-      summary += (summary.empty() ? "" : " ") + std::string("Validity check ") + check.value("check", "") + ": " +
-                 status + (check.contains("detail") ? " (" + check.value("detail", "") + ")" : "") + ".";
+      // "Warning: production drive currents ... (detail)." rather than the label run into the text.
+      const std::string verdict_word = status == "FAILED" ? "Failed" : status == "WARNING" ? "Warning" : status;
+      summary += (summary.empty() ? "" : " ") + verdict_word + ", validity check: " + check.value("check", "") +
+                 (check.contains("detail") ? " (" + check.value("detail", "") + ")" : "") + ".";
     }
   }
   verdict["summary"] = summary;

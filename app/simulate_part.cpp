@@ -1397,6 +1397,10 @@ Json simulate_part(const SimulatePartOptions& options, const ProgressSink& progr
       const removal::Mark& mark = comparison.marks.marks[k];
       Json entry = relate_mark(context, production, mark, curvature);
       entry["view"] = comparison.view->id;
+      // The surface in words for the verdict ("Z-map", "wall 2", "cylinder 1"): the title's
+      // name, before its geometry.
+      const std::string& title = comparison.view->title;
+      entry["surface"] = title.substr(0, std::min(title.find(':'), title.find(" (")));
       entry["view_mark_index"] = k;  // the mark's place in its view's mark map (the renders)
       entry["kind"] = mark.kind == removal::MarkKind::gouge ? "gouge" : "excess";
       entry["depth_um"] = mark.depth_m * 1e6;

@@ -73,6 +73,8 @@ TEST(ReportMarks, VerdictAgainstTheTolerance) {
   const std::string summary = beyond["summary"].get<std::string>();
   EXPECT_NE(summary.find("program line 40"), std::string::npos) << summary;
   EXPECT_NE(summary.find("(1.500, -2.250, 20.000) mm"), std::string::npos) << summary;
+  // The surface by its name where the mark has one, not the view's file id.
+  EXPECT_NE(summary.find("on the zmap view"), std::string::npos) << summary;
   EXPECT_NE(summary.find("reversal of Y (1)"), std::string::npos) << summary;
   EXPECT_EQ(summary.find("reversal_of_Y"), std::string::npos) << summary;
 
@@ -82,6 +84,16 @@ TEST(ReportMarks, VerdictAgainstTheTolerance) {
   EXPECT_NE(none["headline"].get<std::string>().find("12 um"), std::string::npos);
 }
 
+TEST(ReportMarks, TheSummaryNamesTheMarksSurfaceInWords) {
+  Json named = mark(12.0, 1.0, 40, "corner", "X");
+  named["view"] = "cylinder1";
+  named["surface"] = "cylinder 1";
+  const Json verdict = make_verdict(curate_marks(Json::array({named}), 0.25), Json::array(), {10.0, "part file"});
+  const std::string summary = verdict["summary"].get<std::string>();
+  EXPECT_NE(summary.find("(1.500, -2.250, 20.000) mm on the cylinder 1,"), std::string::npos) << summary;
+  EXPECT_EQ(summary.find("cylinder1"), std::string::npos) << summary;
+}
+
 TEST(ReportMarks, AFailedOrWarningCheckIsInTheSummary) {
   const Json curated = curate_marks(Json::array(), 0.25);
   const Json checks = Json::array({{{"check", "actual axis positions within the travel"},
@@ -89,8 +101,12 @@ TEST(ReportMarks, AFailedOrWarningCheckIsInTheSummary) {
                                     {"detail", "Z by 0.2 mm"}}});
   const Json verdict = make_verdict(curated, checks, {5.0, "part file"});
   EXPECT_EQ(verdict["status"], "within");
-  EXPECT_NE(verdict["summary"].get<std::string>().find("actual axis positions within the travel: WARNING"),
-            std::string::npos);
+  // In words, the label not run into the text: "Warning, validity check: <what> (<detail>)."
+  EXPECT_NE(verdict["summary"].get<std::string>().find(
+                "Warning, validity check: actual axis positions within the travel (Z by 0.2 mm)."),
+            std::string::npos)
+      << verdict["summary"];
+  EXPECT_EQ(verdict["summary"].get<std::string>().find(": WARNING"), std::string::npos) << verdict["summary"];
 }
 
 TEST(ReportMarks, CsvQuotesFieldsAndListsSpecksLast) {
