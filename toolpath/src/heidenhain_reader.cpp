@@ -561,7 +561,10 @@ class HeidenhainReader {
       return;
     }
     if (k == "LP" || k == "CP") fail(head, "polar coordinates are not supported: output X Y Z");
-    if (k == "APPR" || k == "DEP") fail(head, "approach / departure contours are not supported");
+    if (k == "APPR" || k == "DEP") {
+      fail(head, "APPR / DEP (approach and departure contours) are not read: program the approach as "
+                 "an L block with RL / RR and the departure as an L block with R0");
+    }
     if (k.rfind("FL", 0) == 0 || k.rfind("FC", 0) == 0 || k.rfind("FPOL", 0) == 0) {
       fail(head, "FK free contour programming is not supported");
     }
@@ -666,7 +669,7 @@ class HeidenhainReader {
 
   void tool_call(const std::vector<Token>& tokens, std::size_t at) {
     require_no_pending_corner(tokens[at - 1]);
-    require_no_compensation(tokens[at - 1], "a TOOL CALL");
+    require_no_compensation(tokens[at - 2], "a TOOL CALL");
     std::optional<int> tool;
     std::size_t k = at;
     if (k < tokens.size() && tokens[k].text[0] == '"') {
@@ -1584,6 +1587,9 @@ class HeidenhainReader {
     const bool any_vector = m.vector[0] || m.vector[1] || m.vector[2];
     const bool any_normal = m.normal[0] || m.normal[1] || m.normal[2];
     if (arc && any_rotary) fail(*m.head, "a change of tool orientation in an arc is not supported");
+    if (compensation_side_ && (any_rotary || any_vector)) {
+      fail(*m.head, "rotary axis words or a tool vector under radius compensation: cancel it (R0) first");
+    }
     if (any_vector && !tcpm_) {
       fail(*m.head, "LN with a tool vector TX TY TZ needs M128 / FUNCTION TCPM");
     }
@@ -1703,7 +1709,6 @@ class HeidenhainReader {
     }
     if (compensation_side_) {
       if (m.machine) fail(*m.head, "M91 / M92 under radius compensation: cancel it (R0) first");
-      if (any_rotary) fail(*m.head, "rotary axis words under radius compensation: cancel it (R0) first");
       if (m.kind == "LN") fail(*m.head, "LN under radius compensation: cancel it (R0) first");
       compensated_move(m, start, end);
       started_ = true;
