@@ -365,6 +365,9 @@ TEST(HeidenhainCompensation, ErrorsAreLocated) {
   e = error(head + "L Y+0 RL F300\nL X+40\nCC X+40 Y+20\nC X+40 Y+40 DR+ R0\n");
   EXPECT_NE(e.find("t.h:7:17: 'R0': the block with R0 leaves the contour on a straight line"), std::string::npos)
       << e;
+  e = error(head + "L Y+0 RL F300\nL R0 FMAX\n");
+  EXPECT_NE(e.find("t.h:5:3: 'R0': RL / RR / R0 on a block without a point"), std::string::npos) << e;
+  EXPECT_EQ(error(head + "L R0 FMAX\nL X+0 F300\n"), "");  // R0 alone without compensation: nothing to do
   e = error(head + "APPR LT X+0 Y+0 LEN10 RL F300\n");
   EXPECT_NE(e.find("t.h:4:1: 'APPR': APPR / DEP"), std::string::npos) << e;
   e = error(head + "L Y+0 RL F300\nL X+40\nL Y+40 A+10\n");

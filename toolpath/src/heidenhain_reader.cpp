@@ -1189,7 +1189,8 @@ class HeidenhainReader {
       for (const Word* w : {xyz[0], xyz[1], xyz[2], abc[0], abc[1], abc[2]}) {
         if (w && (!any || w->token->column < any->token->column)) any = w;
       }
-      if (compensation_word && !any && kind == "L") {
+      if (compensation_word && !any && kind == "L" &&
+          (compensation_word->address != "R" || compensation_side_)) {
         fail(*compensation_word, "RL / RR / R0 on a block without a point to move to");
       }
       if (any || kind != "L") {
