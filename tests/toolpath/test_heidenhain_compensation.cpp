@@ -1,8 +1,10 @@
 // Heidenhain TNC radius compensation RL / RR / R0 (toolpath/src/heidenhain_reader.cpp through
 // cutter_compensation.hpp): the pocket and outside square of test_cutter_compensation.cpp written
-// as TNC programs against corners computed by hand and against the same program on an 840D
-// (G41 / G42 with NORM: an independent reader with the same entry rule), circles about CC, RND,
-// CHF and CT between compensated elements, the TOOL CALL's DR, the R0 exit and located errors.
+// as TNC programs against corners computed by hand (the geometry) and against the same program
+// on an 840D (G41 / G42 with NORM: a reader written apart with the same entry rule and the same
+// compensator, so it checks the reading: sides, entry, exit, which block owns which point);
+// circles about CC, RND, CHF and CT between compensated elements, the TOOL CALL's DR, the R0
+// exit and located errors.
 #include <gtest/gtest.h>
 
 #include <Eigen/Core>
