@@ -280,23 +280,27 @@ TEST(HeidenhainCompensation, ChamferBetweenCompensatedLines) {
 
 // CT after a line: from (20, 0) tangent to +X to (40, 20) is the quarter circle about (20, 20),
 // radius 20, counter-clockwise. RL (inside): the line on y = 5 ends at (20, 5) (a tangent joint),
-// the arc runs on radius 15 to (35, 20), the line up x = 40 continues on x = 35.
-TEST(HeidenhainCompensation, TangentArcCt) {
-  const Toolpath path = parse(
-      "BEGIN PGM P MM\nTOOL CALL 1 Z S1000\nL X-10 Y+10 Z-2 FMAX\n"
-      "L X+0 Y+0 RL F300\n"  // 4: normal to the next line: (0, 5)
-      "L X+20\n"             // 5
-      "CT X+40 Y+20\n"       // 6
-      "L Y+40\n"             // 7
-      "L X+50 Y+50 R0\n");   // 8
-  expect_xy(end_of_line(path, 4), 0.0, 5.0);
-  expect_xy(end_of_line(path, 5), 20.0, 5.0);
-  const std::vector<PathPoint> arc = points_of_lines(path, 6, 6);
-  ASSERT_GE(arc.size(), 3u);
-  for (const PathPoint& point : arc) EXPECT_NEAR((xy_mm(point) - Eigen::Vector2d(20, 20)).norm(), 15.0, kTight);
-  expect_xy(end_of_line(path, 6), 35.0, 20.0);
-  expect_xy(end_of_line(path, 7), 35.0, 40.0);
-  expect_xy(end_of_line(path, 8), 50.0, 50.0);
+// the arc runs on radius 15 to (35, 20), the line up x = 40 continues on x = 35. CR with R+20
+// DR+ is the same arc.
+TEST(HeidenhainCompensation, TangentArcCtAndCr) {
+  for (const std::string arc_block : {"CT X+40 Y+20\n", "CR X+40 Y+20 R+20 DR+\n"}) {
+    SCOPED_TRACE(arc_block);
+    const Toolpath path = parse(
+        "BEGIN PGM P MM\nTOOL CALL 1 Z S1000\nL X-10 Y+10 Z-2 FMAX\n"
+        "L X+0 Y+0 RL F300\n"  // 4: normal to the next line: (0, 5)
+        "L X+20\n" +           // 5
+        arc_block +            // 6
+        "L Y+40\n"             // 7
+        "L X+50 Y+50 R0\n");   // 8
+    expect_xy(end_of_line(path, 4), 0.0, 5.0);
+    expect_xy(end_of_line(path, 5), 20.0, 5.0);
+    const std::vector<PathPoint> arc = points_of_lines(path, 6, 6);
+    ASSERT_GE(arc.size(), 3u);
+    for (const PathPoint& point : arc) EXPECT_NEAR((xy_mm(point) - Eigen::Vector2d(20, 20)).norm(), 15.0, kTight);
+    expect_xy(end_of_line(path, 6), 35.0, 20.0);
+    expect_xy(end_of_line(path, 7), 35.0, 40.0);
+    expect_xy(end_of_line(path, 8), 50.0, 50.0);
+  }
 }
 
 // A plunge inside the contour (L Z only) keeps the offset; R0 on a Z-only block goes from the
