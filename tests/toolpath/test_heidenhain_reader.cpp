@@ -466,6 +466,7 @@ TEST(HeidenhainReader, InchProgramsScaleLengthsAndTenthsOfInchFeeds) {
 // --- Bad input and dispatch -----------------------------------------------------------------
 
 TEST(HeidenhainReader, BadInputNamesFileLineColumnAndWord) {
+  // RL / RR without a tool radius (no tool table): test_heidenhain_compensation.cpp has the rest.
   const std::string message = input_error_of([] { parse(std::string(kHead) + "2 L X+10 RL F100\n"); });
   EXPECT_NE(message.find("t.h:3:10: 'RL'"), std::string::npos) << message;
   EXPECT_NE(input_error_of([] { parse(std::string(kHead) + "L X+1e400 FMAX\n"); }).find("'X+1e400'"), std::string::npos);

@@ -17,6 +17,7 @@
 
 #include "toolpath_detail.hpp"
 #include "vmsim/common/errors.hpp"
+#include "vmsim/toolpath/cutter_compensation.hpp"
 
 namespace vmsim::toolpath {
 namespace {
@@ -99,6 +100,11 @@ class HeidenhainReader {
       ++line_;
       block(line);
       start = end + 1;
+    }
+    if (compensation_side_ && !pending_corner_) {
+      warn("radius compensation RL / RR is still on at the end of the program (no R0): its last "
+           "element ends at its offset end");
+      (void)end_compensation(0);
     }
     if (pending_corner_) {
       line_ = pending_corner_->line;
@@ -555,7 +561,10 @@ class HeidenhainReader {
       return;
     }
     if (k == "LP" || k == "CP") fail(head, "polar coordinates are not supported: output X Y Z");
-    if (k == "APPR" || k == "DEP") fail(head, "approach / departure contours are not supported");
+    if (k == "APPR" || k == "DEP") {
+      fail(head, "APPR / DEP (approach and departure contours) are not read: program the approach as "
+                 "an L block with RL / RR and the departure as an L block with R0");
+    }
     if (k.rfind("FL", 0) == 0 || k.rfind("FC", 0) == 0 || k.rfind("FPOL", 0) == 0) {
       fail(head, "FK free contour programming is not supported");
     }
@@ -660,6 +669,7 @@ class HeidenhainReader {
 
   void tool_call(const std::vector<Token>& tokens, std::size_t at) {
     require_no_pending_corner(tokens[at - 1]);
+    require_no_compensation(tokens[at - 2], "a TOOL CALL");
     std::optional<int> tool;
     std::size_t k = at;
     if (k < tokens.size() && tokens[k].text[0] == '"') {
@@ -729,6 +739,7 @@ class HeidenhainReader {
       return;
     }
     if (is(at, "TCPM")) {
+      require_no_compensation(head, "FUNCTION TCPM");
       for (std::size_t i = at + 1; i < tokens.size(); ++i) {
         if (tokens[i].upper == "SPAT") {
           fail(tokens[i], "AXIS SPAT (rotary words as spatial angles) is not supported: AXIS POS");
@@ -819,6 +830,7 @@ class HeidenhainReader {
 
   void set_datum_shift(const std::vector<Word>& words, const Token& head, bool reset) {
     require_no_pending_corner(head);
+    require_no_compensation(head, "a datum shift");
     Vec3 shift = tilted() ? shift_after_mm_ : shift_before_mm_;
     if (reset) shift.setZero();
     for (const Word& word : words) {
@@ -834,6 +846,7 @@ class HeidenhainReader {
 
   void plane(const std::vector<Token>& tokens, std::size_t at, const Token& head) {
     require_no_pending_corner(head);
+    require_no_compensation(head, "a PLANE function");
     if (at >= tokens.size()) fail(head, "PLANE needs its kind (SPATIAL, VECTOR, EULER, RELATIV, RESET)");
     const Token& kind_token = tokens[at];
     const std::string& kind = kind_token.upper;
@@ -1057,6 +1070,7 @@ class HeidenhainReader {
     const Word* dr_word = nullptr;
     const Word* r_word = nullptr;
     const Word* size_word = nullptr;  // CHF's length (a bare number)
+    const Word* compensation_word = nullptr;  // RL, RR or R0
     bool m91 = false, m92 = false, m128 = false, m129 = false, end_program = false;
     const auto once = [&](const Word*& slot, const Word& word) {
       if (slot) fail(word, "the address appears twice in one block");
@@ -1106,11 +1120,16 @@ class HeidenhainReader {
           once(r_word, word);
           continue;
         }
-        if (word.value && *word.value == 0.0) continue;  // R0: no radius compensation
+        if (word.value && *word.value == 0.0) {  // R0: radius compensation off
+          once(compensation_word, word);
+          continue;
+        }
         fail(word, "paraxial radius compensation R+ / R- is not supported");
       }
       if (a == "RL" || a == "RR") {
-        fail(word, "tool radius compensation RL / RR is not supported: program the tool centre (R0)");
+        if (word.value || word.sign_only) fail(word, "expected RL or RR alone");
+        once(compensation_word, word);
+        continue;
       }
       if (a == "DR") {
         if (kind != "C" && kind != "CR") fail(word, "DR (direction) belongs to C and CR");
@@ -1153,7 +1172,13 @@ class HeidenhainReader {
       if (!auto_feed_m_per_s_) fail(head, "FAUTO without a feed in TOOL CALL");
       block_feed = auto_feed_m_per_s_;
     }
-    if (m128) tcpm_ = true;
+    if (compensation_word && kind != "L" && kind != "C" && kind != "CR" && kind != "CT") {
+      fail(*compensation_word, "RL / RR / R0 belong to L, C, CR and CT");
+    }
+    if (m128) {
+      if (compensation_side_) fail(head, "M128 under radius compensation is not supported: cancel it (R0) first");
+      tcpm_ = true;
+    }
 
     if (kind == "CC") {
       pole(xyz, head);
@@ -1164,12 +1189,17 @@ class HeidenhainReader {
       for (const Word* w : {xyz[0], xyz[1], xyz[2], abc[0], abc[1], abc[2]}) {
         if (w && (!any || w->token->column < any->token->column)) any = w;
       }
+      if (compensation_word && !any && kind == "L" &&
+          (compensation_word->address != "R" || compensation_side_)) {
+        fail(*compensation_word, "RL / RR / R0 on a block without a point to move to");
+      }
       if (any || kind != "L") {
         if (fmax && (kind != "L" && kind != "LN")) fail(head, "FMAX on an arc: give a feed");
         const bool rapid = fmax;
         std::optional<double> feed = rapid ? std::nullopt : (block_feed ? block_feed : feed_m_per_s_);
         if (!rapid && !feed) fail(head, "feed motion before any F: the feed is unknown");
-        Motion motion{kind, &head, xyz, abc, normal, vector, dr_word, r_word, rapid, feed, m91 || m92, m92};
+        Motion motion{kind, &head, xyz, abc, normal, vector, dr_word, r_word, compensation_word,
+                      rapid, feed, m91 || m92, m92};
         move(motion);
       }
     }
@@ -1183,6 +1213,7 @@ class HeidenhainReader {
     std::array<const Word*, 3> xyz, abc, normal, vector;
     const Word* dr;
     const Word* r;
+    const Word* compensation;  ///< RL, RR or R0 (nullptr: the mode in force)
     bool rapid;
     std::optional<double> feed_m_per_s;
     bool machine;  ///< M91 / M92
@@ -1220,8 +1251,10 @@ class HeidenhainReader {
     const double v = *size->value * mm_per_unit_;
     if (!(v > 0.0)) fail(*size, chamfer ? "the chamfer length must be positive" : "the radius must be positive");
     require_no_pending_corner(head);
-    if (!last_ || !last_->line || !last_->point_made ||
-        last_->point_index + 1 != path_.points.size()) {
+    const bool line_before = compensation_side_ ? held_.has_value() && !held_->element.arc
+                                                : last_ && last_->point_made &&
+                                                      last_->point_index + 1 == path_.points.size();
+    if (!last_ || !last_->line || !line_before) {
       fail(head, std::string(chamfer ? "CHF" : "RND") + " must follow a straight line (L) that ends at the corner");
     }
     PendingCorner pending;
@@ -1233,6 +1266,216 @@ class HeidenhainReader {
     pending.column = head.column;
     pending.block = add_source_block();
     pending_corner_ = pending;
+  }
+
+  // --- Radius compensation RL / RR / R0 (cutter_compensation.hpp) -----------------------------
+  //
+  // As in the 840D reader: every L / C / CR / CT under RL / RR goes, in program coordinates, to
+  // the compensator, whose moves come one element late and are posed point by point. The block
+  // with RL / RR is the approach: it ends on the first contour element's offset start, normal to
+  // it (EntryRule::normal_to_next, as NORM). Each element is held back one more block here so that
+  // an RND / CHF after a line can still cut that line back to its tangent point.
+
+  void require_no_compensation(const Token& token, const std::string& what) const {
+    if (compensation_side_) {
+      fail(token, what + " under radius compensation RL / RR is not supported: cancel it (R0) first");
+    }
+  }
+
+  /// The radius [mm] of the tool of the last TOOL CALL: ReaderOptions::cutter_radius_mm by its
+  /// number (default_cutter_radius_mm for a tool called by name or one not in the table), plus
+  /// TOOL CALL's DR (the radius allowance).
+  double cutter_radius_of(const Word& word) const {
+    double radius_mm = 0.0;
+    const auto it = tool_number_ >= 0 ? options_.cutter_radius_mm.find(tool_number_) : options_.cutter_radius_mm.end();
+    if (it != options_.cutter_radius_mm.end()) {
+      radius_mm = it->second;
+    } else if (options_.default_cutter_radius_mm) {
+      radius_mm = *options_.default_cutter_radius_mm;
+    } else {
+      std::string known;
+      for (const auto& [n, r] : options_.cutter_radius_mm) known += (known.empty() ? "T" : ", T") + std::to_string(n);
+      fail(word, "RL / RR need the tool radius: none for " +
+                     (tool_number_ >= 0 ? "T" + std::to_string(tool_number_) : std::string("the tool (no TOOL CALL with a number)")) +
+                     " (the tool table has " + (known.empty() ? std::string("none") : known) +
+                     "; the part file's tools: diameter_mm)");
+    }
+    if (!(radius_mm >= 0.0 && radius_mm <= 0.5 * detail::kMaxCutterDiameterMm)) {
+      fail(word, "the tool radius " + detail::format_number(radius_mm) + " mm is not within [0, " +
+                     detail::format_number(0.5 * detail::kMaxCutterDiameterMm) + "] mm");
+    }
+    const double compensated_mm = radius_mm + dr_mm_;
+    if (!(compensated_mm > 0.0)) {
+      fail(word, "the tool radius " + detail::format_number(radius_mm) + " mm with TOOL CALL's DR " +
+                     detail::format_number(dr_mm_) + " mm is " + detail::format_number(compensated_mm) +
+                     " mm: RL / RR need a positive radius");
+    }
+    return compensated_mm;
+  }
+
+  void start_compensation(const Word& word, const Motion& m, const Vec3& start) {
+    const CompensationSide side = word.address == "RL" ? CompensationSide::left : CompensationSide::right;
+    if (compensation_side_) {
+      if (*compensation_side_ == side) return;  // repeated on a later block
+      fail(word, std::string("radius compensation ") + (side == CompensationSide::left ? "RR" : "RL") +
+                     " is on: cancel it (R0) before changing its side");
+    }
+    if (tcp_like()) {
+      fail(word, "radius compensation RL / RR under M128 / FUNCTION TCPM or in a tilted working plane "
+                 "(PLANE) is not supported");
+    }
+    if (m.kind != "L") {
+      fail(word, "RL / RR on " + m.kind + ": the block that starts radius compensation (the approach) "
+                 "must be a straight line L");
+    }
+    if (pending_corner_) {
+      fail(*m.head, std::string(pending_corner_->chamfer ? "CHF" : "RND") + " before the block with RL / RR");
+    }
+    const double radius_mm = cutter_radius_of(word);
+    compensation_side_ = side;
+    compensator_.emplace(side, radius_mm, Vec2(start.x(), start.y()), start.z(), EntryRule::normal_to_next);
+  }
+
+  /// R0 (or the end of the program): the last element ends at its offset end. Returns where the
+  /// tool is [program mm].
+  Vec3 end_compensation(int column) {
+    flush_held();
+    emit_compensated(compensation_call(line_, column, line_text_, [&] { return compensator_->finish(); }));
+    const Vec3 tool(compensator_->tool_mm().x(), compensator_->tool_mm().y(), compensator_->tool_w_mm());
+    compensator_.reset();
+    compensation_side_.reset();
+    return tool;
+  }
+
+  template <typename Call>
+  std::vector<CompensatedMove> compensation_call(int line, int column, const std::string& text, Call call) const {
+    try {
+      return call();
+    } catch (const CompensationError& error) {
+      throw InputError(located_message(file_, line, column, "'" + text + "': " + error.what()));
+    }
+  }
+
+  void compensated_move(const Motion& m, Vec3 start, const Vec3& end) {
+    const Token& head = *m.head;
+    const bool arc = m.kind != "L";
+    PathPoint point = new_point(m.rapid ? MotionKind::rapid : (arc ? MotionKind::arc : MotionKind::linear), -1);
+    if (!m.rapid) point.feed_m_per_s = *m.feed_m_per_s;
+    if (pending_corner_) {
+      if (arc) {
+        fail(head, std::string(pending_corner_->chamfer ? "CHF" : "RND") +
+                       " between a line and an arc is not supported: only between two straight lines");
+      }
+      start = compensated_corner(start, end, head);
+    }
+    point.block = add_source_block();
+    PlaneElement element;
+    element.start = start.head<2>();
+    element.end = end.head<2>();
+    element.start_w_mm = start.z();
+    element.end_w_mm = end.z();
+    if (arc) {
+      const ArcSpec spec = arc_spec(m, start, end);
+      if (spec.plane != kPlaneXY) {
+        fail(head, "an arc outside the working plane X/Y under radius compensation is not supported");
+      }
+      const ArcFit fit = fit_arc(start, end, spec.centre, spec.ccw, spec.full, spec.plane, head.column);
+      element.arc = true;
+      element.centre = fit.centre;
+      element.sweep_rad = fit.sweep_rad;
+    }
+    add_compensated(element, point, line_, head.column, line_text_);
+  }
+
+  /// RND / CHF under compensation: the held line now ends at the first tangent point, the
+  /// rounding arc or chamfer follows as an element of its own; returns the second tangent point.
+  Vec3 compensated_corner(const Vec3& corner, const Vec3& end, const Token& head) {
+    const PendingCorner pending = *pending_corner_;
+    pending_corner_.reset();
+    const CornerGeometry geometry = corner_geometry(pending, corner, end, head);
+    held_->element.end = geometry.p1.head<2>();
+    PlaneElement element;
+    element.start = geometry.p1.head<2>();
+    element.end = geometry.p2.head<2>();
+    element.start_w_mm = element.end_w_mm = corner.z();
+    if (!pending.chamfer) {
+      element.arc = true;
+      element.centre = geometry.centre;
+      element.sweep_rad = detail::arc_sweep_rad(element.start, element.end, element.centre, geometry.ccw, false);
+    }
+    PathPoint point = new_point(pending.chamfer ? MotionKind::linear : MotionKind::arc, pending.block);
+    point.feed_m_per_s = *pending.feed_m_per_s;
+    add_compensated(element, point, pending.line, pending.column, pending.chamfer ? "CHF" : "RND");
+    return geometry.p2;
+  }
+
+  /// Holds an element (its PathPoint the template of its moves) after handing on the one held.
+  void add_compensated(PlaneElement element, const PathPoint& point, int line, int column, const std::string& text) {
+    const int tag = next_compensation_tag_++;
+    compensated_sources_[tag] = point;
+    element.tag = tag;
+    flush_held();
+    if (element.arc || (element.end - element.start).norm() > kTinyMm) {
+      held_ = HeldElement{element, line, column, text};
+      return;
+    }
+    // A move along Z only: made where the contour is when the next element says where that is.
+    emit_compensated(compensation_call(line, column, text, [&] {
+      return compensator_->add_normal_move(element.end_w_mm, tag);
+    }));
+  }
+
+  void flush_held() {
+    if (!held_) return;
+    const HeldElement held = *held_;
+    held_.reset();
+    emit_compensated(compensation_call(held.line, held.column, held.text,
+                                       [&] { return compensator_->add(held.element); }));
+  }
+
+  void emit_compensated(const std::vector<CompensatedMove>& moves) {
+    for (const CompensatedMove& move : moves) {
+      const auto source = compensated_sources_.find(move.tag);
+      if (source == compensated_sources_.end()) continue;
+      PathPoint point = source->second;
+      const std::size_t first = path_.points.size();
+      if (!move.arc) {
+        set_pose(point, Vec3(move.end.x(), move.end.y(), move.end_w_mm), rotary_deg_, axis_W_);
+        detail::append_point(path_, point, options_, file_, line_);
+      } else {
+        if (point.kind != MotionKind::rapid) point.kind = MotionKind::arc;
+        const double radius = (move.start - move.centre).norm();
+        const double a0 = std::atan2(move.start.y() - move.centre.y(), move.start.x() - move.centre.x());
+        const double chord_mm = options_.arc_chord_tolerance_m / kMetresPerMillimetre;
+        const double count = detail::arc_chord_count(radius, move.sweep_rad, chord_mm);
+        const std::string what = "the compensated arc (radius " + detail::format_number(radius) + " mm)";
+        if (!(count <= static_cast<double>(options_.max_points_per_block))) {
+          fail(0, what + " expands to " + detail::format_number(count) + " points, more than the limit of " +
+                      std::to_string(options_.max_points_per_block) +
+                      " points per block (ReaderOptions::max_points_per_block)");
+        }
+        const long segments = std::max(1L, static_cast<long>(count));
+        detail::require_room_for_points(path_, static_cast<std::size_t>(segments), options_, file_, line_, 0, what);
+        for (long k = 1; k <= segments; ++k) {
+          Vec3 p(move.end.x(), move.end.y(), move.end_w_mm);
+          if (k < segments) {
+            const double t = static_cast<double>(k) / static_cast<double>(segments);
+            const double angle = a0 + t * move.sweep_rad;
+            p = Vec3(move.centre.x() + radius * std::cos(angle), move.centre.y() + radius * std::sin(angle),
+                     move.start_w_mm + t * (move.end_w_mm - move.start_w_mm));
+          }
+          set_pose(point, p, rotary_deg_, axis_W_);
+          detail::append_point(path_, point, options_, file_, line_);
+        }
+      }
+      // Points inside a move are no corners; a corner arc has none of its own (tangent both ways).
+      for (std::size_t i = first; i < path_.points.size(); ++i) {
+        if (path_.points[i].corner_tolerance_m == 0.0 && (move.corner || i + 1 < path_.points.size())) {
+          path_.points[i].corner_tolerance_m = PathPoint::kNotProgrammed;
+        }
+      }
+      if (!move.corner) compensated_sources_.erase(source);
+    }
   }
 
   // --- Poses ----------------------------------------------------------------------------------
@@ -1345,6 +1588,9 @@ class HeidenhainReader {
     const bool any_vector = m.vector[0] || m.vector[1] || m.vector[2];
     const bool any_normal = m.normal[0] || m.normal[1] || m.normal[2];
     if (arc && any_rotary) fail(*m.head, "a change of tool orientation in an arc is not supported");
+    if (compensation_side_ && (any_rotary || any_vector)) {
+      fail(*m.head, "rotary axis words or a tool vector under radius compensation: cancel it (R0) first");
+    }
     if (any_vector && !tcpm_) {
       fail(*m.head, "LN with a tool vector TX TY TZ needs M128 / FUNCTION TCPM");
     }
@@ -1450,6 +1696,40 @@ class HeidenhainReader {
       shift_W = dr_mm_ * (plane_R_ * detail::unit_tool_axis(n, file_, line_, m.head->column, line_text_));
     }
 
+    // Radius compensation: RL / RR start it on this block (the approach), R0 ends it here.
+    const bool cancel = m.compensation && m.compensation->address == "R";
+    if (m.compensation && !cancel) start_compensation(*m.compensation, m, start);
+    if (cancel && compensation_side_) {
+      if (pending_corner_) {
+        fail(*m.head, std::string(pending_corner_->chamfer ? "CHF" : "RND") +
+                          " before the block with R0 is not supported: R0 leaves the contour");
+      }
+      if (arc) fail(*m.compensation, "the block with R0 leaves the contour on a straight line L, not an arc");
+      // The move to this block's point starts where the compensated contour left the tool.
+      start = end_compensation(m.head->column);
+    }
+    if (compensation_side_) {
+      if (m.machine) fail(*m.head, "M91 / M92 under radius compensation: cancel it (R0) first");
+      if (m.kind == "LN") fail(*m.head, "LN under radius compensation: cancel it (R0) first");
+      compensated_move(m, start, end);
+      started_ = true;
+      for (int k = 0; k < 3; ++k) pos_[static_cast<std::size_t>(k)] = end[k];
+      LastElement element;
+      element.line = !arc;
+      element.start = start;
+      element.end = end;
+      element.rotary = rotary_deg_;
+      if (!arc) {
+        const Vec2 d(end.x() - start.x(), end.y() - start.y());
+        element.tangent = d.norm() > kTinyMm ? Vec2(d.normalized()) : Vec2::Zero();
+        element.in_plane = std::abs(end.z() - start.z()) <= kTinyMm;
+      } else {
+        element.tangent = arc_end_tangent_;
+      }
+      last_ = element;
+      return;
+    }
+
     PathPoint point = new_point(m.rapid ? MotionKind::rapid : (arc ? MotionKind::arc : MotionKind::linear), -1);
     if (!m.rapid) point.feed_m_per_s = *m.feed_m_per_s;
     const std::size_t first_point = path_.points.size();
@@ -1503,9 +1783,16 @@ class HeidenhainReader {
   /// RND / CHF pending at the corner `corner` (the start of this line to `end`): moves the
   /// previous line's end point back to the first tangent point, makes the rounding arc or the
   /// chamfer, and gives the start of this line (the second tangent point).
-  Vec3 round_corner(const Vec3& corner, const Vec3& end, const Token& head) {
-    const PendingCorner pending = *pending_corner_;
-    pending_corner_.reset();
+  struct CornerGeometry {
+    Vec3 p1 = Vec3::Zero(), p2 = Vec3::Zero();  ///< the tangent points on the lines before and after
+    Vec2 centre = Vec2::Zero();                 ///< RND: the rounding arc's centre
+    bool ccw = false;                           ///< RND: its direction
+  };
+
+  /// RND / CHF `pending` at `corner` between the line before (last_) and the line to `end`:
+  /// the two tangent points and the rounding arc, in program coordinates [mm].
+  CornerGeometry corner_geometry(const PendingCorner& pending, const Vec3& corner, const Vec3& end,
+                                 const Token& head) const {
     const std::string name = pending.chamfer ? "CHF" : "RND";
     const LastElement& before = *last_;
     if (!before.in_plane || std::abs(end.z() - corner.z()) > kTinyMm) {
@@ -1529,7 +1816,22 @@ class HeidenhainReader {
                      detail::format_number(len1) + " and " + detail::format_number(len2) + " mm)");
     }
     const Vec2 t1 = c2 - t * u1, t2 = c2 + t * u2;
-    const Vec3 p1(t1.x(), t1.y(), corner.z()), p2(t2.x(), t2.y(), corner.z());
+    CornerGeometry geometry;
+    geometry.p1 = Vec3(t1.x(), t1.y(), corner.z());
+    geometry.p2 = Vec3(t2.x(), t2.y(), corner.z());
+    geometry.ccw = cross > 0.0;
+    const Vec2 n1 = geometry.ccw ? Vec2(-u1.y(), u1.x()) : Vec2(u1.y(), -u1.x());
+    geometry.centre = t1 + pending.size_mm * n1;
+    return geometry;
+  }
+
+  Vec3 round_corner(const Vec3& corner, const Vec3& end, const Token& head) {
+    const PendingCorner pending = *pending_corner_;
+    pending_corner_.reset();
+    const CornerGeometry geometry = corner_geometry(pending, corner, end, head);
+    const Vec3& p1 = geometry.p1;
+    const Vec3& p2 = geometry.p2;
+    const LastElement& before = *last_;
     // The line before now ends at the first tangent point.
     PathPoint& corner_point = path_.points[before.point_index];
     set_pose(corner_point, p1, before.rotary, corner_point.axis_W);
@@ -1541,11 +1843,8 @@ class HeidenhainReader {
       set_pose(point, p2, rotary_deg_, axis_W_);
       detail::append_point(path_, point, options_, file_, line_);
     } else {
-      const bool ccw = cross > 0.0;
-      const Vec2 n1 = ccw ? Vec2(-u1.y(), u1.x()) : Vec2(u1.y(), -u1.x());
-      const Vec2 centre = t1 + pending.size_mm * n1;
       line_ = pending.line;
-      arc_points(point, p1, p2, centre, ccw, false, kPlaneXY, pending.column);
+      arc_points(point, p1, p2, geometry.centre, geometry.ccw, false, kPlaneXY, pending.column);
       line_ = saved_line;
     }
     return p2;
@@ -1590,7 +1889,20 @@ class HeidenhainReader {
     return std::max(absolute_mm, options_.arc_radius_relative_tolerance * r_mm);
   }
 
+  /// An arc as programmed: its centre in `plane`, direction and whether it is a full circle.
+  struct ArcSpec {
+    Vec2 centre = Vec2::Zero();
+    bool ccw = false;
+    bool full = false;
+    PlaneAxes plane = kPlaneXY;
+  };
+
   void arc_motion(PathPoint point, const Motion& m, const Vec3& start, const Vec3& end) {
+    const ArcSpec spec = arc_spec(m, start, end);
+    arc_points(point, start, end, spec.centre, spec.ccw, spec.full, spec.plane, m.head->column);
+  }
+
+  ArcSpec arc_spec(const Motion& m, const Vec3& start, const Vec3& end) const {
     const Token& head = *m.head;
     if (m.kind == "C") {
       if (!pole_mm_) fail(head, "C without a circle centre CC before it");
@@ -1599,8 +1911,7 @@ class HeidenhainReader {
       if (!m.dr) fail(head, "C needs its direction DR+ or DR-");
       const Vec2 s(start[plane[0]], start[plane[1]]), e(end[plane[0]], end[plane[1]]);
       const bool full = (e - s).norm() < detail::kFullCircleDistanceMm;
-      arc_points(point, start, end, c, m.dr->sign_only > 0, full, plane, head.column);
-      return;
+      return ArcSpec{c, m.dr->sign_only > 0, full, plane};
     }
     const Vec2 s(start.x(), start.y()), e(end.x(), end.y());
     if ((e - s).norm() < detail::kFullCircleDistanceMm) {
@@ -1621,8 +1932,7 @@ class HeidenhainReader {
                        detail::format_number(short_by) + " mm, more than the tolerance of " +
                        detail::format_number(tolerance) + " mm");
       }
-      arc_points(point, start, end, c, ccw, false, kPlaneXY, head.column);
-      return;
+      return ArcSpec{c, ccw, false, kPlaneXY};
     }
     // CT: tangent to the element before at its end.
     if (!last_ || last_->tangent.norm() == 0.0) {
@@ -1637,14 +1947,24 @@ class HeidenhainReader {
     }
     const double r_signed = d.squaredNorm() / (2.0 * nd);
     const Vec2 c = s + r_signed * n;
-    arc_points(point, start, end, c, r_signed > 0.0, false, kPlaneXY, head.column);
+    return ArcSpec{c, r_signed > 0.0, false, kPlaneXY};
   }
 
-  /// The points of an arc from start to end [program mm] about centre c in `plane`, tessellated
-  /// as G2/G3 (detail arc helpers); motion along the plane normal makes a helix.
-  void arc_points(PathPoint point, const Vec3& start, const Vec3& end, Vec2 c, bool ccw,
-                  bool full_circle, const PlaneAxes& plane, int column) {
-    const int u = plane[0], v = plane[1], w = plane[2];
+  /// An arc fitted to its start and end: the centre (moved onto the bisector when the radii
+  /// differ within the tolerance), radius, start angle and sweep (> 0 counter-clockwise).
+  struct ArcFit {
+    Vec2 centre = Vec2::Zero();
+    double radius_mm = 0.0;
+    double r_max_mm = 0.0;  ///< the larger of the start and end radii (a full circle's may differ)
+    double a0_rad = 0.0;
+    double sweep_rad = 0.0;
+  };
+
+  /// Checks and fits the arc from start to end [program mm] about c in `plane`; keeps its end
+  /// direction in the plane X/Y for a CT after it.
+  ArcFit fit_arc(const Vec3& start, const Vec3& end, Vec2 c, bool ccw, bool full_circle,
+                 const PlaneAxes& plane, int column) {
+    const int u = plane[0], v = plane[1];
     const Vec2 s(start[u], start[v]), e(end[u], end[v]);
     double r_start = (s - c).norm(), r_end = (e - c).norm();
     if (r_start == 0.0) fail(column, "an arc of zero radius (the centre is the start point)");
@@ -1659,9 +1979,28 @@ class HeidenhainReader {
       c = detail::centre_on_bisector(s, e, c);
       r_start = r_end = (s - c).norm();
     }
-    const double a0 = std::atan2(s.y() - c.y(), s.x() - c.x());
-    const double sweep = detail::arc_sweep_rad(s, e, c, ccw, full_circle);
-    const double r_max = std::max(r_start, r_end);
+    ArcFit fit;
+    fit.r_max_mm = std::max(r_start, r_end);
+    fit.centre = c;
+    fit.radius_mm = r_start;
+    fit.a0_rad = std::atan2(s.y() - c.y(), s.x() - c.x());
+    fit.sweep_rad = detail::arc_sweep_rad(s, e, c, ccw, full_circle);
+    const double a1 = fit.a0_rad + fit.sweep_rad;
+    const Vec2 radial(std::cos(a1), std::sin(a1));
+    const Vec2 tangent = ccw ? Vec2(-radial.y(), radial.x()) : Vec2(radial.y(), -radial.x());
+    arc_end_tangent_ = plane == kPlaneXY ? tangent : Vec2::Zero();
+    return fit;
+  }
+
+  /// The points of an arc from start to end [program mm] about centre c in `plane`, tessellated
+  /// as G2/G3 (detail arc helpers); motion along the plane normal makes a helix.
+  void arc_points(PathPoint point, const Vec3& start, const Vec3& end, Vec2 c, bool ccw,
+                  bool full_circle, const PlaneAxes& plane, int column) {
+    const int u = plane[0], v = plane[1], w = plane[2];
+    const ArcFit fit = fit_arc(start, end, c, ccw, full_circle, plane, column);
+    c = fit.centre;
+    const double r_start = fit.radius_mm, a0 = fit.a0_rad, sweep = fit.sweep_rad;
+    const double r_max = fit.r_max_mm;
     const double chord_mm = options_.arc_chord_tolerance_m / kMetresPerMillimetre;
     const double count = detail::arc_chord_count(r_max, sweep, chord_mm);
     const std::string what = "the arc (radius " + detail::format_number(r_max) + " mm, " +
@@ -1686,11 +2025,6 @@ class HeidenhainReader {
       set_pose(point, p, rotary_deg_, axis_W_);
       detail::append_point(path_, point, options_, file_, line_);
     }
-    // The direction at the end, in the plane X/Y (for CT after this arc).
-    const double a1 = a0 + sweep;
-    const Vec2 radial(std::cos(a1), std::sin(a1));
-    const Vec2 tangent = ccw ? Vec2(-radial.y(), radial.x()) : Vec2(radial.y(), -radial.x());
-    arc_end_tangent_ = plane == kPlaneXY ? tangent : Vec2::Zero();
   }
 
   const std::string& file_;
@@ -1731,6 +2065,18 @@ class HeidenhainReader {
   Vec2 arc_end_tangent_ = Vec2::Zero();
   std::optional<PendingCorner> pending_corner_;
   std::optional<LastElement> last_;
+  // Radius compensation RL / RR.
+  struct HeldElement {
+    PlaneElement element;
+    int line = 0;       ///< where it was programmed, for messages
+    int column = 0;
+    std::string text;
+  };
+  std::optional<CompensationSide> compensation_side_;
+  std::optional<CutterCompensator> compensator_;  // from the block with RL / RR to R0
+  std::optional<HeldElement> held_;               // the last element, not yet given to the compensator
+  std::map<int, PathPoint> compensated_sources_;  // by element tag, until its moves are made
+  int next_compensation_tag_ = 0;
 };
 
 }  // namespace

@@ -66,9 +66,9 @@
 //    makes the named axes known and the pose comes once all three are; any other block takes
 //    them at the G28 reference (with a set-up, outside M128) or at the program's 0, with a
 //    warning.
-//  - Motions. L X Y Z A B C [R0] [F | FMAX | FAUTO] [M...]: a line (FMAX: a rapid for this
-//    block only; F modal, > 0; a feed motion before any F is an error). RL / RR / R+ / R-
-//    (radius compensation) and FU / FZ (feed per revolution / tooth) are errors. LN X Y Z NX NY
+//  - Motions. L X Y Z A B C [RL | RR | R0] [F | FMAX | FAUTO] [M...]: a line (FMAX: a rapid for
+//    this block only; F modal, > 0; a feed motion before any F is an error). R+ / R- (paraxial
+//    compensation) and FU / FZ (feed per revolution / tooth) are errors. LN X Y Z NX NY
 //    NZ [TX TY TZ]: a line whose tip is shifted by DR along the unit surface normal N; TX TY TZ
 //    (the tool vector) need M128 / TCPM. Circles in the working plane X/Y, helices with Z:
 //     - CC X Y: the centre (pole; an axis left out keeps the current position, IX IY from it;
@@ -84,6 +84,18 @@
 //       working plane (the line before ends at the corner: its point moves to the tangent point);
 //       next to an arc, an error. F on RND / CHF: their own feed.
 //    LP / CP (polar), APPR / DEP and FK (free contour programming) are errors.
+//  - Radius compensation (cutter_compensation.hpp, as G41 / G42 in G-code): RL keeps the tool
+//    centre left of the programmed contour in X/Y, RR right, by the radius of the TOOL CALL's
+//    tool (ReaderOptions::cutter_radius_mm by T number, else default_cutter_radius_mm) plus
+//    TOOL CALL's DR. RL / RR on an L block start it: that block is the approach and ends normal
+//    to the first contour element at its offset start (EntryRule::normal_to_next); they stay in
+//    force (written again on later blocks: nothing) until R0 on a later L, whose move goes
+//    uncompensated from the last element's offset end to the block's point. L, C, CR, CT, RND,
+//    CHF and Z-only lines under it are offset; each element is held one block (an RND / CHF may
+//    still cut it back). Errors: no radius, RL / RR under M128 / TCPM or a tilted PLANE, on an
+//    arc, the other side without R0, R0 on an arc or on a block without a point, and under it
+//    TOOL CALL, PLANE, datum shifts, TCPM / M128, M91 / M92, LN, rotary words; a gouge or an
+//    inside arc not larger than the tool (the compensator's errors) at the block that shows it.
 //  - NC modes: CYCL DEF 32.0 TOLERANCE / 32.1 T<mm>: PathPoint::corner_tolerance_m (T > 0: the
 //    corners are blended within T; T 0: exact stop; 32.1 without T: NaN, the machine's own);
 //    32.2 HSC-MODE and TA (rotary tolerance) are accepted, not emulated. Jerk limitation and
