@@ -18,6 +18,7 @@
 #include <string>
 #include <vector>
 
+#include "plane_path_support.hpp"
 #include "reader_test_support.hpp"
 #include "vmsim/toolpath/cutter_compensation.hpp"
 #include "vmsim/toolpath/toolpath.hpp"
@@ -25,60 +26,12 @@
 namespace vmsim::toolpath {
 namespace {
 
-using test::input_error_of;
-
-constexpr double kTight = 1e-9;  // mm: hand-computed points, to rounding
-
-Eigen::Vector2d xy_mm(const PathPoint& point) { return point.tip_W_m.head<2>() * 1e3; }
-double z_mm(const PathPoint& point) { return point.tip_W_m.z() * 1e3; }
+using namespace test;  // input_error_of, the plane-path helpers
 
 ReaderOptions with_radius(double radius_mm) {
   ReaderOptions options;
   options.cutter_radius_mm = {{1, radius_mm}};
   return options;
-}
-
-int line_of(const Toolpath& path, const PathPoint& point) {
-  return path.blocks[static_cast<std::size_t>(point.block)].line;
-}
-
-/// The points of the blocks on source lines [first, last].
-std::vector<PathPoint> points_of_lines(const Toolpath& path, int first, int last) {
-  std::vector<PathPoint> points;
-  for (const PathPoint& point : path.points) {
-    const int line = line_of(path, point);
-    if (line >= first && line <= last) points.push_back(point);
-  }
-  return points;
-}
-
-/// The last point of the block on `line`.
-Eigen::Vector2d end_of_line(const Toolpath& path, int line) {
-  Eigen::Vector2d end = Eigen::Vector2d::Constant(std::numeric_limits<double>::quiet_NaN());
-  for (const PathPoint& point : path.points) {
-    if (line_of(path, point) == line) end = xy_mm(point);
-  }
-  return end;
-}
-
-void expect_xy(const Eigen::Vector2d& actual, double x, double y, double tolerance = kTight) {
-  EXPECT_NEAR(actual.x(), x, tolerance) << actual.transpose();
-  EXPECT_NEAR(actual.y(), y, tolerance) << actual.transpose();
-}
-
-double distance_to_segment(const Eigen::Vector2d& p, const Eigen::Vector2d& a, const Eigen::Vector2d& b) {
-  const Eigen::Vector2d ab = b - a;
-  const double t = std::clamp((p - a).dot(ab) / ab.squaredNorm(), 0.0, 1.0);
-  return (p - (a + t * ab)).norm();
-}
-
-/// Brute force: the distance from p to a closed polygon's edges.
-double distance_to_polygon(const Eigen::Vector2d& p, const std::vector<Eigen::Vector2d>& polygon) {
-  double d = std::numeric_limits<double>::infinity();
-  for (std::size_t i = 0; i < polygon.size(); ++i) {
-    d = std::min(d, distance_to_segment(p, polygon[i], polygon[(i + 1) % polygon.size()]));
-  }
-  return d;
 }
 
 const std::vector<Eigen::Vector2d> kSquare = {{0, 0}, {40, 0}, {40, 40}, {0, 40}};

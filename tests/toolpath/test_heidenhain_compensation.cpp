@@ -14,6 +14,7 @@
 #include <string>
 #include <vector>
 
+#include "plane_path_support.hpp"
 #include "reader_test_support.hpp"
 #include "vmsim/common/errors.hpp"
 #include "vmsim/toolpath/heidenhain_reader.hpp"
@@ -22,12 +23,7 @@
 namespace vmsim::toolpath {
 namespace {
 
-using test::input_error_of;
-
-constexpr double kTight = 1e-9;  // mm: hand-computed points, to rounding
-
-Eigen::Vector2d xy_mm(const PathPoint& point) { return point.tip_W_m.head<2>() * 1e3; }
-double z_mm(const PathPoint& point) { return point.tip_W_m.z() * 1e3; }
+using namespace test;  // input_error_of, the plane-path helpers
 
 ReaderOptions with_radius(double radius_mm) {
   ReaderOptions options;
@@ -40,45 +36,8 @@ Toolpath parse(const std::string& text, const ReaderOptions& options = with_radi
   return parse_heidenhain(text, "t.h", options);
 }
 
-int line_of(const Toolpath& path, const PathPoint& point) {
-  return path.blocks[static_cast<std::size_t>(point.block)].line;
-}
-
-std::vector<PathPoint> points_of_lines(const Toolpath& path, int first, int last) {
-  std::vector<PathPoint> points;
-  for (const PathPoint& point : path.points) {
-    const int line = line_of(path, point);
-    if (line >= first && line <= last) points.push_back(point);
-  }
-  return points;
-}
-
-Eigen::Vector2d end_of_line(const Toolpath& path, int line) {
-  Eigen::Vector2d end = Eigen::Vector2d::Constant(std::numeric_limits<double>::quiet_NaN());
-  for (const PathPoint& point : path.points) {
-    if (line_of(path, point) == line) end = xy_mm(point);
-  }
-  return end;
-}
-
-void expect_xy(const Eigen::Vector2d& actual, double x, double y, double tolerance = kTight) {
-  EXPECT_NEAR(actual.x(), x, tolerance) << actual.transpose();
-  EXPECT_NEAR(actual.y(), y, tolerance) << actual.transpose();
-}
-
-double distance_to_segment(const Eigen::Vector2d& p, const Eigen::Vector2d& a, const Eigen::Vector2d& b) {
-  const Eigen::Vector2d ab = b - a;
-  const double t = std::clamp((p - a).dot(ab) / ab.squaredNorm(), 0.0, 1.0);
-  return (p - (a + t * ab)).norm();
-}
-
 double distance_to_square(const Eigen::Vector2d& p) {
-  const std::vector<Eigen::Vector2d> square = {{0, 0}, {40, 0}, {40, 40}, {0, 40}};
-  double d = std::numeric_limits<double>::infinity();
-  for (std::size_t i = 0; i < square.size(); ++i) {
-    d = std::min(d, distance_to_segment(p, square[i], square[(i + 1) % square.size()]));
-  }
-  return d;
+  return distance_to_polygon(p, {{0, 0}, {40, 0}, {40, 40}, {0, 40}});
 }
 
 /// The same tool-centre points, kinds and source lines.
