@@ -329,4 +329,20 @@ std::vector<CompensatedMove> CutterCompensator::finish() {
   return moves;
 }
 
+std::vector<Eigen::Vector3d> arc_chord_ends_mm(const CompensatedMove& move, long segments) {
+  segments = std::max(1L, segments);
+  const double radius = (move.start - move.centre).norm();
+  const double a0 = angle_of(move.start - move.centre);
+  std::vector<Eigen::Vector3d> ends;
+  ends.reserve(static_cast<std::size_t>(segments));
+  for (long k = 1; k < segments; ++k) {
+    const double t = static_cast<double>(k) / static_cast<double>(segments);
+    const double angle = a0 + t * move.sweep_rad;
+    ends.emplace_back(move.centre.x() + radius * std::cos(angle), move.centre.y() + radius * std::sin(angle),
+                      move.start_w_mm + t * (move.end_w_mm - move.start_w_mm));
+  }
+  ends.emplace_back(move.end.x(), move.end.y(), move.end_w_mm);
+  return ends;
+}
+
 }  // namespace vmsim::toolpath

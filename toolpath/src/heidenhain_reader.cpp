@@ -1445,7 +1445,6 @@ class HeidenhainReader {
       } else {
         if (point.kind != MotionKind::rapid) point.kind = MotionKind::arc;
         const double radius = (move.start - move.centre).norm();
-        const double a0 = std::atan2(move.start.y() - move.centre.y(), move.start.x() - move.centre.x());
         const double chord_mm = options_.arc_chord_tolerance_m / kMetresPerMillimetre;
         const double count = detail::arc_chord_count(radius, move.sweep_rad, chord_mm);
         const std::string what = "the compensated arc (radius " + detail::format_number(radius) + " mm)";
@@ -1456,14 +1455,7 @@ class HeidenhainReader {
         }
         const long segments = std::max(1L, static_cast<long>(count));
         detail::require_room_for_points(path_, static_cast<std::size_t>(segments), options_, file_, line_, 0, what);
-        for (long k = 1; k <= segments; ++k) {
-          Vec3 p(move.end.x(), move.end.y(), move.end_w_mm);
-          if (k < segments) {
-            const double t = static_cast<double>(k) / static_cast<double>(segments);
-            const double angle = a0 + t * move.sweep_rad;
-            p = Vec3(move.centre.x() + radius * std::cos(angle), move.centre.y() + radius * std::sin(angle),
-                     move.start_w_mm + t * (move.end_w_mm - move.start_w_mm));
-          }
+        for (const Eigen::Vector3d& p : arc_chord_ends_mm(move, segments)) {
           set_pose(point, p, rotary_deg_, axis_W_);
           detail::append_point(path_, point, options_, file_, line_);
         }

@@ -1738,7 +1738,6 @@ class SiemensReader {
       } else {
         if (point.kind != MotionKind::rapid) point.kind = MotionKind::arc;
         const double radius = (move.start - move.centre).norm();
-        const double a0 = std::atan2(move.start.y() - move.centre.y(), move.start.x() - move.centre.x());
         const double tolerance_mm = options_.arc_chord_tolerance_m / kMetresPerMillimetre;
         const double segments_real = detail::arc_chord_count(radius, move.sweep_rad, tolerance_mm);
         const std::string what = "the compensated arc (radius " + detail::format_number(radius) + " mm)";
@@ -1751,14 +1750,7 @@ class SiemensReader {
         const long segments = std::max(1L, static_cast<long>(segments_real));
         detail::require_room_for_points(path_, static_cast<std::size_t>(segments), options_, current_file(), line_,
                                         word ? word->column : 0, what);
-        for (long k = 1; k <= segments; ++k) {
-          Vec3 p(move.end.x(), move.end.y(), move.end_w_mm);
-          if (k < segments) {
-            const double t = static_cast<double>(k) / static_cast<double>(segments);
-            const double angle = a0 + t * move.sweep_rad;
-            p = Vec3(move.centre.x() + radius * std::cos(angle), move.centre.y() + radius * std::sin(angle),
-                     move.start_w_mm + t * (move.end_w_mm - move.start_w_mm));
-          }
+        for (const Vec3& p : arc_chord_ends_mm(move, segments)) {
           set_pose(point, to_frame(p), rotary_deg_);
           detail::append_point(path_, point, options_, current_file(), line_);
         }

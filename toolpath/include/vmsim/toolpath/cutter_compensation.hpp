@@ -73,6 +73,11 @@ struct CompensatedMove {
   int tag = 0;  ///< the element's (a corner arc: the element after the corner)
 };
 
+/// The ends of `segments` equal chords of a compensated arc (u, v, w) [mm], evenly in angle, w
+/// linear; the last exactly the move's end. The readers emit a compensated arc's points from it
+/// (the chord count from their arc tessellation tolerance).
+std::vector<Eigen::Vector3d> arc_chord_ends_mm(const CompensatedMove& move, long segments);
+
 /// A programmed contour the compensation cannot follow; what() says why (the caller adds where).
 class CompensationError : public std::runtime_error {
  public:
