@@ -24,8 +24,16 @@ for module in playwright-core vtk.js; do
   fi
 done
 
+# WORK_DIR is this test's own: removed only where it made it (its marker inside) or where it is
+# empty, never a folder of the user's given by hand.
+marker="$work/.vmsim-browser-test"
+if [[ -e "$work" && ! -f "$marker" && -n "$(ls -A "$work" 2>/dev/null)" ]]; then
+  echo "FAILED: $work exists and was not made by this test: give a new or empty folder" >&2
+  exit 1
+fi
 rm -rf "$work"
 mkdir -p "$work"
+touch "$marker"
 run=("$vmsim" --quiet simulate-part --grid-um 50 --out "$work/result")
 if [[ -n "${DISPLAY:-}" ]]; then
   "${run[@]}"
