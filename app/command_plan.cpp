@@ -42,6 +42,8 @@ struct PlanOptions {
   bool no_third_order = false;
   bool third_order = false;
   bool no_plot = false;
+  double path_tolerance_um = planner::FeedrateOptions{}.path_tolerance_m * 1e6;
+  double turning_path_tolerance_um = planner::FeedrateOptions{}.turning_path_tolerance_m * 1e6;
 };
 
 std::string number(double value) {
@@ -103,6 +105,15 @@ int run_plan(const PlanOptions& options, const CommandContext& context) {
     throw CommandLineError("--feed-mm-per-min must be > 0, got " + format_double(options.feed_mm_per_min));
   }
   fo.feed_m_per_s = options.feed_mm_per_min * 1e-3 / 60.0;
+  if (!(options.path_tolerance_um > 0.0) || !std::isfinite(options.path_tolerance_um)) {
+    throw CommandLineError("--path-tolerance-um must be > 0, got " + format_double(options.path_tolerance_um));
+  }
+  fo.path_tolerance_m = options.path_tolerance_um * 1e-6;
+  if (!(options.turning_path_tolerance_um > 0.0) || !std::isfinite(options.turning_path_tolerance_um)) {
+    throw CommandLineError("--turning-path-tolerance-um must be > 0, got " +
+                           format_double(options.turning_path_tolerance_um));
+  }
+  fo.turning_path_tolerance_m = options.turning_path_tolerance_um * 1e-6;
   ChainInputOptions input_options = options.inputs;
   if (!options.exact_stop) {
     input_options.corner_tolerance_m = options.corner_tolerance_mm * 1e-3;
@@ -235,6 +246,7 @@ int run_plan(const PlanOptions& options, const CommandContext& context) {
     double contour_tolerance_max_m = 0.0;  // where the program allows more (G64 P, G5.1)
     for (const double t : inputs.contour_tolerance_m) contour_tolerance_max_m = std::max(contour_tolerance_max_m, t);
     summary["path_fidelity"] = {{"tolerance_um", fo.path_tolerance_m * 1e6},
+                                {"turning_tolerance_um", fo.turning_path_tolerance_m * 1e6},
                                 {"largest_contour_tolerance_um", contour_tolerance_max_m * 1e6},
                                 {"points_added", plan.points_added},
                                 {"largest_deviation_um", plan.path_deviation_max_m * 1e6},
@@ -365,6 +377,14 @@ void add_plan_command(CLI::App& app, CommandContext& context) {
                     "program's SOFT / BRISK / CYCLE832, jerk limits where it says nothing")
       ->excludes(no_third);
   command->add_flag("--no-plot", options->no_plot, "write no plan.png");
+  command->add_option("--path-tolerance-um", options->path_tolerance_um,
+                      "largest distance of a set point's tool tip from the programmed path [um]: the "
+                      "planner adds points until its path holds it; a set point beyond it is an error")
+      ->capture_default_str();
+  command->add_option("--turning-path-tolerance-um", options->turning_path_tolerance_um,
+                      "the same where the programmed tool axis turns between two points (simultaneous "
+                      "5-axis motion) [um]")
+      ->capture_default_str();
   command->add_option("--out", options->out_dir,
                       "output folder (new, empty or a previous vmsim result: replaced as a whole): "
                       "limits.csv, setpoints.csv, summary.json and plan.png (sd_lim "

@@ -29,6 +29,7 @@ struct CommandOptions {
   double grid_um = 20.0;
   double mark_threshold_um = 2.0;
   double path_tolerance_um = SimulatePartOptions{}.setpoint_path_tolerance_m * 1e6;
+  double turning_path_tolerance_um = SimulatePartOptions{}.setpoint_turning_path_tolerance_m * 1e6;
   bool no_renders = false;
   bool no_commanded_check = false;
   bool perfect_drives = false;
@@ -76,6 +77,10 @@ int run(const CommandOptions& command, const CommandContext& context) {
     throw InputError("--path-tolerance-um must be > 0, got " + format_double(command.path_tolerance_um));
   }
   options.setpoint_path_tolerance_m = command.path_tolerance_um * 1e-6;
+  if (!(command.turning_path_tolerance_um > 0) || !std::isfinite(command.turning_path_tolerance_um)) {
+    throw InputError("--turning-path-tolerance-um must be > 0, got " + format_double(command.turning_path_tolerance_um));
+  }
+  options.setpoint_turning_path_tolerance_m = command.turning_path_tolerance_um * 1e-6;
   options.renders = !command.no_renders;
   options.commanded_check = !command.no_commanded_check;
   if (command.compact_zmap_above_lines < 0) {
@@ -190,6 +195,10 @@ void add_simulate_part_command(CLI::App& app, CommandContext& context) {
   command->add_option("--path-tolerance-um", options->path_tolerance_um,
                       "largest distance of a set point's tool tip from the programmed path [um]: the "
                       "planner adds points until its path holds it; a set point beyond it stops the run")
+      ->capture_default_str();
+  command->add_option("--turning-path-tolerance-um", options->turning_path_tolerance_um,
+                      "the same where the programmed tool axis turns between two points (simultaneous "
+                      "5-axis motion) [um]")
       ->capture_default_str();
   command->add_option("--tolerance-um", options->tolerance_um,
                       "the deepest mark the part can take [um]: the report's verdict (default: the part "

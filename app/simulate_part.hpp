@@ -61,6 +61,9 @@ struct SimulatePartOptions {
   /// beyond it the run stops with an error (the set points are not what the program asks for).
   /// The planner holds its path to the same tolerance (FeedrateOptions::path_tolerance_m).
   double setpoint_path_tolerance_m = planner::FeedrateOptions{}.path_tolerance_m;
+  /// The same [m] on segments where the programmed tool axis turns (simultaneous 5-axis motion;
+  /// FeedrateOptions::turning_path_tolerance_m).
+  double setpoint_turning_path_tolerance_m = planner::FeedrateOptions{}.turning_path_tolerance_m;
   bool commanded_check = true;  ///< also cut the commanded tool path and compare the reference
   /// Also run the production feed with the other planning method (kinematic <-> dynamic) against
   /// the same reference: the report's "method_comparison" gives each method's cycle time and

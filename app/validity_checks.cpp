@@ -71,7 +71,8 @@ ValidityCheck check_setpoints_on_path(const kinematics::MachineModel& machine,
                                       const planner::SetPoints& setpoints,
                                       const std::vector<std::string>& block_names,
                                       const std::string& run_name, double tolerance_m,
-                                      const std::vector<double>& contour_tolerance_m) {
+                                      const std::vector<double>& contour_tolerance_m,
+                                      double turning_tolerance_m) {
   ValidityCheck check{"setpoints_on_path." + run_name,
                       run_name + " set points on the programmed path (tool tip to the polyline through the "
                                  "path points)",
@@ -80,6 +81,7 @@ ValidityCheck check_setpoints_on_path(const kinematics::MachineModel& machine,
   double worst_m = 0.0, worst_s_m = 0.0, worst_limit_m = tolerance_m;
   double worst_ratio = 0.0;  // distance / limit: the place nearest its limit is the one reported
   bool contour_limit_used = false;
+  bool worst_turns = false;  // the worst place's limit is the turning tolerance
   for (Eigen::Index k = 0; k < setpoints.q.cols(); ++k) {
     const double s = setpoints.s_m[static_cast<std::size_t>(k)];
     const Eigen::Vector3d tip = kinematics::forward_kinematics(machine, setpoints.q.col(k), tool_length_m).tip_W_m;
@@ -90,14 +92,19 @@ ValidityCheck check_setpoints_on_path(const kinematics::MachineModel& machine,
     for (std::size_t j = (i > 0 ? i - 1 : 0); j <= std::min(i + 1, path.size() - 2); ++j) {
       distance = std::min(distance, distance_to_segment(tip, path[j].pose.tip_W_m, path[j + 1].pose.tip_W_m));
     }
-    const double limit_m = i + 1 < contour_tolerance_m.size() ? std::max(tolerance_m, contour_tolerance_m[i + 1])
-                                                                : tolerance_m;
+    const Eigen::Vector3d& axis_a = path[i].pose.axis_W;
+    const Eigen::Vector3d& axis_b = path[std::min(i + 1, path.size() - 1)].pose.axis_W;
+    const bool turns = std::atan2(axis_a.cross(axis_b).norm(), axis_a.dot(axis_b)) > 1e-9;
+    const double base_m = turns ? std::max(tolerance_m, turning_tolerance_m) : tolerance_m;
+    const double contour_m = i + 1 < contour_tolerance_m.size() ? contour_tolerance_m[i + 1] : 0.0;
+    const double limit_m = std::max(base_m, contour_m);
     const double ratio = distance / limit_m;
     if (!(ratio <= worst_ratio)) {  // NaN counts as the worst
       worst_ratio = std::isnan(ratio) ? std::numeric_limits<double>::infinity() : ratio;
       worst_m = std::isnan(distance) ? std::numeric_limits<double>::infinity() : distance;
       worst_s_m = s;
       worst_limit_m = limit_m;
+      worst_turns = turns && base_m >= contour_m;
     }
     contour_limit_used = contour_limit_used || limit_m > tolerance_m;
   }
@@ -105,10 +112,13 @@ ValidityCheck check_setpoints_on_path(const kinematics::MachineModel& machine,
   check.limit = worst_limit_m * 1e6;
   check.detail = (contour_limit_used ? "nearest its limit" : "largest") + std::string(" at ") +
                  where_on_path(path, path_s_m, block_names, worst_s_m) +
-                 (worst_limit_m > tolerance_m ? " (the limit there is the program's contour tolerance, G64 P / "
-                                                "G5.1 / --corner-tolerance-mm; elsewhere " +
-                                                    rounded(tolerance_m * 1e6, 3) + " um)"
-                                              : std::string()) +
+                 (worst_limit_m > tolerance_m && worst_turns
+                      ? " (the limit there is that of a segment that turns the tool axis, "
+                        "--turning-path-tolerance-um; elsewhere " + rounded(tolerance_m * 1e6, 3) + " um)"
+                  : worst_limit_m > tolerance_m ? " (the limit there is the program's contour tolerance, G64 P / "
+                                                  "G5.1 / --corner-tolerance-mm; elsewhere " +
+                                                      rounded(tolerance_m * 1e6, 3) + " um)"
+                                                : std::string()) +
                  " (rapid moves not checked: the axes move on their own there)";
   if (!(worst_m <= worst_limit_m)) check.status = CheckStatus::failed;
   return check;
@@ -225,7 +235,7 @@ ValidityCheck check_drives_not_saturated(const kinematics::MachineModel& machine
 ValidityCheck check_reference_against_commanded(double worst_m, const Eigen::Vector3d& where_W_m,
                                                 double limit_m) {
   ValidityCheck check{"reference_vs_commanded",
-                      "reference surface against the surface the commanded tool path cuts", worst_m * 1e6,
+                      "reference surface against the surface of the planned tool path (the set points' geometry)", worst_m * 1e6,
                       limit_m * 1e6, "um", CheckStatus::passed, ""};
   check.detail = "largest at (" + rounded(where_W_m.x() * 1e3, 3) + ", " + rounded(where_W_m.y() * 1e3, 3) + ", " +
                  rounded(where_W_m.z() * 1e3, 3) + ") mm";

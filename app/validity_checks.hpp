@@ -3,8 +3,8 @@
 //
 // They are independent of the code they check: the set points are compared with the programmed
 // path through the direct kinematics (not through the planner's spline), the axis positions with
-// the machine file's travel, and the reference surface with the surface the commanded tool path
-// itself cuts. A failed check that makes the result wrong is an error (the caller throws); one
+// the machine file's travel, and the reference surface with the surface the planned tool path
+// (the set points' geometry, itself checked against the program) cuts. A failed check that makes the result wrong is an error (the caller throws); one
 // that only qualifies it is a warning in the terminal and at the top of the report.
 #include <nlohmann/json.hpp>
 
@@ -37,7 +37,8 @@ struct ValidityCheck {
 /// moves each axis on its own, and the tip does not follow a line. Where the program allows
 /// more (`contour_tolerance_m`, per path point: the contour tolerance on the motion that ends
 /// there, ChainInputs::contour_tolerance_m; empty: none), the limit there is that tolerance: the
-/// place reported is the one nearest its limit.
+/// place reported is the one nearest its limit. Where the programmed tool axis turns between two
+/// points the limit is at least turning_tolerance_m (FeedrateOptions::turning_path_tolerance_m).
 ValidityCheck check_setpoints_on_path(const kinematics::MachineModel& machine,
                                       const std::vector<kinematics::PathPose>& path,
                                       const std::vector<bool>& rapid_end,
@@ -45,7 +46,8 @@ ValidityCheck check_setpoints_on_path(const kinematics::MachineModel& machine,
                                       const planner::SetPoints& setpoints,
                                       const std::vector<std::string>& block_names,
                                       const std::string& run_name, double tolerance_m,
-                                      const std::vector<double>& contour_tolerance_m = {});
+                                      const std::vector<double>& contour_tolerance_m = {},
+                                      double turning_tolerance_m = 0.0);
 
 /// Every set point of every axis with end stops against the axis's travel. The figure is the
 /// smallest margin left (negative: how far beyond); fails when any set point is outside.
@@ -72,7 +74,7 @@ ValidityCheck check_drives_not_saturated(const kinematics::MachineModel& machine
                                          const std::vector<double>& t_s, const Eigen::MatrixXd& current,
                                          const std::vector<bool>& cutting, const std::string& run_name);
 
-/// The reference surface against the surface the commanded tool path cuts: the reference must
+/// The reference surface against the surface the planned tool path cuts: the reference must
 /// not differ from it by more than `limit_m` (the mark threshold), or marks could hide in it.
 ValidityCheck check_reference_against_commanded(double worst_m, const Eigen::Vector3d& where_W_m,
                                                 double limit_m);

@@ -574,6 +574,9 @@ void FeedrateOptions::validate() const {
   if (!(max_grid_step_m >= 0.0)) bad("max_grid_step_m", max_grid_step_m, "must be >= 0");
   if (!(period_s >= 0.0)) bad("period_s", period_s, "must be >= 0");
   if (!(path_tolerance_m > 0.0) || !std::isfinite(path_tolerance_m)) bad("path_tolerance_m", path_tolerance_m, "must be > 0");
+  if (!(turning_path_tolerance_m > 0.0) || !std::isfinite(turning_path_tolerance_m)) {
+    bad("turning_path_tolerance_m", turning_path_tolerance_m, "must be > 0");
+  }
   if (!(path_axis_tolerance_rad > 0.0) || !std::isfinite(path_axis_tolerance_rad)) {
     bad("path_axis_tolerance_rad", path_axis_tolerance_rad, "must be > 0");
   }
@@ -780,6 +783,7 @@ FeedratePlan plan_feedrate(const kinematics::MachineModel& machine,
   if (path.s_m.size() < 2) throw InputError("feedrate interpolation needs a path of at least 2 points");
   PathFidelityOptions fidelity;
   fidelity.tolerance_m = options.path_tolerance_m;
+  fidelity.turning_tolerance_m = options.turning_path_tolerance_m;
   fidelity.axis_tolerance_rad = options.path_axis_tolerance_rad;
   fidelity.free_end = options.rapid_end;
   fidelity.segment_tolerance_m = options.point_path_tolerance_m;
@@ -803,7 +807,13 @@ FeedratePlan plan_feedrate(const kinematics::MachineModel& machine,
   if (!options.profile_only) {
     check_travel(machine, refined.path, plan.setpoints);
     if (refined.path.derivatives_fitted && refined.path.s_m.size() >= 3) {
-      PathDeviation d = pose_deviation(machine, refined.path, plan.setpoints.s_m, plan.setpoints.q);
+      // Rapids are not held to their line (no point is added on them: their end is an input point).
+      std::vector<bool> free_end;
+      if (options.rapid_end.size() == path.s_m.size()) {
+        free_end.resize(refined.source_point.size());
+        for (std::size_t k = 0; k < free_end.size(); ++k) free_end[k] = options.rapid_end[refined.source_point[k]];
+      }
+      PathDeviation d = pose_deviation(machine, refined.path, plan.setpoints.s_m, plan.setpoints.q, free_end);
       if (refined.deviation.tip_m > d.tip_m) {
         d.tip_m = refined.deviation.tip_m, d.tip_s_m = refined.deviation.tip_s_m, d.tip_point = refined.deviation.tip_point;
       }

@@ -225,6 +225,37 @@ TEST_P(PostedProgram, RunsUnmodifiedAndTheAxesGoWhereTheProgramPutsThem) {
   }
 }
 
+// simulate-part on every program as posted: planned, both runs simulated, every validity check
+// passed (set points on the program within the path tolerance and the travel, the reference
+// against the planned path's surface). A coarse grid and a fixed reference feed (100 mm/min,
+// 2 to 10 % of these programs' feeds) keep it within a CI budget; the reference check says
+// whether that feed is slow enough.
+TEST_P(PostedProgram, SimulatePartRunsThroughWithEveryCheckPassed) {
+  const Case& c = GetParam();
+  const fs::path part = kCorpus / c.folder / "part.yaml";
+  const fs::path out = test::fresh_folder(std::string("posted_simulate_") + c.folder);
+  const test::RunResult simulate =
+      test::run_vmsim("-q simulate-part --no-renders --grid-um 400 --reference-feed-mm-per-min 100 --part " +
+                      part.string() + " --out " + (out / "sim").string());
+  ASSERT_EQ(simulate.exit_code, 0) << simulate.output;
+  const nlohmann::json report = nlohmann::json::parse(read_text(out / "sim" / "report.json"));
+  ASSERT_TRUE(report.contains("validity_checks"));
+  std::size_t checks = 0;
+  for (const auto& check : report["validity_checks"]) {
+    const std::string id = check["id"].get<std::string>();
+    // An axis overshooting an end of its travel where a set point sits exactly at it (a G28
+    // return to the Z home) is a warning, not a failure; every other check must pass.
+    if (id.rfind("actual_within_travel", 0) == 0) {
+      EXPECT_NE(check["status"], "FAILED") << c.folder << ": " << check.dump();
+    } else {
+      EXPECT_EQ(check["status"], "ok") << c.folder << ": " << check.dump();
+    }
+    ++checks;
+  }
+  EXPECT_GE(checks, 7u) << report["validity_checks"].dump();
+  fs::remove_all(out);
+}
+
 INSTANTIATE_TEST_SUITE_P(Corpus, PostedProgram, ::testing::ValuesIn(kCases),
                          [](const ::testing::TestParamInfo<Case>& info) { return std::string(info.param.folder); });
 

@@ -174,6 +174,71 @@ TEST(PathFidelity, RefinedSplineOfTheDenseArcCaseStaysWithinTheTolerance) {
 // a program under G64 P writes it: the NC may leave the polyline by the program's contour
 // tolerance there, so the spline, which follows the circle, needs no added points where that
 // tolerance is larger; where it is not (the first half here), the default holds.
+/// A 40 mm line, a quarter circle of radius 15 mm tessellated at 0.17 mm chords (sagitta
+/// 0.24 um) tangent to it, and a 40 mm line on: sample part 1's fillet, in one plane.
+std::vector<kinematics::PathPose> line_fillet_line(const Vector3d& origin, double* radius_m) {
+  std::vector<kinematics::PathPose> poses;
+  const double line = 0.04, radius = 0.015, chord = 170e-6;
+  *radius_m = radius;
+  const Vector3d start = origin - Vector3d(line, radius, 0.0);
+  for (int k = 0; k <= 20; ++k) poses.push_back({{start + Vector3d(line * k / 20.0, 0, 0), Vector3d::UnitZ()}, 0});
+  const Vector3d centre = start + Vector3d(line, radius, 0);
+  const int chords = static_cast<int>(std::ceil(0.5 * std::numbers::pi * radius / chord));
+  for (int k = 1; k <= chords; ++k) {
+    const double phi = -0.5 * std::numbers::pi + 0.5 * std::numbers::pi * k / chords;
+    poses.push_back({{centre + radius * Vector3d(std::cos(phi), std::sin(phi), 0), Vector3d::UnitZ()}, 1});
+  }
+  const Vector3d end = centre + Vector3d(radius, 0, 0);
+  for (int k = 1; k <= 20; ++k) poses.push_back({{end + Vector3d(0, line * k / 20.0, 0), Vector3d::UnitZ()}, 2});
+  return poses;
+}
+
+/// The largest curvature [1/m] of the tool tip's path along the spline of `path` over s in
+/// [s_begin, s_end] (second differences of the direct kinematics, 20 um apart).
+double largest_tip_curvature(const kinematics::MachineModel& machine, const kinematics::PathKinematics& path,
+                             double s_begin, double s_end) {
+  const PathSpline spline(path);
+  constexpr double h = 20e-6;
+  auto tip = [&](double s) { return kinematics::forward_kinematics(machine, spline.position(s), kToolLength_m).tip_W_m; };
+  double largest = 0.0;
+  for (double s = s_begin + h; s < s_end - h; s += 0.25 * h) {
+    largest = std::max(largest, (tip(s + h) - 2.0 * tip(s) + tip(s - h)).norm() / (h * h));
+  }
+  return largest;
+}
+
+// A tolerance tighter than the spline's own distance from the chords adds points; they must not
+// bend the path. Points put on the chords (the planner before this test) pulled the spline in
+// by the whole sagitta at every added point and its curvature swung at the points' spacing (on
+// sample part 1 the fillet then ran 3.6 % slower and its mark fell from 18.9 to 5.4 um). Points
+// put where the spline is, drawn in only as far as needed, leave the curvature near the arc's.
+TEST(PathFidelity, ATightToleranceDoesNotBendATessellatedArc) {
+  const auto machine = kinematics::make_table_table_sample();
+  double radius_m = 0.0;
+  const auto poses = line_fillet_line(reachable_origin(machine), &radius_m);
+  const auto path = solve(machine, poses);
+  ASSERT_TRUE(path.corners.empty());
+  PathFidelityOptions loose;
+  loose.tolerance_m = 5e-6;
+  const RefinedPath untouched = refine_path(machine, path, loose);
+  ASSERT_EQ(untouched.refined_points, 0u);
+  PathFidelityOptions tight;
+  tight.tolerance_m = 0.2e-6;  // below the tessellation's sagitta: the whole arc gets points
+  const RefinedPath refined = refine_path(machine, path, tight);
+  EXPECT_GT(refined.refined_points, 50u);
+  EXPECT_LE(refined.deviation.tip_m, tight.tolerance_m);
+  // Over the arc and 2 mm of the lines on either side (the tangencies' transition).
+  const double s_arc_begin = 0.04 - 0.002, s_arc_end = 0.04 + 0.5 * std::numbers::pi * radius_m + 0.002;
+  const double before = largest_tip_curvature(machine, untouched.path, s_arc_begin, s_arc_end);
+  const double after = largest_tip_curvature(machine, refined.path, s_arc_begin, s_arc_end);
+  std::printf("fillet R %.0f mm: largest curvature %.4g 1/m untouched, %.4g 1/m with %zu points at 0.2 um\n",
+              radius_m * 1e3, before, after, refined.refined_points);
+  // Measured: 75 1/m untouched (the arc: 66.7), 107 with the points where the spline is, 235
+  // with the points on the chords.
+  EXPECT_LE(before, 1.25 / radius_m);  // the untouched spline follows the arc
+  EXPECT_LE(after, 2.0 / radius_m);
+}
+
 TEST(PathFidelity, TheProgramsContourToleranceIsTheAllowanceOnItsSegmentsOnly) {
   const auto machine = kinematics::make_table_table_sample();
   const Vector3d centre = reachable_origin(machine);
@@ -326,7 +391,8 @@ TEST(PathFidelity, RandomCamPathsStayWithinTheToleranceAndTheTravel) {
   const Vector3d origin = reachable_origin(machine);
   std::mt19937_64 rng(20261202);
   PathFidelityOptions fidelity;
-  fidelity.tolerance_m = 0.5e-6;  // tighter than the default: the mechanism, not the samples' setting
+  fidelity.tolerance_m = 0.5e-6;  // the default, and on the rotary paths too (tighter than their default)
+  fidelity.turning_tolerance_m = 0.5e-6;
   constexpr int kPaths = 10000, kPlanned = 300, kRotaryEvery = 20;
   double worst_spline = 0.0, worst_setpoints = 0.0, worst_axis = 0.0, worst_travel = 0.0;
   std::size_t points = 0, added = 0, planned = 0;
@@ -346,6 +412,7 @@ TEST(PathFidelity, RandomCamPathsStayWithinTheToleranceAndTheTravel) {
       FeedrateOptions options;
       options.third_order = false;
       options.path_tolerance_m = fidelity.tolerance_m;
+      options.turning_path_tolerance_m = fidelity.turning_tolerance_m;
       const FeedratePlan plan = plan_feedrate(machine, path, options);
       ++planned;
       added += plan.points_added;

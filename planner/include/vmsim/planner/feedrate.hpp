@@ -203,6 +203,8 @@ struct FeedrateOptions {
   /// distance [m] of the programmed segment (points are added on the programmed path until the
   /// spline does), as an NC's linear interpolation does to within its rounding.
   double path_tolerance_m = PathFidelityOptions{}.tolerance_m;
+  /// The same [m] on segments where the tool axis turns (PathFidelityOptions::turning_tolerance_m).
+  double turning_path_tolerance_m = PathFidelityOptions{}.turning_tolerance_m;
   /// Per path point: the program's contour tolerance [m] for the segment ending there where it
   /// allows more than path_tolerance_m (PathFidelityOptions::segment_tolerance_m). Empty: none.
   std::vector<double> point_path_tolerance_m;

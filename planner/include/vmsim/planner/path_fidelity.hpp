@@ -37,14 +37,21 @@
 namespace vmsim::planner {
 
 struct PathFidelityOptions {
-  /// Largest distance [m] of the tool tip from its programmed segment between the path points.
-  /// 5 um by default: the samples' splines already sit that close (part 1: 0.49 um from its
-  /// chords, the sagitta of its tessellation; part 3, 5-axis: 2.7 um, the rotary axes' bend
-  /// between the points). Tighter tolerances hold (the random-path test runs at 0.5 um), but the
-  /// midpoints the check adds make sharper bends that the jerk limits feel: at 0.5 um part 1
-  /// took 115.97 s instead of 104.06 s (1 107 points added), at 1 um part 3 130.7 s instead of
-  /// 31.9 s (3 208 points). A smoother construction than midpoints is the open item.
-  double tolerance_m = 5e-6;
+  /// Largest distance [m] of the tool tip from its programmed segment between the path points,
+  /// where the tool axis keeps its direction (3-axis and 3+2 motion). 0.5 um by default, within
+  /// which an NC's linear interpolation holds G1 points. The check's insertions (step 2 above)
+  /// sit where the spline already is, drawn in only as far as needed, so a tight tolerance does
+  /// not bend the path: on sample part 1 (0.49 um from its chords, the tessellation's sagitta
+  /// and the tangency's ring) 0.5 um adds 82 points and leaves the duration (104.27 s against
+  /// 104.06 s) and the tangency mark (18.87 um against 18.9) as they were; with the points put
+  /// on the chords it took 115.97 s and the mark fell to 5.4 um.
+  double tolerance_m = 0.5e-6;
+  /// The same [m] on segments where the tool axis turns (simultaneous 5-axis motion). A joint
+  /// space spline bends the tip off the chord there (sample part 3: 2.7 um); holding it tighter
+  /// makes the joints follow the IKT's kinks at every point and costs time that no NC spends
+  /// (part 3: T 32.0 s at 5 um, 50.6 s at 1 um, 88.4 s at 0.5 um): an NC with tool-centre-point
+  /// control blends those kinks within its contour tolerance, which this spline does not model.
+  double turning_tolerance_m = 5e-6;
   /// Largest angle [rad] between the tool axis and the programmed one between the path points
   /// (at least the IKT's singular_angle_rad inside singular zones, where the IKT reaches the axis
   /// only to within that angle).
@@ -101,10 +108,13 @@ RefinedPath refine_path(const kinematics::MachineModel& machine,
 
 /// The largest deviation from the programmed polyline of `path` (tips and axes by direct
 /// kinematics of its points) of the poses of q's columns at arc lengths s_m: each against the
-/// segment that holds its s.
+/// segment that holds its s. free_end (per point of `path`, or empty): the segment ending there
+/// is a rapid the NC does not hold to the line (PathFidelityOptions::free_end; a turn about a
+/// fixed tip, path.turns_in_place, is held all the same); poses on it are not counted.
 PathDeviation pose_deviation(const kinematics::MachineModel& machine,
                              const kinematics::PathKinematics& path,
-                             const std::vector<double>& s_m, const Eigen::MatrixXd& q);
+                             const std::vector<double>& s_m, const Eigen::MatrixXd& q,
+                             const std::vector<bool>& free_end = {});
 
 /// "block 'file:line N..'" (or "block #k", or "no block") of path point `point`.
 std::string path_point_label(const kinematics::PathKinematics& path, std::size_t point);
