@@ -1352,7 +1352,8 @@ class Program {
       std::size_t k = i + 1;
       while (k < n && (text[k] == ' ' || text[k] == '\t')) ++k;
       const bool numbered = k < n && (std::isdigit(static_cast<unsigned char>(text[k])) ||
-                                      text[k] == '-' || text[k] == '+' || text[k] == '.');
+                                      text[k] == '-' || text[k] == '+' || text[k] == '.' ||
+                                      text[k] == '=');  // Siemens X=10
       if (address && numbered) {
         if (upper == 'G') {
           const double code = std::strtod(std::string(text.substr(k, 12)).c_str(), nullptr);
