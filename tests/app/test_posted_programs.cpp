@@ -96,6 +96,7 @@ std::vector<KnownPosition> known_positions(const std::string& program) {
   std::optional<double> x, y, z;
   double unit_mm = 1.0;
   bool in_cycle = false;
+  bool in_modal_call = false;
   bool motion_modal = false;
   bool tcp = false;      // G43.4 / G43.5: X Y Z are the tip under TCP, checked elsewhere
   bool shifted = false;  // a G52 / G92 / G10 / G68 seen
@@ -135,6 +136,9 @@ std::vector<KnownPosition> known_positions(const std::string& program) {
       if (g == 21) unit_mm = 1.0;
       if (g == 80) in_cycle = false;
       if (g == 73 || (g >= 81 && g <= 89)) in_cycle = true;
+      // A G66 modal macro call moves after each move block: beyond this reader until G67.
+      if (g == 66) in_modal_call = true;
+      if (g == 67) in_modal_call = false;
       if (g == 0 || g == 1 || g == 2 || g == 3) motion_modal = true;
       if (std::abs(g - 43.4) < 1e-9 || std::abs(g - 43.5) < 1e-9) tcp = true;
       if (g == 49) tcp = false;
@@ -144,7 +148,7 @@ std::vector<KnownPosition> known_positions(const std::string& program) {
       if (g == 28 || g == 30 || g == 53 || g == 91) plain = false;
     }
     if (shifted) break;
-    if (!plain || in_cycle || tcp) {
+    if (!plain || in_cycle || in_modal_call || tcp) {
       x.reset(), y.reset(), z.reset();
       continue;
     }
@@ -174,6 +178,7 @@ const Case kCases[] = {
     {"nx", "program.ptp", 30, 0.015},                {"freecad_linuxcnc", "program.ngc", 30, 0.015},
     {"haas", "program.nc", 30, 0.075},               {"linuxcnc_macros", "program.ngc", 30, 0.015},
     {"fanuc_macro_b", "program.nc", 30, 1e-3},       {"five_axis_tcp", "program.nc", 0, 1e-3},
+    {"fanuc_boring_modal", "program.nc", 40, 1e-3},
 };
 
 class PostedProgram : public ::testing::TestWithParam<Case> {};
@@ -220,7 +225,8 @@ TEST_P(PostedProgram, RunsUnmodifiedAndTheAxesGoWhereTheProgramPutsThem) {
   }
   // Programs in TCP mode or driven by macros have few plain blocks; the others have many.
   const std::string folder = c.folder;
-  if (folder != "five_axis_tcp" && folder != "linuxcnc_macros" && folder != "fanuc_macro_b") {
+  if (folder != "five_axis_tcp" && folder != "linuxcnc_macros" && folder != "fanuc_macro_b" &&
+      folder != "fanuc_boring_modal") {
     EXPECT_GE(checked, 10u) << c.folder;
   }
 }
@@ -288,6 +294,56 @@ TEST(PostedProgramFiveAxis, RotaryAxesAreTheProgrammedWords) {
     ++checked;
   }
   EXPECT_GE(checked, 1000u);
+}
+
+// The hand-written shop program tests/data/posted/fanuc_boring_modal: the machine axes of its
+// G87 back boring, G88 manual-retract boring and G66 modal-call blocks, written by hand from the
+// Fanuc manual's description of each (not from vmsim's output): every path point of those lines
+// in order. The work zero is 40 mm above W (machine Z = work Z + 40 - 410), the G87 shift Q1.5
+// goes along +X (the reader's default shift direction).
+TEST(PostedProgramBoringAndModalCalls, CyclesAndModalCallsMoveAsTheManualDescribes) {
+  const fs::path part = kCorpus / "fanuc_boring_modal/part.yaml";
+  const fs::path out = test::fresh_folder("posted_boring_modal");
+  const test::RunResult kinematics =
+      test::run_vmsim("kinematics --part " + part.string() + " --out " + (out / "k.csv").string());
+  ASSERT_EQ(kinematics.exit_code, 0) << kinematics.output;
+  const TraceRows trace = read_trace(out / "k.csv");
+  const int x_column = column_of(trace, "X.cmd"), y_column = column_of(trace, "Y.cmd"),
+            z_column = column_of(trace, "Z.cmd");
+  ASSERT_GE(x_column, 0);
+  ASSERT_GE(y_column, 0);
+  ASSERT_GE(z_column, 0);
+  const double to_machine_z_mm = 40.0 - kTipAboveWAtZ0Mm;
+  const auto expect_line = [&](int line, const std::vector<Eigen::Vector3d>& work_mm) {
+    const auto rows = trace.rows_of_line.find(line);
+    ASSERT_NE(rows, trace.rows_of_line.end()) << "line " << line;
+    ASSERT_EQ(rows->second.size(), work_mm.size()) << "line " << line;
+    for (std::size_t i = 0; i < work_mm.size(); ++i) {
+      const std::vector<double>& v = trace.rows[rows->second[i]];
+      const Eigen::Vector3d axes(v[static_cast<std::size_t>(x_column)], v[static_cast<std::size_t>(y_column)],
+                                 v[static_cast<std::size_t>(z_column)]);
+      const Eigen::Vector3d expected = work_mm[i] + Eigen::Vector3d(0.0, 0.0, to_machine_z_mm);
+      EXPECT_LE((axes - expected).norm(), 1e-3) << "line " << line << " point " << i << ": " << axes.transpose()
+                                                << " expected " << expected.transpose();
+    }
+  };
+  // Line 17, G98 G87 Z-26. R-34. Q1.5 at X-30 Y-20 from Z20 (already over the hole): shift,
+  // rapid down to R below the plate, shift back, feed up to Z, shift, rapid up, shift back.
+  expect_line(17, {{-28.5, -20, 20}, {-28.5, -20, -34}, {-30, -20, -34}, {-30, -20, -26},
+                   {-28.5, -20, -26}, {-28.5, -20, 20}, {-30, -20, 20}});
+  // Line 18, X30.: the same at the next hole, after the move there at the initial level.
+  expect_line(18, {{30, -20, 20}, {31.5, -20, 20}, {31.5, -20, -34}, {30, -20, -34},
+                   {30, -20, -26}, {31.5, -20, -26}, {31.5, -20, 20}, {30, -20, 20}});
+  // Line 26, G99 G88 Z-12. R2. at X0 Y15: rapid to R, feed to Z, the manual retract to R (G99:
+  // the tool stays there).
+  expect_line(26, {{0, 15, 2}, {0, 15, -12}, {0, 15, 2}});
+  // Lines 35-38 under G66 P9010 A1.5 R2. C20.: each move, then the macro's G0 Z#18 (line 46),
+  // G1 Z-#1 (47) and G0 Z#3 (48) at that X Y. Line 35 moves nowhere (X-30 Y20 is where the tool
+  // is) but is a move block: the macro runs there too.
+  expect_line(36, {{-10, 20, 20}});
+  expect_line(46, {{-30, 20, 2}, {-10, 20, 2}, {10, 20, 2}, {30, 20, 2}});
+  expect_line(47, {{-30, 20, -1.5}, {-10, 20, -1.5}, {10, 20, -1.5}, {30, 20, -1.5}});
+  expect_line(48, {{-30, 20, 20}, {-10, 20, 20}, {10, 20, 20}, {30, 20, 20}});
 }
 
 // A contour programmed on the part with G41 D1 (tests/data/posted/fanuc_cutter_comp): the

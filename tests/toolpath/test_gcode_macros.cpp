@@ -380,7 +380,7 @@ TEST(GcodeMacros, ErrorsNameTheFileLineColumnAndWord) {
       {"G0 X0 Y0 Z0\nG1 F100 X[1 + 2\n", "part.nc:2:16:", "expected ']'"},
       {"G0 X0 Y0 Z0\nIF [1] X5\n", "part.nc:2:8: 'X'", "expected GOTO or THEN"},
       {"G0 X0 Y0 Z0\n#<a = 1\n", "part.nc:2:2: '<'", "not closed"},
-      {"G0 X0 Y0 Z0\nG66 P10 A1\n", "part.nc:2:1: 'G66'", "modal macro calls"},
+      {"G0 X0 Y0 Z0\nG66 P10 A1\n", "part.nc:2:1: 'G66'", "no macro program O10"},
       {"G0 X0 Y0 Z0\nEND 188888888888888\n", "part.nc:2:5: '188888888888888'",
        "integer within +-1e9"},
       {"G0 X0 Y0 Z0\nGOTO [2.5]\n", "part.nc:2:6: '[2.5]'", "integer within +-1e9, got 2.5"},

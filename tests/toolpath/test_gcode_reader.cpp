@@ -427,7 +427,7 @@ TEST(GcodeReader, EachKindOfBadInputIsAnError) {
       {"G0 X0 Y0 Z0\nG81 Z-5 F100\n", "part.nc:2:1: 'G81'", "R level"},
       {"G0 X0 Y0 Z0\nG81 Z5 R1 F100\n", "part.nc:2:5: 'Z5'", "not below the R level"},
       {"G0 X0 Y0 Z0\nG83 Z-5 R1 F100\n", "part.nc:2:1: 'G83'", "peck depth Q"},
-      {"G0 X0 Y0 Z0\nG87 Z-5 R1 Q1 F100\n", "part.nc:2:1: 'G87'", "back boring"},
+      {"G0 X0 Y0 Z9\nG87 Z-5 R1 Q1 F100\n", "part.nc:2:5: 'Z-5'", "is not above the R level"},
       {"G43.4 G0 X0 Y0 Z0\nG28 Z0\n", "part.nc:2:1: 'G28'", "tool-centre-point"},
       {"G0 X0 Y0 Z0\nG43 H2 Z5\n", "part.nc:2:5: 'H2'", "no tool length for H2"},
       {"G0 X0 Y0 Z0\nG43 Z5\n", "part.nc:2:1: 'G43'", "tool length is unknown"},

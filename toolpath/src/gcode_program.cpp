@@ -357,6 +357,7 @@ struct Frame {
   std::string name;             ///< "O1000", "o<name>", for messages
   int call_line = 0;            ///< 1-based line of the call, for messages
   Locals arguments;             ///< G65: the locals each repetition starts from
+  bool modal_body = false;      ///< a macro a G66 modal call started
   std::unordered_map<std::size_t, long> repeat_counts;  ///< LinuxCNC repeat loops, by line
 };
 
@@ -457,7 +458,9 @@ class Program {
     while (first < raw.size() && std::isspace(static_cast<unsigned char>(raw[first]))) ++first;
     // Block delete and '%' lines go to the interpreter as they are (it warns / skips them).
     if (first == raw.size() || raw[first] == '/' || raw[first] == '%' || is_plain(raw)) {
-      return hand_on(raw, raw, nullptr);
+      if (!hand_on(raw, raw, nullptr)) return false;
+      if (raw[first] != '/' && raw[first] != '%') modal_call_after(raw, raw);
+      return true;
     }
     tokens_ = &tokens_of(raw);
     raw_ = raw;
@@ -923,24 +926,42 @@ class Program {
     const OutWord* m98 = nullptr;
     const OutWord* m99 = nullptr;
     const OutWord* g65 = nullptr;
+    const OutWord* g66 = nullptr;
+    const OutWord* g67 = nullptr;
     for (const OutWord& w : words) {
       if (!w.value) continue;
       if (w.letter == 'M' && *w.value == 98.0) m98 = &w;
       if (w.letter == 'M' && *w.value == 99.0) m99 = &w;
       if (w.letter == 'G' && *w.value == 65.0) g65 = &w;
-      if (w.letter == 'G' && (*w.value == 66.0 || *w.value == 66.1 || *w.value == 67.0)) {
-        site().fail(w.column, "'" + w.text + "': modal macro calls (G66 / G67) are not "
-                                              "supported: call with G65 in each block");
+      if (w.letter == 'G' && *w.value == 66.0) g66 = &w;
+      if (w.letter == 'G' && *w.value == 67.0) g67 = &w;
+      if (w.letter == 'G' && *w.value == 66.1) {
+        site().fail(w.column, "'" + w.text + "': G66.1 (a macro call from every block, its "
+                                              "words the arguments) is not supported: use G66 "
+                                              "or G65");
       }
     }
     for (const auto& [t, v] : sets) write(t, v, comment);
+    const OutWord* call_word = g65 ? g65 : g66;
+    if (g65 && g66) site().fail(g66->column, "'" + g66->text + "': G65 and G66 in one block");
+    if (call_word && (m98 || m99 || g67 || goto_n)) {
+      const OutWord* other = m98 ? m98 : m99 ? m99 : g67;
+      site().fail(other ? other->column : goto_column,
+                  "'" + (other ? other->text : std::string("GOTO")) + "': not in one block with " +
+                      call_word->text);
+    }
     if (g65) return g65_call(words, *g65);
+    if (g66) {
+      set_modal_call(words, *g66);
+      return true;
+    }
 
     std::vector<OutWord> kept;
     const OutWord* p_word = nullptr;
     const OutWord* l_word = nullptr;
+    if (g67 && !modal_calls_.empty()) modal_calls_.pop_back();
     for (const OutWord& w : words) {
-      if (&w == m98 || &w == m99) continue;
+      if (&w == m98 || &w == m99 || &w == g67) continue;
       if ((m98 || m99) && w.letter == 'P') {
         p_word = &w;
         continue;
@@ -961,6 +982,7 @@ class Program {
       return sub_return(*m99);
     }
     if (goto_n) jump_to_n(*goto_n, goto_column);
+    if (!kept.empty()) modal_call_after(raw_, text_buffer_);
     return true;
   }
 
@@ -1178,60 +1200,174 @@ class Program {
     return true;
   }
 
-  /// G65 P<program> [L<count>] and arguments A B C I J K D E F H M Q R S T U V W X Y Z to the
-  /// locals of the macro (Fanuc argument specification I).
-  bool g65_call(const std::vector<OutWord>& words, const OutWord& g65) {
+  /// A macro call's program, count and arguments (G65 / G66 P<program> [L<count>] A B C ...).
+  struct MacroCall {
+    Place body;
+    long number = 0;
+    long repeats = 1;
+    Locals arguments;
+  };
+
+  /// The words of a G65 / G66 block: P the program, L the count, arguments A B C I J K D E F H
+  /// M Q R S T U V W X Y Z into the locals of the macro (Fanuc argument specification I).
+  MacroCall macro_call_of(const std::vector<OutWord>& words, const OutWord& call) {
     static constexpr std::array<int, 26> kLocalOfLetter = {
         // A  B  C  D  E  F  G  H   I  J  K  L  M   N  O  P  Q   R   S   T   U   V   W   X   Y   Z
         1, 2, 3, 7, 8, 9, 0, 11, 4, 5, 6, 0, 13, 0, 0, 0, 17, 18, 19, 20, 21, 22, 23, 24, 25, 26};
+    const std::string name = call.text;
     const OutWord* p_word = nullptr;
-    long repeats = 1;
-    Locals arguments;
+    MacroCall result;
     for (const OutWord& w : words) {
-      if (&w == &g65 || w.letter == 'N') continue;
+      if (&w == &call || w.letter == 'N') continue;
       if (w.letter == 'P') {
         p_word = &w;
       } else if (w.letter == 'L') {
         if (*w.value < 0.0 || *w.value > kMaxLabel || *w.value != std::round(*w.value)) {
           site().fail(w.column, "'" + w.text + "': the call count must be a non-negative integer");
         }
-        repeats = std::lround(*w.value);
+        result.repeats = std::lround(*w.value);
       } else if (w.letter >= 'A' && w.letter <= 'Z' &&
                  kLocalOfLetter[static_cast<std::size_t>(w.letter - 'A')] != 0) {
-        arguments.numbered[static_cast<std::size_t>(kLocalOfLetter[static_cast<std::size_t>(
+        result.arguments.numbered[static_cast<std::size_t>(kLocalOfLetter[static_cast<std::size_t>(
             w.letter - 'A')])] = Value::of(*w.value);
       } else {
-        site().fail(w.column, "'" + w.text + "': not a G65 argument (A-F H-K M Q-Z) nor P / L");
+        site().fail(w.column, "'" + w.text + "': not a " + name +
+                                  " argument (A-F H-K M Q-Z) nor P / L");
       }
     }
-    if (!p_word) site().fail(g65.column, "'" + g65.text + "': G65 needs P (the program number)");
+    if (!p_word) site().fail(call.column, "'" + name + "': " + name + " needs P (the program number)");
     if (*p_word->value < 0.0 || *p_word->value > kMaxLabel ||
         *p_word->value != std::round(*p_word->value)) {
       site().fail(p_word->column, "'" + p_word->text + "': must be a non-negative integer");
     }
-    const long number = std::lround(*p_word->value);
-    const auto target = program_body(number);
+    result.number = std::lround(*p_word->value);
+    const auto target = program_body(result.number);
     if (!target) {
-      site().fail(g65.column, "'" + g65.text + "': no macro program O" + std::to_string(number) +
-                                  " in " + src().file + " (" + p_word->text + ")");
+      site().fail(call.column, "'" + name + "': no macro program O" +
+                                   std::to_string(result.number) + " in " + src().file + " (" +
+                                   p_word->text + ")");
     }
-    if (repeats == 0) return true;
+    result.body = *target;
+    return result;
+  }
+
+  /// Calls the macro `call` from this line; it returns to `return_to` of `return_source`.
+  void call_macro(MacroCall call, std::size_t return_to, std::size_t return_source,
+                  bool modal_body) {
+    if (call.repeats == 0) return;
     Frame frame;
     frame.kind = FrameKind::g65;
-    frame.body = target->line;
-    frame.body_source = target->source;
-    frame.return_to = line_ + 1;
-    frame.return_source = source_;
-    frame.repeats_left = repeats;
-    frame.name = "O" + std::to_string(number);
+    frame.body = call.body.line;
+    frame.body_source = call.body.source;
+    frame.return_to = return_to;
+    frame.return_source = return_source;
+    frame.repeats_left = call.repeats;
+    frame.name = "O" + std::to_string(call.number);
     frame.call_line = static_cast<int>(line_) + 1;
-    frame.arguments = arguments;
-    locals_.push_back(std::move(arguments));
+    frame.arguments = call.arguments;
+    frame.modal_body = modal_body;
+    locals_.push_back(std::move(call.arguments));
     frame.locals = locals_.size() - 1;
     push_frame(std::move(frame));
-    jump_ = target->line;
-    jump_source_ = target->source;
+    if (modal_body) ++modal_bodies_running_;
+    jump_ = call.body.line;
+    jump_source_ = call.body.source;
+  }
+
+  bool g65_call(const std::vector<OutWord>& words, const OutWord& g65) {
+    call_macro(macro_call_of(words, g65), line_ + 1, source_, false);
     return true;
+  }
+
+  // --- G66 / G67: modal macro calls -----------------------------------------------------------
+
+  /// A G66 in force: its macro is called after every move block of the level that gave it.
+  struct ModalCall {
+    MacroCall call;
+    std::string g66_text;  ///< "G66 P9010", for messages
+    int g66_line = 0;
+    /// The modal-call macros running when G66 was given: the blocks of a macro this call
+    /// started do not call it again (Fanuc: a modal call is not made from its own macro).
+    std::size_t bodies_running = 0;
+  };
+
+  void set_modal_call(const std::vector<OutWord>& words, const OutWord& g66) {
+    ModalCall modal;
+    modal.call = macro_call_of(words, g66);
+    for (const OutWord& w : words) {
+      if (w.letter == 'P') modal.g66_text = g66.text + " " + w.text;
+    }
+    modal.g66_line = static_cast<int>(line_) + 1;
+    modal.bodies_running = modal_bodies_running_;
+    modal_calls_.push_back(std::move(modal));
+  }
+
+  /// After a block handed on (`text`: its plain words; `raw`: the line as written): under G66,
+  /// a block that moves an axis calls the macro, which returns to where the block would have
+  /// gone (the next line, or its GOTO's target).
+  void modal_call_after(std::string_view raw, std::string_view text) {
+    if (modal_calls_.empty()) return;
+    const ModalCall& modal = modal_calls_.back();
+    if (modal.bodies_running != modal_bodies_running_) return;
+    const std::optional<int> move_column = move_word_column(text);
+    if (!move_column) return;
+    if (frames_.size() > options_.max_call_depth) {
+      int column = *move_column;
+      if (text.data() != raw.data()) {
+        for (const auto& [text_column, source_column] : columns_) {
+          if (text_column <= *move_column) column = source_column;
+        }
+      }
+      const std::string_view from_word = text.substr(static_cast<std::size_t>(*move_column - 1));
+      site().fail(column, "'" + std::string(from_word.substr(0, from_word.find_first_of(" \t(;ABCDEFGHIJKLMNOPQRSTUVWXYZabcdefghijklmnopqrstuvwxyz", 1))) +
+                              "': the modal call " + modal.g66_text + " (line " +
+                              std::to_string(modal.g66_line) + ") nests calls more than " +
+                              std::to_string(options_.max_call_depth) +
+                              " deep (ReaderOptions::max_call_depth)");
+    }
+    const std::size_t return_to = jump_ ? *jump_ : line_ + 1;
+    const std::size_t return_source = jump_ ? jump_source_ : source_;
+    call_macro(modal.call, return_to, return_source, true);
+  }
+
+  /// The 1-based column of the first axis word (X Y Z A B C U V W) of a block that moves (not
+  /// a G4 dwell, G10 / G52 / G92 setting); nullopt where the block moves nothing.
+  static std::optional<int> move_word_column(std::string_view text) {
+    std::optional<int> axis_column;
+    std::size_t i = 0;
+    const std::size_t n = text.size();
+    while (i < n) {
+      const char c = text[i];
+      if (c == '(') {
+        const std::size_t close = text.find(')', i);
+        if (close == std::string_view::npos) break;
+        i = close + 1;
+        continue;
+      }
+      if (c == ';') break;
+      const char upper = static_cast<char>(std::toupper(static_cast<unsigned char>(c)));
+      // An address: a letter not inside a keyword, followed (blanks allowed) by a number.
+      const bool address = std::isalpha(static_cast<unsigned char>(c)) &&
+                           (i == 0 || !std::isalpha(static_cast<unsigned char>(text[i - 1])));
+      std::size_t k = i + 1;
+      while (k < n && (text[k] == ' ' || text[k] == '\t')) ++k;
+      const bool numbered = k < n && (std::isdigit(static_cast<unsigned char>(text[k])) ||
+                                      text[k] == '-' || text[k] == '+' || text[k] == '.' ||
+                                      text[k] == '=');  // Siemens X=10
+      if (address && numbered) {
+        if (upper == 'G') {
+          const double code = std::strtod(std::string(text.substr(k, 12)).c_str(), nullptr);
+          if (code == 4.0 || code == 10.0 || code == 52.0 || code == 92.0 || code == 92.1) {
+            return std::nullopt;
+          }
+        }
+        if (!axis_column && std::string_view("XYZABCUVW").find(upper) != std::string_view::npos) {
+          axis_column = static_cast<int>(i) + 1;
+        }
+      }
+      ++i;
+    }
+    return axis_column;
   }
 
   /// M99: the end of a subprogram (again while repetitions are left); in the main program, the
@@ -1258,6 +1394,7 @@ class Program {
     jump_ = frame.return_to;
     jump_source_ = frame.return_source;
     if (frame.kind != FrameKind::m98) locals_.pop_back();
+    if (frame.modal_body) --modal_bodies_running_;
     frames_.pop_back();
   }
 
@@ -1662,6 +1799,8 @@ class Program {
   // Parameters and calls.
   std::vector<Locals> locals_;
   std::vector<Frame> frames_;
+  std::vector<ModalCall> modal_calls_;  ///< G66 in force (the last one given calls)
+  std::size_t modal_bodies_running_ = 0;
   std::unordered_map<int, Value> globals_;
   std::unordered_map<std::string, Value> globals_named_;
 

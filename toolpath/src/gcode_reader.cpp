@@ -335,7 +335,7 @@ class GcodeReader {
           switch (code) {
             case 0: case 10: case 20: case 30: set_motion(static_cast<int>(code / 10)); break;
             case 730: case 740: case 760: case 810: case 820: case 830: case 840: case 850:
-            case 860: case 890:
+            case 860: case 870: case 880: case 890:
               set_motion(static_cast<int>(code / 10));
               break;
             case 800: cancel_cycle_word = &word; break;
@@ -379,9 +379,6 @@ class GcodeReader {
             case 681: fail(word, "3-D coordinate rotation is not supported");
             case 510: case 511: fail(word, "scaling / mirroring is not supported");
             case 160: fail(word, "polar coordinates are not supported");
-            case 870: case 880:
-              fail(word, "back boring (G87) and manual-retract boring (G88) are not supported: "
-                         "output the cycle as G0/G1 moves");
             default:
               fail(word, "unsupported G-code (it may change the geometry)");
           }
@@ -542,12 +539,14 @@ class GcodeReader {
                                        path_code == 1870)) ||
                         nonmodal == 100 || (offset_word && offset_name == "G54.1") ||
                         (cycle && (*motion_ == 82 || *motion_ == 89 || *motion_ == 74 ||
-                                   *motion_ == 84 || *motion_ == 76));
+                                   *motion_ == 84 || *motion_ == 76 || *motion_ == 87 ||
+                                   *motion_ == 88));
     if (p_word && !p_used) fail(*p_word, "P has no meaning in this block");
     // G64 P.. Q..: LinuxCNC's Q (collinear points folded) changes no geometry beyond P.
     if (q_word && !(path_code == 51 || path_code == 640 ||
-                    (cycle && (*motion_ == 73 || *motion_ == 76 || *motion_ == 83)))) {
-      fail(*q_word, "Q has no meaning in this block (G5.1 Q, G64 Q, G73 / G76 / G83 Q)");
+                    (cycle && (*motion_ == 73 || *motion_ == 76 || *motion_ == 83 ||
+                               *motion_ == 87)))) {
+      fail(*q_word, "Q has no meaning in this block (G5.1 Q, G64 Q, G73 / G76 / G83 / G87 Q)");
     }
     if (l_word && !(nonmodal == 100 || cycle)) {
       fail(*l_word, "L has no meaning in this block (G10 L, canned cycle repeats)");
@@ -1349,6 +1348,7 @@ class GcodeReader {
     cycle_r_mm_.reset();
     cycle_bottom_mm_.reset();
     cycle_q_mm_.reset();
+    cycle_shift_ij_mm_.reset();
   }
 
   void canned_cycle(const std::array<const Word*, 3>& xyz, const std::array<const Word*, 3>& ijk,
@@ -1356,8 +1356,27 @@ class GcodeReader {
                     long block_number, const Word& reported) {
     const auto [u, v, w] = plane_axes(plane_);
     const int code = *motion_;
+    const bool shifting = code == 76 || code == 87;
     if (const Word* extra = first_of({ijk[0], ijk[1]})) {
-      fail(*extra, "I J have no meaning in a canned cycle");
+      // Fanuc (parameter SIJ) and Haas: I J give the G76 / G87 shift as a vector in the plane.
+      if (!shifting) fail(*extra, "I J have no meaning in this canned cycle (G76 / G87 shift)");
+      if (plane_ != Plane::xy) {
+        fail(*extra, "a G76 / G87 shift by I J is read under G17 only: give Q (the shift along "
+                     "ReaderOptions::fine_boring_shift_direction)");
+      }
+      if (q_word) fail(*q_word, "both Q and I J (the shift) in one block");
+      Eigen::Vector2d shift_mm = Eigen::Vector2d::Zero();
+      for (const int k : {0, 1}) {
+        const Word* word = ijk[static_cast<std::size_t>(k)];
+        if (!word) continue;
+        require_within(*word, word->value, -detail::kMaxCoordinateMm, detail::kMaxCoordinateMm,
+                       "shift", "");
+        shift_mm[k] = word->value * mm_per_unit_;
+      }
+      cycle_shift_ij_mm_ = shift_mm;
+      cycle_q_mm_.reset();
+    } else if (q_word && shifting) {
+      cycle_shift_ij_mm_.reset();
     }
     const Word* k_word = ijk[2];
     if (k_word && l_word) fail(*l_word, "both K and L (repeats) in one block");
@@ -1405,16 +1424,47 @@ class GcodeReader {
     hole.peck_mm = cycle_q_mm_.value_or(0.0);
     hole.peck_clearance_mm = options_.peck_clearance_mm;
     hole.peck_retract_mm = options_.peck_retract_mm;
-    hole.shift_mm = code == 76 ? cycle_q_mm_.value_or(0.0) : 0.0;
     if (!(options_.fine_boring_shift_direction.norm() > 0.0) ||
         !options_.fine_boring_shift_direction.allFinite()) {
       throw InputError("ReaderOptions::fine_boring_shift_direction must be a non-zero direction");
     }
     hole.shift_direction = options_.fine_boring_shift_direction.normalized();
-    if (!(hole.bottom_mm < hole.r_mm)) {
+    hole.shift_mm = 0.0;
+    if (shifting && cycle_shift_ij_mm_) {
+      hole.shift_mm = cycle_shift_ij_mm_->norm();
+      if (hole.shift_mm > 0.0) hole.shift_direction = *cycle_shift_ij_mm_ / hole.shift_mm;
+    } else if (shifting) {
+      hole.shift_mm = cycle_q_mm_.value_or(0.0);
+    }
+    if (code == 87) {
+      // Back boring cuts upwards: R is below the part, the Z point above it.
+      hole.return_to_initial = true;
+      if (!return_to_initial_ && !g99_back_boring_warned_) {
+        warn("G87 under G99: back boring returns to the initial level (G98), as on a Fanuc, "
+             "since R lies below the part");
+        g99_back_boring_warned_ = true;
+      }
+      if (!(hole.bottom_mm > hole.r_mm)) {
+        fail(bottom_word ? *bottom_word : reported,
+             "G87 (back boring): the Z point " + axis_name +
+                 detail::format_number(hole.bottom_mm) + " mm is not above the R level " +
+                 detail::format_number(hole.r_mm) + " mm (R lies below the part)");
+      }
+      if (!(hole.initial_mm > hole.bottom_mm)) {
+        fail(reported, "G87 (back boring): the initial level " +
+                           detail::format_number(hole.initial_mm) +
+                           " mm is not above the Z point " + axis_name +
+                           detail::format_number(hole.bottom_mm) + " mm");
+      }
+    } else if (!(hole.bottom_mm < hole.r_mm)) {
       fail(bottom_word ? *bottom_word : reported,
            "the hole bottom " + axis_name + detail::format_number(hole.bottom_mm) +
                " mm is not below the R level " + detail::format_number(hole.r_mm) + " mm");
+    }
+    if (code == 88 && !g88_warned_) {
+      warn("G88 stops at the hole bottom for a manual retract: taken as a rapid straight out to "
+           "the R level, then the return (G98 / G99) as after cycle start");
+      g88_warned_ = true;
     }
     // Points before they are made: a tiny Q would peck millions of times.
     const double pecks = (code == 73 || code == 83)
@@ -1804,6 +1854,9 @@ class GcodeReader {
   bool arc_centre_incremental_ = true;  // G91.1 (else G90.1)
   bool return_to_initial_ = true;       // G98 (else G99)
   std::optional<double> cycle_r_mm_, cycle_bottom_mm_, cycle_q_mm_;
+  std::optional<Eigen::Vector2d> cycle_shift_ij_mm_;  // G76 / G87 shift by I J (modal)
+  bool g99_back_boring_warned_ = false;
+  bool g88_warned_ = false;
   bool cycle_initial_known_ = false;
   double cycle_initial_mm_ = 0.0;
   // Coordinate systems.

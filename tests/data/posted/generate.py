@@ -782,6 +782,59 @@ def fanuc_cutter_comp():
     wr.write(os.path.join(HERE, "fanuc_cutter_comp", "program.nc"))
 
 
+FANUC_BORING_MODAL = """%
+O3100 (PLATE 100X80X30 - BACK BORE, BORE, SPOT - SHOP PROGRAM)
+(STOCK ON PARALLELS, WORK ZERO TOP CENTRE)
+N10 G21 G90 G17 G40 G49 G80 G94
+N20 T1 M6 (DRILL D10 THROUGH)
+N30 G54 G0 X-30. Y-20. S1800 M3
+N40 G43 H1 Z20. M8
+N50 G98 G81 Z-32. R2. F120.
+N60 X30.
+N70 G80
+N80 G0 Z50. M9
+N90 G91 G28 Z0. M5
+N100 G90
+N110 T2 M6 (BACK BORING BAR - COUNTERBORE FROM BELOW)
+N120 G0 X-30. Y-20. S600 M3
+N130 G43 H2 Z20.
+N140 G98 G87 Z-26. R-34. Q1.5 F60.
+N150 X30.
+N160 G80
+N170 G0 Z50.
+N180 G91 G28 Z0. M5
+N190 G90
+N200 T3 M6 (BORING BAR D12 - OPERATOR RETRACTS)
+N210 G0 X0 Y15. S900 M3
+N220 G43 H3 Z20.
+N230 G99 G88 Z-12. R2. P500 F50.
+N240 G80
+N250 G0 Z50.
+N260 G91 G28 Z0. M5
+N270 G90
+N280 T4 M6 (SPOT DRILL - MODAL MACRO CALL)
+N290 G0 X-30. Y20. S2500 M3
+N300 G43 H4 Z20.
+N310 G66 P9010 A1.5 R2. C20. F150.
+N320 X-30. Y20.
+N330 X-10.
+N340 X10.
+N350 X30.
+N360 G67
+N370 G0 Z50.
+N380 G91 G28 Z0. M5
+N390 G90
+N400 M30
+O9010 (SPOT AT THE CURRENT X Y: A DEPTH, R LEVEL, C RETURN, F FEED)
+IF [#1 EQ #0] THEN #3000 = 1 (DEPTH A MISSING)
+G0 Z#18
+G1 Z-#1 F#9
+G0 Z#3
+M99
+%
+"""
+
+
 def write_text(name, file_name, text):
     os.makedirs(os.path.join(HERE, name), exist_ok=True)
     with open(os.path.join(HERE, name, file_name), "w", newline="") as f:
@@ -798,5 +851,6 @@ if __name__ == "__main__":
     haas()
     write_text("linuxcnc_macros", "program.ngc", LINUXCNC_MACROS)
     write_text("fanuc_macro_b", "program.nc", FANUC_MACRO_B)
+    write_text("fanuc_boring_modal", "program.nc", FANUC_BORING_MODAL)
     five_axis_tcp()
     fanuc_cutter_comp()

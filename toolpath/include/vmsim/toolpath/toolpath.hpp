@@ -125,9 +125,10 @@
 //    (the machine's home, where a tool change leaves the axes) when work offsets are set up and
 //    outside tool-centre-point mode (a post that positions X Y before its G43 H Z move), else at
 //    the program's 0; with a warning.
-//  - Canned cycles G73 G74 G76 G81 G82 G83 G84 G85 G86 G89 (modal until G80 or another motion
-//    G-code; after G80 the G0 .. G3 in force before the cycle is back, as on a Fanuc, where the
-//    cycles are a modal group of their own; X Y the hole, Z the bottom, R the R level, Q the peck, P the dwell (no motion), K or
+//  - Canned cycles G73 G74 G76 G81 G82 G83 G84 G85 G86 G87 G88 G89 (modal until G80 or another
+//    motion G-code; after G80 the G0 .. G3 in force before the cycle is back, as on a Fanuc,
+//    where the cycles are a modal group of their own; X Y the hole, Z the bottom, R the R level,
+//    Q the peck, P the dwell (no motion), K or
 //    L repeats, G98 return to the initial level (the drilling axis when the cycle started, or R
 //    if higher) / G99 to R). Incremental: R from the initial level, Z from R, X Y per repeat.
 //    Each hole: up to R first where below it, rapid in the plane to the hole, rapid to R; G81
@@ -135,9 +136,19 @@
 //    Q, each followed by a rapid to R and a rapid back to ReaderOptions::peck_clearance_mm
 //    above the last depth; G73 pecks of Q, each followed by a rapid back-off of
 //    peck_retract_mm; G76 (Fanuc fine boring) feeds to the bottom, shifts by Q along
-//    ReaderOptions::fine_boring_shift_direction, leaves in rapid and shifts back; then the
-//    rapid out. Drilling axis: the plane normal. Every point of a cycle is an exact stop
-//    (corner_tolerance_m 0). G87 (back boring) and G88 (manual retract) are errors.
+//    ReaderOptions::fine_boring_shift_direction, leaves in rapid and shifts back; G88 (boring,
+//    manual retract) feeds to the bottom, and the control stops (dwell P, spindle stop) for the
+//    operator to take the tool out by hand: taken as a rapid straight out along the drilling
+//    axis to R (an assumption, with a warning), after which cycle start gives the return; then
+//    the rapid out. G87 (Fanuc back boring; R below the part, Z above R): up to the initial
+//    level where below it, rapid in the plane to the hole, shift by Q (spindle oriented), rapid
+//    down to R, shift back, feed up to Z, shift, rapid up to the initial level, shift back; it
+//    always returns to the initial level (G99 is not used with G87 on a Fanuc: a warning). The
+//    G76 / G87 shift may also be given as I J under G17 (Fanuc with I J shifts, Haas): the
+//    vector (I, J) in the plane, modal in the cycle like Q; Q and I J together are an error.
+//    LinuxCNC does not implement G87 / G88 (and the reader has no dialect switch): Fanuc's
+//    motion is the one read. Drilling axis: the plane normal. Every point of a cycle is an exact
+//    stop (corner_tolerance_m 0).
 //  - Path control into PathPoint::corner_tolerance_m (modal): G61 / G61.1 exact stop 0; G9 exact
 //    stop at the end of its block; G64 P<tol> (program units) its tolerance; G64 without P NaN
 //    (the control's own blending: the part file or command line decides); G5.1 Q1 (R is a
@@ -183,7 +194,7 @@
 //  - Accepted and ignored: G4 dwell (with X or P), G15 G50, G80 (ends a cycle), G8 P1/P0
 //    (look-ahead), the Q of G64 (LinuxCNC's folding of collinear points).
 //    Errors naming the word: G68.1 3-D rotation, G51 scaling, G16
-//    polar, G87 G88, any other G-code, and words outside this list (U V W, Siemens keywords
+//    polar, any other G-code, and words outside this list (U V W, Siemens keywords
 //    other than TRAORI/TRAFOOF); P Q L E where their G-code does not use them.
 //
 // Siemens Sinumerik 840D subset (read_siemens; toolpath/src/siemens_reader.cpp): programs as NX,
@@ -309,8 +320,16 @@
 //    with arguments A B C I J K D E F H M Q R S T U V W X Y Z into #1 #2 #3 #4 #5 #6 #7 #8 #9 #11
 //    #13 #17-#26 (argument specification I); the other locals of the macro start vacant. M99
 //    in the main program ends it (the control would start it again); a file whose only
-//    program ends with M99 (no M2/M30 anywhere) runs that program once. Not supported (errors):
-//    M99 P (return to a block number), G66/G67 modal calls.
+//    program ends with M99 (no M2/M30 anywhere) runs that program once. Modal calls: `G66
+//    P<n> [L<k>]` with G65's arguments calls the macro (k times, each from the arguments
+//    again) after every following block that moves an axis (an axis word X Y Z A B C U V W;
+//    not G4 dwells nor G10 / G52 / G92 settings, nor blocks without an axis word), returning to
+//    the block after it (or its GOTO's target), until G67 (which cancels the last G66 given;
+//    G66 blocks nest as a stack). The moves of the macro a modal call started do not call it
+//    again; those of an M98 / G65 subprogram called under G66 do. An unknown program is an
+//    error at the G66; a modal call beyond ReaderOptions::max_call_depth at the move word that
+//    would make it. Not supported (errors): M99 P (return to a block number), G66.1 (a call
+//    from every block, its words the arguments).
 //  - Subprograms in other files: a program number or o-word subroutine not in the file is
 //    looked for in ReaderOptions::subprogram_folder (read_gcode: the program's folder): M98 /
 //    G65 P1234 in O1234.nc, o1234.nc, 1234.nc, O1234.NC (O0012.nc for P12), which may hold the
