@@ -352,10 +352,12 @@ ChainInputs load_chain_inputs(const ChainInputOptions& options) {
     constexpr double kDeg = 180.0 / std::numbers::pi;
     std::ostringstream text;
     text.precision(3);
-    if (profile && profile->min_score >= profile->min_score_free) {
+    inputs.roll_profile = profile;
+    // Applied only where it raises the smallest score (else the path stays as it was).
+    if (profile && profile->min_score > profile->min_score_free + 1e-6) {
+      inputs.roll_profile_applied = true;
       inputs.q_start = profile->q_start;
       for (std::size_t i = 0; i < inputs.path.size(); ++i) inputs.path[i].roll_rad = profile->roll_rad[i];
-      inputs.roll_profile = profile;
       text << "tool roll (the free rotation about the tool axis) chosen along the path for the largest smallest "
            << "min(travel margin, inverse condition of the Jacobian) (" << profile->rolls << " rolls at each of "
            << profile->samples << " samples, rate at most " << profile->max_rate_rad_per_m * kDeg / 1000.0
@@ -373,8 +375,10 @@ ChainInputs load_chain_inputs(const ChainInputOptions& options) {
            << " (the solution nearest home: " << choice->seed_margins.travel_margin * 100.0 << " %, "
            << choice->seed_margins.inverse_condition << ")";
       if (profile) {
-        text << "; a roll profile along the path was not better (smallest score " << profile->min_score
-             << " against " << profile->min_score_free << ")";
+        text << "; a roll profile along the path (roll " << profile->roll_min_rad * kDeg << " to "
+             << profile->roll_max_rad * kDeg << " deg) was not better: smallest score along the path "
+             << profile->min_score << ", without it " << profile->min_score_free << " at s = "
+             << profile->min_score_free_s_m * 1e3 << " mm";
       } else {
         text << "; no roll profile along the path was found";
       }

@@ -1488,7 +1488,8 @@ Json simulate_part(const SimulatePartOptions& options, const ProgressSink& progr
   if (!context.inputs.tool_roll.empty()) report["tool_roll"] = context.inputs.tool_roll;
   if (const auto& roll = context.inputs.roll_profile) {
     constexpr double kDeg = 180.0 / std::numbers::pi;
-    report["tool_roll_along_path"] = {{"roll_min_deg", roll->roll_min_rad * kDeg},
+    report["tool_roll_along_path"] = {{"applied", context.inputs.roll_profile_applied},
+                                      {"roll_min_deg", roll->roll_min_rad * kDeg},
                                       {"roll_max_deg", roll->roll_max_rad * kDeg},
                                       {"roll_rate_max_deg_per_mm", roll->max_rate_rad_per_m * kDeg / 1000.0},
                                       {"min_score", roll->min_score},
