@@ -321,15 +321,26 @@ std::optional<RollProfile> choose_tool_roll_along_path(const MachineModel& model
   // 3-4. Dynamic programming.
   const double lowest = -std::numeric_limits<double>::infinity();
   auto allowed = [&](std::size_t m, int from, int to) {
-    const double ds = samples[m].s_m - samples[m - 1].s_m;
-    if (std::abs(to - from) * options.grid_step_rad > options.max_roll_rate_rad_per_m * ds + 1e-12) return false;
     const auto f = static_cast<std::size_t>(from), t = static_cast<std::size_t>(to);
     return alive[m - 1][f] && alive[m][t] &&
            largest_joint_step(q[m][t], q[m - 1][f]) <= options.max_joint_step_rad;
   };
+  // The roll changes only at stations, at least grid_step / max_roll_rate apart (samples may be
+  // closer than one grid step allows): between stations each lane keeps its roll.
+  const double station_spacing = options.grid_step_rad / options.max_roll_rate_rad_per_m;
+  std::vector<double> since_station(m_count, 0.0);  // path length back to the previous station; 0: not a station
+  {
+    double last = samples.front().s_m;
+    for (std::size_t m = 1; m < m_count; ++m) {
+      const double gap = samples[m].s_m - last;
+      if (gap >= station_spacing * (1.0 - 1e-9) || m + 1 == m_count) {
+        since_station[m] = gap;
+        last = samples[m].s_m;
+      }
+    }
+  }
   auto reach = [&](std::size_t m) {
-    const double ds = samples[m].s_m - samples[m - 1].s_m;
-    return static_cast<int>(std::floor(options.max_roll_rate_rad_per_m * ds / options.grid_step_rad + 1e-9));
+    return static_cast<int>(std::floor(options.max_roll_rate_rad_per_m * since_station[m] / options.grid_step_rad + 1e-9));
   };
   std::vector<double> best(static_cast<std::size_t>(lanes)), next(static_cast<std::size_t>(lanes));
   for (int lane = 0; lane < lanes; ++lane) {
@@ -375,7 +386,7 @@ std::optional<RollProfile> choose_tool_roll_along_path(const MachineModel& model
         if (cost[m - 1][f] == infinite || !allowed(m, from, to)) continue;
         const double turn = (to - from) * options.grid_step_rad;
         const double c = cost[m - 1][f] + ds * shortfall(score[m][t]) +
-                         (turn != 0.0 ? options.roll_motion_weight_m_per_rad2 * turn * turn / ds : 0.0);
+                         (turn != 0.0 ? options.roll_motion_weight_m_per_rad2 * turn * turn / since_station[m] : 0.0);
         if (c < cost[m][t]) {
           cost[m][t] = c;
           previous[m][t] = from;
@@ -385,12 +396,18 @@ std::optional<RollProfile> choose_tool_roll_along_path(const MachineModel& model
   }
   int lane = static_cast<int>(std::min_element(cost.back().begin(), cost.back().end()) - cost.back().begin());
   if (cost.back()[static_cast<std::size_t>(lane)] == infinite) return std::nullopt;
-  std::vector<double> xs(m_count), ys(m_count);
+  // The roll at the stations (and the ends), linear in s between them: its slope stays within
+  // the rate bound.
+  std::vector<double> xs, ys;
   for (std::size_t m = m_count; m-- > 0;) {
-    xs[m] = samples[m].s_m;
-    ys[m] = lane_roll(lane);
+    if (m == 0 || since_station[m] > 0.0) {
+      xs.push_back(samples[m].s_m);
+      ys.push_back(lane_roll(lane));
+    }
     if (m > 0) lane = previous[m][static_cast<std::size_t>(lane)];
   }
+  std::reverse(xs.begin(), xs.end());
+  std::reverse(ys.begin(), ys.end());
 
   // 5-6. Smooth, then check every sample from its predecessor.
   const double sigma = options.smoothing_length_m;
