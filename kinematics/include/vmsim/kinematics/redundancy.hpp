@@ -119,14 +119,16 @@ struct RollProfile {
 ///     inverse_kinematics_with_roll from its own previous solution. A lane ends where the solver
 ///     fails or a joint jumps by more than max_joint_step_rad (a branch change). Each node
 ///     (sample, lane) has its score (negative outside the travel).
-///  3. Transitions between lanes from one sample to the next are allowed within the roll-rate
-///     bound (|d roll| <= max_roll_rate x ds) and without a joint jump.
+///  3. Transitions between lanes happen at stations, samples at least grid_step_rad /
+///     max_roll_rate_rad_per_m (10 mm) apart (closer samples could never move one grid step),
+///     within the rate bound (|d roll| <= max_roll_rate x ds since the last station) and without
+///     a joint jump; between stations a lane keeps its roll.
 ///  4. First pass: the largest smallest score any allowed sequence keeps (max-min DP), B*.
 ///     Second pass, over nodes scoring at least min(B*, comfortable_score): least cost
 ///       sum ds max(0, 1 - score / comfortable_score) + w sum (d roll)^2 / ds
 ///     (time spent below the comfortable score, then least roll motion: a roll that needs not
 ///     move stays still), w = roll_motion_weight_m_per_rad2.
-///  5. The chosen roll per sample, piecewise linear in s, convolved with a Gaussian of standard
+///  5. The chosen roll at the stations, piecewise linear in s between them, convolved with a Gaussian of standard
 ///     deviation smoothing_length_m (in closed form: erf and exp per piece): smooth in s, and its
 ///     rate stays within the bound (a convolution does not raise a Lipschitz constant).
 ///  6. Check: every sample solved with the smoothed roll from its predecessor, within travel,
