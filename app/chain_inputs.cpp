@@ -338,24 +338,50 @@ ChainInputs load_chain_inputs(const ChainInputOptions& options) {
     if (point.kind == toolpath::MotionKind::rapid || !(contour_m > 0.0)) contour_m = 0.0;
     inputs.contour_tolerance_m.push_back(contour_m);
   }
-  // A robot's sixth degree of freedom, the rotation about the tool axis, is free: choose it at
-  // the first pose away from joint limits and singularities; the path then keeps least joint
-  // motion from there.
+  // A robot's sixth degree of freedom, the rotation about the tool axis, is free: choose it
+  // along the whole path away from joint limits and singularities (a roll profile, smooth in s,
+  // kinematics::choose_tool_roll_along_path); where that finds none, at the first pose only (the
+  // path then keeps least joint motion from there).
   inputs.q_start = inputs.machine.home_positions();
   if (inputs.machine.kind == kinematics::MachineKind::robot && !inputs.path.empty() &&
       inputs.path.front().q_given.size() == 0) {
     const auto choice = kinematics::choose_tool_roll(inputs.machine, inputs.path.front().pose,
                                                      inputs.q_start, inputs.tool_length_m);
-    if (choice) {
+    const auto profile = kinematics::choose_tool_roll_along_path(inputs.machine, inputs.path, inputs.q_start,
+                                                                 inputs.tool_length_m);
+    constexpr double kDeg = 180.0 / std::numbers::pi;
+    std::ostringstream text;
+    text.precision(3);
+    inputs.roll_profile = profile;
+    // Applied only where it raises the smallest score (else the path stays as it was).
+    if (profile && profile->min_score > profile->min_score_free + 1e-6) {
+      inputs.roll_profile_applied = true;
+      inputs.q_start = profile->q_start;
+      for (std::size_t i = 0; i < inputs.path.size(); ++i) inputs.path[i].roll_rad = profile->roll_rad[i];
+      text << "tool roll (the free rotation about the tool axis) chosen along the path for the largest smallest "
+           << "min(travel margin, inverse condition of the Jacobian) (" << profile->rolls << " rolls at each of "
+           << profile->samples << " samples, rate at most " << profile->max_rate_rad_per_m * kDeg / 1000.0
+           << " deg/mm): roll " << profile->roll_min_rad * kDeg << " to " << profile->roll_max_rad * kDeg
+           << " deg; smallest score along the path " << profile->min_score << " at s = " << profile->min_score_s_m * 1e3
+           << " mm (without the choice, the first pose's roll then least joint motion: " << profile->min_score_free
+           << " at s = " << profile->min_score_free_s_m * 1e3 << " mm)";
+      inputs.tool_roll = text.str();
+    } else if (choice) {
       inputs.q_start = choice->q;
-      std::ostringstream text;
-      text.precision(3);
-      text << "tool roll (the free rotation about the tool axis) at the first pose: " << choice->roll_rad * 180.0 / std::numbers::pi
+      text << "tool roll (the free rotation about the tool axis) at the first pose: " << choice->roll_rad * kDeg
            << " deg (" << choice->rolls_solved + 1 << " of " << choice->rolls_tried + 1 << " rolls every 15 deg reachable within travel), chosen for the largest of min(travel margin, "
            << "inverse condition of the Jacobian): travel margin " << choice->margins.travel_margin * 100.0
            << " % of a joint's travel, inverse condition " << choice->margins.inverse_condition
            << " (the solution nearest home: " << choice->seed_margins.travel_margin * 100.0 << " %, "
            << choice->seed_margins.inverse_condition << ")";
+      if (profile) {
+        text << "; a roll profile along the path (roll " << profile->roll_min_rad * kDeg << " to "
+             << profile->roll_max_rad * kDeg << " deg) was not better: smallest score along the path "
+             << profile->min_score << ", without it " << profile->min_score_free << " at s = "
+             << profile->min_score_free_s_m * 1e3 << " mm";
+      } else {
+        text << "; no roll profile along the path was found";
+      }
       inputs.tool_roll = text.str();
     }
   }

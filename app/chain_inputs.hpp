@@ -9,6 +9,7 @@
 #include "part_file.hpp"
 #include "vmsim/kinematics/machine_model.hpp"
 #include "vmsim/kinematics/path_kinematics.hpp"
+#include "vmsim/kinematics/redundancy.hpp"
 #include "vmsim/planner/corner_blend.hpp"
 #include "vmsim/toolpath/toolpath.hpp"
 
@@ -66,6 +67,11 @@ struct ChainInputs {
   /// (kinematics::choose_tool_roll); `tool_roll` says which, in words, empty on a machine tool.
   Eigen::VectorXd q_start;
   std::string tool_roll;
+  /// On a robot: the roll profile along the path (kinematics::choose_tool_roll_along_path);
+  /// applied (set in each PathPose::roll_rad of `path`) only where it raises the smallest score
+  /// of the path without it, else the first-pose choice is kept.
+  std::optional<kinematics::RollProfile> roll_profile;
+  bool roll_profile_applied = false;
 };
 
 /// Loads and checks everything; throws vmsim::InputError with file, line and value.

@@ -100,6 +100,7 @@ void context_section(std::ostringstream& html, const Json& report) {
   row("Reference feed", text_of(context, "reference_feed"));
   row("Feedrate planning", text_of(context, "planning"));
   row("Corners", text_of(context, "corners"));
+  row("Tool roll", report.contains("tool_roll") ? report["tool_roll"].get<std::string>() : "");
   if (context.contains("nc_modes")) {
     // What the program asks, what the run applied, and what the command line overrode.
     std::string modes;

@@ -1534,6 +1534,19 @@ Json simulate_part(const SimulatePartOptions& options, const ProgressSink& progr
   report["part"] = {{"name", context.part.name}, {"description", context.part.description},
                     {"file", part_path_for_report(options.part_path)}};
   if (!context.inputs.tool_roll.empty()) report["tool_roll"] = context.inputs.tool_roll;
+  if (const auto& roll = context.inputs.roll_profile) {
+    constexpr double kDeg = 180.0 / std::numbers::pi;
+    report["tool_roll_along_path"] = {{"applied", context.inputs.roll_profile_applied},
+                                      {"roll_min_deg", roll->roll_min_rad * kDeg},
+                                      {"roll_max_deg", roll->roll_max_rad * kDeg},
+                                      {"roll_rate_max_deg_per_mm", roll->max_rate_rad_per_m * kDeg / 1000.0},
+                                      {"min_score", roll->min_score},
+                                      {"min_score_at_s_mm", roll->min_score_s_m * 1e3},
+                                      {"min_score_without_choice", roll->min_score_free},
+                                      {"min_score_without_choice_at_s_mm", roll->min_score_free_s_m * 1e3},
+                                      {"samples", roll->samples},
+                                      {"rolls_per_sample", roll->rolls}};
+  }
   report["machine"] = context.inputs.machine.name + " (" +
                       path_for_report(context.inputs.machine.source_file, options.part_path) + ")";
   report["toolpath"] = path_for_report(context.part.toolpath_path, options.part_path);

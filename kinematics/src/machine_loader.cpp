@@ -523,7 +523,7 @@ void check_travel_plausible(const FieldReader& at, const Axis& axis, const std::
   }
 }
 
-Axis read_axis(const FieldReader& reader, std::vector<std::string>& warnings) {
+Axis read_axis(const FieldReader& reader, MachineKind kind, std::vector<std::string>& warnings) {
   Axis axis;
   axis.name = reader.string("name");
   if (axis.name.empty()) reader.fail("axis name is empty");
@@ -557,7 +557,7 @@ Axis read_axis(const FieldReader& reader, std::vector<std::string>& warnings) {
   axis.limits = read_limits(named.child("limits"), axis);
   axis.drive = read_drive(named.child("drive"), axis);
   axis.controller = read_controller(named.child("controller"), axis);
-  if (named.has("effects")) axis.effects = read_drive_effects(named.child("effects"), axis);
+  if (named.has("effects")) axis.effects = read_drive_effects(named.child("effects"), axis, kind);
   named.reject_unknown_fields();
   return axis;
 }
@@ -693,7 +693,7 @@ MachineModel parse_machine(const std::string& yaml_text, const std::string& file
   std::vector<bool> travel_in_machine_file(axis_count, false);
   for (std::size_t i = 0; i < axis_count; ++i) {
     const FieldReader axis_reader = axes.element(i);
-    Axis axis = read_axis(axis_reader, model.warnings);
+    Axis axis = read_axis(axis_reader, model.kind, model.warnings);
     travel_in_machine_file[i] = axis.continuous || !std::isnan(axis.travel_min);
     if (!names.insert(axis.name).second) axis_reader.fail("duplicate axis name '" + axis.name + "'");
     model.axes.push_back(std::move(axis));

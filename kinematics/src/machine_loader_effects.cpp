@@ -96,9 +96,22 @@ PitchError read_pitch_error(const FieldReader& reader, const Axis& axis) {
   return result;
 }
 
-Compliance read_compliance(const FieldReader& reader, const Axis& axis) {
+Compliance read_compliance(const FieldReader& reader, const Axis& axis, MachineKind kind) {
   Compliance result;
   result.enabled = true;
+  // A robot joint's friction is mostly before its gear's output (motor bearings, the reducer's
+  // fast stages): motor side by default; a machine tool's at the guideways: load side.
+  result.friction_side = kind == MachineKind::robot ? FrictionSide::motor : FrictionSide::load;
+  if (reader.has("friction_side")) {
+    const std::string side = reader.child("friction_side").as_string();
+    if (side == "motor") {
+      result.friction_side = FrictionSide::motor;
+    } else if (side == "load") {
+      result.friction_side = FrictionSide::load;
+    } else {
+      reader.child("friction_side").fail("'" + side + "' is not one of: motor, load");
+    }
+  }
   result.stiffness = reader.quantity("stiffness", linear(axis) ? kLinearStiffness : kRotaryStiffness);
   result.motor_side_inertia_kg_m2 =
       reader.number_or("motor_side_inertia_kg_m2", axis.drive.rotor_inertia_kg_m2);
@@ -140,7 +153,7 @@ Compliance read_compliance(const FieldReader& reader, const Axis& axis) {
 
 }  // namespace
 
-DriveEffects read_drive_effects(const FieldReader& effects, const Axis& axis) {
+DriveEffects read_drive_effects(const FieldReader& effects, const Axis& axis, MachineKind kind) {
   DriveEffects result;
   if (effects.has("stribeck")) result.stribeck = read_stribeck(effects.child("stribeck"), axis);
   if (effects.has("smooth_friction")) {
@@ -160,7 +173,7 @@ DriveEffects read_drive_effects(const FieldReader& effects, const Axis& axis) {
     result.pitch_error = read_pitch_error(effects.child("pitch_error"), axis);
   }
   if (effects.has("compliance")) {
-    result.compliance = read_compliance(effects.child("compliance"), axis);
+    result.compliance = read_compliance(effects.child("compliance"), axis, kind);
   }
   result.gravity_compensated = effects.boolean_or("gravity_compensated", false);
   effects.reject_unknown_fields();

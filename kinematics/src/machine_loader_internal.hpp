@@ -101,7 +101,7 @@ void check_xml_nesting(std::string_view text, const std::string& file, int max_d
 std::vector<std::string> check_urdf_text(std::string_view text, const std::string& file);
 
 /// Reads `axes[i].effects` (machine_loader_effects.cpp); rejects unknown fields.
-DriveEffects read_drive_effects(const FieldReader& effects, const Axis& axis);
+DriveEffects read_drive_effects(const FieldReader& effects, const Axis& axis, MachineKind kind);
 
 /// A serial chain imported from URDF: the joints from base_link to tip_link become the tool
 /// chain (their names must be axis names of the machine file); tip_to_spindle places the spindle

@@ -6,6 +6,7 @@
 #include <stdexcept>
 
 #include "vmsim/common/errors.hpp"
+#include "vmsim/kinematics/redundancy.hpp"
 
 namespace vmsim::kinematics {
 namespace {
@@ -143,6 +144,19 @@ PathKinematics solve_path_kinematics(const MachineModel& model, const std::vecto
       out.q.col(static_cast<Eigen::Index>(i)) = given->q;
       singular[i] = given->singular;
       q_previous = given->q;
+      continue;
+    }
+    if (!std::isnan(path[i].roll_rad)) {
+      // The roll chosen along the path (redundancy.hpp): the full frame, next to the previous.
+      const auto rolled = inverse_kinematics_with_roll(model, path[i].pose, path[i].roll_rad, q_previous, tool_length_m);
+      if (!rolled || !within_travel(model, *rolled, 1e-9)) {
+        throw InfeasibleError("tool path point " + std::to_string(i) + " (" + block_label(path[i], block_names) +
+                              "): no inverse kinematic solution with the chosen tool roll " +
+                              std::to_string(path[i].roll_rad * 180.0 / 3.14159265358979323846) + " deg" +
+                              (rolled ? " within the travel" : ""));
+      }
+      out.q.col(static_cast<Eigen::Index>(i)) = *rolled;
+      q_previous = *rolled;
       continue;
     }
     const auto result = inverse_kinematics(model, path[i].pose, q_previous, tool_length_m,

@@ -163,6 +163,7 @@ struct Parameters {
   double smooth_speed = 1.0;  // [rad/s at the motor]
   double spring = 0.0, damping = 0.0, gap = 0.0;  // [N m/rad], [N m s/rad], motor rad
   bool two_mass = false, backlash = false;
+  bool motor_friction = false;  // two-mass: the friction acts on the motor body, not the load
   bool rigid_backlash = false;  // backlash without compliance: two bodies, rigid in contact
   bool cogging = false;
   double cogging_amplitude = 0.0, cogging_periods = 0.0, cogging_phase = 0.0;
@@ -218,6 +219,7 @@ Parameters derive(const AxisServoModel& model) {
     p.spring = fx.compliance.stiffness * p.r * p.r;
     const double j_reduced = p.j_motor * p.j_load / p.j_total;
     p.damping = 2.0 * fx.compliance.damping_ratio * std::sqrt(p.spring * j_reduced);
+    p.motor_friction = fx.compliance.friction_side == kinematics::FrictionSide::motor;
   }
   if (fx.backlash.enabled) {
     p.backlash = true;
@@ -279,8 +281,6 @@ template <int N>
 class AxisRun {
  public:
   static constexpr bool kTwoBody = N == 5;
-  static constexpr int kVel = kTwoBody ? 4 : 1;  // the body friction acts on
-  static constexpr int kPos = kTwoBody ? 3 : 0;
 
   AxisRun(const AxisServoModel& model, const AxisInput& input, const SimulationOptions& options)
       : model_(model), c_(model.axis.controller), p_(derive(model)), input_(input),
@@ -292,6 +292,12 @@ class AxisRun {
     substeps_ = options.plant_substeps > 0 ? options.plant_substeps
                                            : (p_.two_mass || p_.backlash ? 8 : 1);
     substep_ = base_ / substeps_;
+    // The body the friction acts on: the load of two bodies, unless the two-mass model puts it
+    // on the motor (Compliance::friction_side); its torque input is u1 (motor) or u2 (load).
+    const bool load_friction = kTwoBody && !p_.motor_friction;
+    friction_vel_ = load_friction ? 4 : 1;
+    friction_pos_ = load_friction ? 3 : 0;
+    friction_input_ = p_.motor_friction ? 1 : 2;  // a rigid body takes both alike
     build_matrices();
   }
 
@@ -376,6 +382,7 @@ class AxisRun {
   Discrete<N> contact_, free_;
   State x_ = State::Zero();
   bool stuck_ = false;
+  int friction_vel_ = 1, friction_pos_ = 0, friction_input_ = 2;
   int side_ = 0;  // rigid backlash: +1 / -1 motor pushing the load forwards / backwards, 0 apart
 };
 
@@ -416,7 +423,11 @@ void AxisRun<N>::build_matrices() {
     const double jm = p_.j_motor, jl = p_.j_load;
     motor(jm, a, b);
     a(3, 4) = 1.0;
-    a(4, 4) = -p_.viscous / jl;
+    // The viscous friction on the body the friction acts on.
+    const double viscous_motor = p_.motor_friction ? p_.viscous : 0.0;
+    const double viscous_load = p_.motor_friction ? 0.0 : p_.viscous;
+    a(1, 1) = -viscous_motor / jm;
+    a(4, 4) = -viscous_load / jl;
     b(4, 2) = 1.0 / jl;
     free_ = discretise<N>(a, b, h);
     if (p_.two_mass) {
@@ -424,12 +435,12 @@ void AxisRun<N>::build_matrices() {
       // spring's zero by the half gap when the backlash is on.
       a(1, 0) = -p_.spring / jm;
       a(1, 3) = p_.spring / jm;
-      a(1, 1) = -p_.damping / jm;
+      a(1, 1) = -(p_.damping + viscous_motor) / jm;
       a(1, 4) = p_.damping / jm;
       a(4, 0) = p_.spring / jl;
       a(4, 3) = -p_.spring / jl;
       a(4, 1) = p_.damping / jl;
-      a(4, 4) = -(p_.damping + p_.viscous) / jl;
+      a(4, 4) = -(p_.damping + viscous_load) / jl;
       b(1, 3) = -1.0 / jm;
       b(4, 3) = 1.0 / jl;
       contact_ = discretise<N>(a, b, h);
@@ -508,9 +519,10 @@ void AxisRun<N>::plant_step(const Input& held) {
   if constexpr (kTwoBody) {
     contact = p_.two_mass ? in_contact(u(3)) : backlash_keeps_contact(u);
   }
-  const double v = x_(kVel);
+  const double v = x_(friction_vel_);
+  const int f_in = friction_input_;
   bool hold = false;
-  if (p_.asymmetric) u(2) -= ((v > 0.0 ? p_.viscous_positive : p_.viscous_negative) - p_.viscous) * v;
+  if (p_.asymmetric) u(f_in) -= ((v > 0.0 ? p_.viscous_positive : p_.viscous_negative) - p_.viscous) * v;
   if (p_.coulomb && p_.smooth) {
     // Smooth dry friction, linearly implicit over the sub-step: the tanh is stiff near zero
     // speed (slope b / w), an explicit held value would chatter there.
@@ -518,12 +530,14 @@ void AxisRun<N>::plant_step(const Input& held) {
     const double th = std::tanh(v / p_.smooth_speed);
     const double f = level * th;
     const double slope = level * (1.0 - th * th) / p_.smooth_speed;
-    double net = u(2) - p_.viscous * v;
+    double net = u(f_in) - p_.viscous * v;
     double j = p_.j_total;
     if constexpr (kTwoBody) {
       if (p_.two_mass) {
-        j = p_.j_load;
-        if (contact) net += p_.spring * (x_(0) - x_(3)) + p_.damping * (x_(1) - x_(4)) + u(3);
+        j = p_.motor_friction ? p_.j_motor : p_.j_load;
+        double spring = 0.0;  // from the motor to the load
+        if (contact) spring = p_.spring * (x_(0) - x_(3)) + p_.damping * (x_(1) - x_(4)) + u(3);
+        net += p_.motor_friction ? p_.kt * x_(2) - spring : spring;
       } else if (contact) {
         net += p_.kt * x_(2) + u(1);
       } else {
@@ -533,13 +547,18 @@ void AxisRun<N>::plant_step(const Input& held) {
       net += p_.kt * x_(2) + u(1);
     }
     const double k = substep_ * slope / j;
-    u(2) -= f + slope * (substep_ / j) * (net - f) / (1.0 + k);
+    u(f_in) -= f + slope * (substep_ / j) * (net - f) / (1.0 + k);
   } else if (p_.coulomb) {
     if (stuck_) {
       // Torque on the friction body without the dry friction, at rest.
-      double net = u(2);
+      double net = u(f_in);
       if constexpr (kTwoBody) {
-        if (contact) {
+        if (p_.motor_friction) {
+          // The motor at rest: its torque against the spring (and the damper, with the load's
+          // speed).
+          net += p_.kt * x_(2);
+          if (contact) net -= p_.spring * (x_(0) - x_(3)) - p_.damping * x_(4) + u(3);
+        } else if (contact) {
           net += p_.two_mass ? p_.spring * (x_(0) - x_(3)) + p_.damping * x_(1) + u(3)
                              : p_.kt * x_(2) + u(1);
         }
@@ -548,14 +567,14 @@ void AxisRun<N>::plant_step(const Input& held) {
       }
       const double limit = p_.stribeck ? p_.static_friction : dry_level(net, 0.0);
       if (std::abs(net) <= limit) {
-        u(2) -= net;
+        u(f_in) -= net;
         hold = true;
       } else {
-        u(2) -= std::copysign(limit, net);
+        u(f_in) -= std::copysign(limit, net);
         stuck_ = false;
       }
     } else {
-      u(2) -= std::copysign(dry_level(v, std::abs(v)), v);
+      u(f_in) -= std::copysign(dry_level(v, std::abs(v)), v);
     }
   }
   const State before = x_;
@@ -569,16 +588,16 @@ void AxisRun<N>::plant_step(const Input& held) {
     }
   }
   if (hold) {
-    x_(kPos) = before(kPos);
-    x_(kVel) = 0.0;
+    x_(friction_pos_) = before(friction_pos_);
+    x_(friction_vel_) = 0.0;
     if (rigid_contact) {
       x_(0) = before(0);
       x_(1) = 0.0;
     }
-  } else if (p_.coulomb && !p_.smooth && v != 0.0 && x_(kVel) * v <= 0.0) {
+  } else if (p_.coulomb && !p_.smooth && v != 0.0 && x_(friction_vel_) * v <= 0.0) {
     // The velocity reached zero within the step: the body stops and sticks until the torque on
     // it exceeds the static friction (no chatter around zero).
-    x_(kVel) = 0.0;
+    x_(friction_vel_) = 0.0;
     if (rigid_contact) x_(1) = 0.0;
     stuck_ = true;
   }

@@ -142,7 +142,7 @@ TEST(JointElasticity, ToolTipSagUnderGravityMatchesARigidPlusSpringModel) {
   ASSERT_EQ(machine.axes.size(), 6u);
   const double tool_length = 0.12;
   const std::vector<double> q0 = {0.1, -0.35, 0.45, 0.2, 1.1, -0.3};
-  Eigen::VectorXd q_cmd(6), q_load(6), q_load_compensated(6);
+  Eigen::VectorXd q_cmd(6), q_load(6), q_load_compensated(6), q_load_motor_friction(6);
   for (int i = 0; i < 6; ++i) {
     AxisServoModel model = make_axis_servo_model(machine, i, q0, true);
     ASSERT_TRUE(model.axis.effects.compliance.enabled) << model.axis.name;
@@ -150,6 +150,11 @@ TEST(JointElasticity, ToolTipSagUnderGravityMatchesARigidPlusSpringModel) {
     input.period_s = 4e-3;
     input.values.assign(50, q0[static_cast<std::size_t>(i)]);  // 0.2 s at rest
     model.axis.effects.compliance.compensate_gravity_deflection = false;
+    // The sample's friction acts on the motor: the arm, free behind its spring, settles where
+    // the spring carries the gravity of the yielded pose (second order apart from G(q_cmd) / k).
+    q_load_motor_friction[i] = simulate_axis(model, input).load_pos.back();
+    // On the load side the friction holds the arm at its start, G(q_cmd) / k: the reference's.
+    model.axis.effects.compliance.friction_side = kinematics::FrictionSide::load;
     q_load[i] = simulate_axis(model, input).load_pos.back();
     model.axis.effects.compliance.compensate_gravity_deflection = true;
     const AxisSignals compensated = simulate_axis(model, input);
@@ -194,6 +199,7 @@ TEST(JointElasticity, ToolTipSagUnderGravityMatchesARigidPlusSpringModel) {
   // The servo starts at rest in its static equilibrium at the set point (dry friction then holds
   // the arm there): the same spring torque G(q_cmd) as the reference, so only rounding remains.
   EXPECT_LT((sag - expected).norm(), 1e-6 * expected.norm());
+  EXPECT_LT((tip(q_load_motor_friction) - tip(q_cmd) - expected).norm(), 1e-3 * expected.norm());
   // Compensated: what remains is the gravity change over the yield (second order).
   EXPECT_LT((tip(q_load_compensated) - tip(q_cmd)).norm(), 1e-3 * expected.norm());
 }

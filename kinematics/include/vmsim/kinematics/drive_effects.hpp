@@ -51,6 +51,21 @@ struct PitchError {
   double phase_rad = 0.0;
 };
 
+/// Which body of a two-mass drive the friction of the drive (Drive's a and b and the friction
+/// effects: Stribeck, asymmetric, smooth) acts on.
+enum class FrictionSide {
+  /// The load side, after the spring: the guideways of a machine-tool axis, whose friction is
+  /// at the table (the servo's model before this choice existed).
+  load,
+  /// The motor side, before the spring: a robot joint, whose friction is mostly in the motor
+  /// bearings and the gearbox's input stages (a harmonic or cycloidal reducer's teeth and
+  /// bearings turn at or near motor speed; the joint spring is the gear's output and the
+  /// arm's structure). The friction then loads the spring only through the motor's motion: an
+  /// arm at rest starts as soon as the motor moves, without waiting for its spring to carry the
+  /// breakaway torque.
+  motor,
+};
+
 /// Two-mass compliance between motor and load (the first axial mode). The stiffness is given at
 /// the joint (axial stiffness of screw, nut and bearings for a linear axis); at the motor it is
 /// k r^2. The inertia J_eq splits into a motor side (rotor, coupling, screw) and a load side.
@@ -66,6 +81,9 @@ struct Compliance {
   /// deflection compensation ("absolute accuracy") does: at rest the load reaches the set point,
   /// in motion only the dynamic deflection remains. Off by default.
   bool compensate_gravity_deflection = false;
+  /// Where the drive's friction acts. The machine file's default (`friction_side`) is `motor`
+  /// on a robot (kind: robot) and `load` on a machine tool; the struct's default is `load`.
+  FrictionSide friction_side = FrictionSide::load;
 };
 
 /// Dry friction without a stick state: b tanh(v / speed) (the dry level of the drive, or of the

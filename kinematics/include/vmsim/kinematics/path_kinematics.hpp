@@ -3,6 +3,7 @@
 // the tool tip (first paper, Eq. 2): q_s, q_ss, q_sss. Corners (tangent discontinuities) are
 // reported, never differentiated.
 #include <Eigen/Core>
+#include <limits>
 #include <string>
 #include <vector>
 
@@ -18,6 +19,11 @@ struct PathPose {
   /// one entry per axis [joint unit], NaN where not given; empty = none (the IKT chooses).
   /// Where given, solve_path_kinematics keeps them (inverse_kinematics_given_rotary).
   Eigen::VectorXd q_given = Eigen::VectorXd();
+  /// Robots: the rotation of x_S about the tool axis [rad] from the reference direction
+  /// (redundancy.hpp, choose_tool_roll_along_path); NaN = free (the inverse kinematics takes the
+  /// least joint motion). Where given, solve_path_kinematics solves the full 6-dof frame
+  /// (inverse_kinematics_with_roll) from the previous point.
+  double roll_rad = std::numeric_limits<double>::quiet_NaN();
 };
 
 /// How the derivatives are estimated (see solve_path_kinematics).
