@@ -759,7 +759,8 @@ PartFiles mould_cavity() {
   // draft whose sharp edge with the land would be at (30, 30), a convex round R2, the land
   // z = 30 (1 mm under the stock top). Every piece is tangent to the next, so a ball-end D10
   // (radius 5 < 6) touches one point at a time and its centre path is the profile offset by 5.
-  // Zig-zag raster: passes along x at y = -15 ... 15 every 0.5 mm, the stepover a short feed
+  // The fillet's arc passes through its lowest point (the floor slopes down towards the wall), so
+  // its z range starts there. Zig-zag raster: passes along x at y = -15 ... 15 every 0.5 mm, the stepover a short feed
   // move outside the stock. At 10 m/min every pass crosses ten curvature changes (land-round,
   // round-wall, wall-fillet, fillet-floor, both sides) and turns round twice: a mould's many
   // tangency zones and corners.
@@ -902,7 +903,7 @@ PartFiles mould_cavity() {
     yaml += "    - {type: cylinder, axis_point_mm: " + vec(mirror(round_centre)) +
             ", axis_direction: [0, 1, 0], radius_mm: " + num(round_radius) +
             ", material: inside, x_range_mm: " + x_range(round_to_wall.x(), round_centre.x()) +
-            ", y_range_mm: " + y_range + "}\n";
+            ", y_range_mm: " + y_range + ", z_range_mm: " + range(round_to_wall.z(), z_land) + "}\n";
     yaml += "    - {type: plane, point_mm: " + vec(mirror(edge)) +
             ", normal: " + vec(mirror(wall_normal)) +
             ", x_range_mm: " + x_range(fillet_to_wall.x(), round_to_wall.x()) +
@@ -911,7 +912,8 @@ PartFiles mould_cavity() {
     yaml += "    - {type: cylinder, axis_point_mm: " + vec(mirror(fillet_centre)) +
             ", axis_direction: [0, 1, 0], radius_mm: " + num(fillet_radius) +
             ", material: outside, x_range_mm: " + x_range(floor_end_x, fillet_to_wall.x()) +
-            ", y_range_mm: " + y_range + "}\n";
+            ", y_range_mm: " + y_range +
+            ", z_range_mm: " + range(fillet_centre.z() - fillet_radius, fillet_to_wall.z()) + "}\n";
   }
   yaml += "    - {type: quadratic_height, z0_mm: " + num(floor_z0) + ", hxx_per_mm: " +
           num(floor_hxx) + ", hxy_per_mm: 0, hyy_per_mm: 0, x_range_mm: " +

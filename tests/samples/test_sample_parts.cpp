@@ -127,9 +127,8 @@ Vector3d vec3(const YAML::Node& node) {
   return {node[0].as<double>(), node[1].as<double>(), node[2].as<double>()};
 }
 
-bool in_range(const YAML::Node& surface, const char* key, double value) {
+bool in_range(const YAML::Node& surface, const char* key, double value, double kSlack = 1e-9) {
   if (!surface[key]) return true;
-  constexpr double kSlack = 1e-9;
   return value >= surface[key][0].as<double>() - kSlack &&
          value <= surface[key][1].as<double>() + kSlack;
 }
@@ -143,6 +142,7 @@ struct Foot {
   bool inside = false;  //!< the foot point lies on the bounded patch
   double distance_mm = std::numeric_limits<double>::infinity();
   Vector3d normal = Vector3d::Zero();  //!< unit surface normal at the foot, towards the point
+  Vector3d point = Vector3d::Zero();   //!< the foot point
 };
 
 /// Foot of the perpendicular from p on a plane, cylinder or sphere patch of a part.yaml.
@@ -175,6 +175,7 @@ Foot foot_on(const YAML::Node& surface, const Vector3d& p) {
     return result;
   }
   result.inside = foot_in_ranges(surface, foot);
+  result.point = foot;
   return result;
 }
 
@@ -356,13 +357,21 @@ Foot foot_on_x_parabola(const YAML::Node& surface, const Vector3d& p) {
   const double x = 0.5 * (low + high);
   Foot result;
   result.distance_mm = distance_at(x);
-  result.inside = in_range(surface, "x_range_mm", x) && in_range(surface, "y_range_mm", p.y());
+  result.point = Vector3d(x, p.y(), z0 + 0.5 * hxx * x * x);
   return result;
 }
 
+/// The foot on any patch of the mould; `inside` with a slack of 0.1 um on the ranges: a ball
+/// centre at a tangency (APT's 6 decimals) has its foot on the patch border, and on a fillet
+/// whose centre circle is 1 mm in radius the rounding is magnified six times.
 Foot any_foot_on(const YAML::Node& surface, const Vector3d& p) {
-  return surface["type"].as<std::string>() == "quadratic_height" ? foot_on_x_parabola(surface, p)
-                                                                  : foot_on(surface, p);
+  Foot foot = surface["type"].as<std::string>() == "quadratic_height" ? foot_on_x_parabola(surface, p)
+                                                                       : foot_on(surface, p);
+  constexpr double kSlack = 1e-4;
+  foot.inside = in_range(surface, "x_range_mm", foot.point.x(), kSlack) &&
+                in_range(surface, "y_range_mm", foot.point.y(), kSlack) &&
+                in_range(surface, "z_range_mm", foot.point.z(), kSlack);
+  return foot;
 }
 
 // The mould: every ball centre inside the stock is the ball radius from the design surface (the
