@@ -750,6 +750,184 @@ PartFiles path2_blade() {
 }
 
 // ---------------------------------------------------------------------------------------------
+// Mould: a cavity with draft walls, fillets and a free-form floor, raster finished (issue 22)
+
+PartFiles mould_cavity() {
+  // A cavity across the block (a runner- or channel-type mould cavity, open at both y ends),
+  // profile in XZ extruded along y, symmetric about x = 0. From the centre outwards:
+  // a free-form (parabolic) floor z = 12 - 0.005 x^2, a concave fillet R6, a wall with 10 deg
+  // draft whose sharp edge with the land would be at (30, 30), a convex round R2, the land
+  // z = 30 (1 mm under the stock top). Every piece is tangent to the next, so a ball-end D10
+  // (radius 5 < 6) touches one point at a time and its centre path is the profile offset by 5.
+  // The fillet's arc passes through its lowest point (the floor slopes down towards the wall), so
+  // its z range starts there. Zig-zag raster: passes along x at y = -15 ... 15 every 0.5 mm, the stepover a short feed
+  // move outside the stock. At 10 m/min every pass crosses ten curvature changes (land-round,
+  // round-wall, wall-fillet, fillet-floor, both sides) and turns round twice: a mould's many
+  // tangency zones and corners.
+  const double ball_radius = 5.0;
+  const double z_land = 30.0;
+  const double z_stock_top = 31.0;
+  const double edge_x = 30.0;  // the wall's sharp edge with the land, before the round [mm]
+  const double draft = 10.0 * kDegree;
+  const double round_radius = 2.0;
+  const double fillet_radius = 6.0;
+  const double floor_z0 = 12.0;
+  const double floor_hxx = -0.01;  // per mm: z = z0 + hxx x^2 / 2 (a bulge, convex)
+  const double x_outside = 46.0;   // contact x at the ends of a pass (ball clear of x = 40)
+  const double stock_half_x = 40.0;
+  const double y_first = -15.0;
+  const double y_last = 15.0;
+  const double stepover = 0.5;
+  const double point_step = 0.2;
+  const double z_safe = 50.0;
+  const int passes = static_cast<int>(std::lround((y_last - y_first) / stepover)) + 1;
+
+  // Right half (x >= 0); the left half is its mirror image in x = 0.
+  const Vector3d edge(edge_x, 0.0, z_land);
+  const Vector3d wall_normal(-std::cos(draft), 0.0, std::sin(draft));  // out of the material
+  const auto floor_height = [&](double x) { return floor_z0 + 0.5 * floor_hxx * x * x; };
+  const auto floor_normal = [&](double x) {
+    return Vector3d(-floor_hxx * x, 0.0, 1.0).normalized();
+  };
+  const auto floor_point = [&](double x) { return Vector3d(x, 0.0, floor_height(x)); };
+  // Round: centre 2 mm under the land and 2 mm inside the wall.
+  const Vector3d round_centre(edge_x + round_radius * (1.0 - std::sin(draft)) / std::cos(draft),
+                              0.0, z_land - round_radius);
+  const Vector3d round_to_wall = round_centre + round_radius * wall_normal;  // tangency point
+  // Fillet: centre 6 mm off the floor along its normal and 6 mm off the wall (bisection on the
+  // floor's tangency x; the distance to the wall grows with x).
+  const auto fillet_centre_at = [&](double x) {
+    return Vector3d(floor_point(x) + fillet_radius * floor_normal(x));
+  };
+  double low = 0.0;
+  double high = edge_x;
+  for (int i = 0; i < 200; ++i) {
+    const double mid = 0.5 * (low + high);
+    const double to_wall = (fillet_centre_at(mid) - edge).dot(wall_normal);
+    if (to_wall > fillet_radius) low = mid; else high = mid;
+  }
+  const double floor_end_x = 0.5 * (low + high);
+  const Vector3d fillet_centre = fillet_centre_at(floor_end_x);
+  const Vector3d fillet_to_wall = fillet_centre - fillet_radius * wall_normal;  // tangency point
+
+  // The ball-centre path of the right half from x = 0 outwards, tip points at most point_step
+  // apart on curved pieces; straight pieces (wall, land) are single moves, as CAM writes them.
+  std::vector<Vector3d> centres;
+  const auto floor_centre = [&](double t) {
+    const double x = floor_end_x * t;
+    return Vector3d(floor_point(x) + ball_radius * floor_normal(x));
+  };
+  for (double t : equal_arc_parameters(floor_centre, point_step)) centres.push_back(floor_centre(t));
+  const auto arc = [&](const Vector3d& centre, double radius, const Vector3d& from,
+                       const Vector3d& to) {  // unit directions in XZ, the short way round
+    const double a0 = std::atan2(from.z(), from.x());
+    double a1 = std::atan2(to.z(), to.x());
+    if (a1 - a0 > kPi) a1 -= 2.0 * kPi;
+    if (a0 - a1 > kPi) a1 += 2.0 * kPi;
+    for (double t : equal_steps(std::abs(a1 - a0) * radius, point_step)) {
+      if (t == 0.0) continue;
+      const double a = a0 + (a1 - a0) * t;
+      centres.push_back(centre + radius * Vector3d(std::cos(a), 0.0, std::sin(a)));
+    }
+  };
+  // Fillet (concave): the ball centre on the circle of radius 6 - 5 about the fillet's axis.
+  arc(fillet_centre, fillet_radius - ball_radius, Vector3d(-floor_normal(floor_end_x)),
+      Vector3d(-wall_normal));
+  // Wall: one straight move up to the round's tangency.
+  centres.push_back(round_to_wall + ball_radius * wall_normal);
+  // Round (convex): the centre on the circle of radius 2 + 5 about the round's axis.
+  arc(round_centre, round_radius + ball_radius, wall_normal, Vector3d::UnitZ());
+  // Land: one straight move out of the stock.
+  centres.emplace_back(x_outside, 0.0, z_land + ball_radius);
+
+  // A whole pass from x = -46 to 46: the mirror image of the right half reversed, then it.
+  std::vector<Vector3d> pass;
+  for (auto it = centres.rbegin(); it != centres.rend(); ++it) {
+    pass.emplace_back(-it->x(), 0.0, it->z());
+  }
+  pass.insert(pass.end(), centres.begin() + 1, centres.end());  // x = 0 once
+
+  ToolPath path;
+  path.partno = "MOULD_CAVITY";
+  path.cutter_diameter_mm = 2.0 * ball_radius;
+  path.cutter_corner_radius_mm = ball_radius;
+  path.from.tip_W_mm = Vector3d(0.0, 0.0, 100.0);
+  const Vector3d to_tip(0.0, 0.0, -ball_radius);
+  for (int k = 0; k < passes; ++k) {
+    const Vector3d shift(0.0, y_first + stepover * k, 0.0);
+    const bool forward = k % 2 == 0;  // zig-zag: odd passes run from +x to -x
+    const auto centre_at = [&](std::size_t i) {
+      return Vector3d(pass[forward ? i : pass.size() - 1 - i] + shift + to_tip);
+    };
+    if (k == 0) {
+      const Vector3d first = centre_at(0);
+      path.rapid({Vector3d(first.x(), first.y(), z_safe), Vector3d::UnitZ()});
+    }
+    // k > 0: the first point is the stepover, a feed move in y outside the stock.
+    for (std::size_t i = 0; i < pass.size(); ++i) path.feed({centre_at(i), Vector3d::UnitZ()});
+  }
+  const Vector3d last = path.moves.back().cl.tip_W_mm;
+  path.rapid({Vector3d(last.x(), last.y(), z_safe), Vector3d::UnitZ()});
+
+  const std::string y_range = range(y_first, y_last);
+  std::string yaml;
+  yaml += R"(# Mould-like sample part (issue 22: a report for a large part with thousands of raw marks): a
+# cavity across the block with 10 deg draft walls, R6 fillets, R2 rounds and a free-form
+# (parabolic) floor, finished by a ball-end D10 in a zig-zag raster along x, 0.5 mm stepover, at
+# 10 m/min on the Mikron: each pass crosses ten tangency zones and turns round twice.
+)";
+  yaml += kRegenerate;
+  yaml += "name: mould_cavity\n";
+  yaml += "description: \"Cavity across the block (open at y = -15 and 15 mm), profile in XZ "
+          "extruded along y, symmetric about x = 0: floor z = 12 - 0.005 x^2 mm, concave fillets "
+          "R6, walls with 10 deg draft (sharp edge with the land at x = +-30, z = 30), convex "
+          "rounds R2, land z = 30 (stock top 31). " + std::to_string(passes) +
+          " zig-zag passes along x at y = -15..15 mm every 0.5 mm, contact x from -46 to 46 mm, "
+          "tip points every 0.2 mm or less on the curved pieces, walls and lands one move each, "
+          "stepover a feed move outside the stock.\"\n";
+  yaml += kMachine;
+  yaml += "toolpath: toolpath.apt\n";
+  yaml += "tool: {type: ball, diameter_mm: 10, corner_radius_mm: 5, length_mm: 60}\n";
+  yaml += stock_yaml(Vector3d(-stock_half_x, y_first, 0.0),
+                     Vector3d(stock_half_x, y_last, z_stock_top));
+  yaml += "design:\n";
+  yaml += "  surfaces:\n";
+  for (const double side : {-1.0, 1.0}) {  // left side (x < 0), then right side
+    const auto mirror = [&](const Vector3d& v) { return Vector3d(side * v.x(), v.y(), v.z()); };
+    const auto x_range = [&](double a, double b) {
+      return range(std::min(side * a, side * b), std::max(side * a, side * b));
+    };
+    yaml += "    - {type: plane, point_mm: " + vec(mirror(Vector3d(x_outside, 0.0, z_land))) +
+            ", normal: [0, 0, 1], x_range_mm: " + x_range(round_centre.x(), stock_half_x) +
+            ", y_range_mm: " + y_range + "}\n";
+    yaml += "    - {type: cylinder, axis_point_mm: " + vec(mirror(round_centre)) +
+            ", axis_direction: [0, 1, 0], radius_mm: " + num(round_radius) +
+            ", material: inside, x_range_mm: " + x_range(round_to_wall.x(), round_centre.x()) +
+            ", y_range_mm: " + y_range + ", z_range_mm: " + range(round_to_wall.z(), z_land) + "}\n";
+    yaml += "    - {type: plane, point_mm: " + vec(mirror(edge)) +
+            ", normal: " + vec(mirror(wall_normal)) +
+            ", x_range_mm: " + x_range(fillet_to_wall.x(), round_to_wall.x()) +
+            ", y_range_mm: " + y_range +
+            ", z_range_mm: " + range(fillet_to_wall.z(), round_to_wall.z()) + "}\n";
+    yaml += "    - {type: cylinder, axis_point_mm: " + vec(mirror(fillet_centre)) +
+            ", axis_direction: [0, 1, 0], radius_mm: " + num(fillet_radius) +
+            ", material: outside, x_range_mm: " + x_range(floor_end_x, fillet_to_wall.x()) +
+            ", y_range_mm: " + y_range +
+            ", z_range_mm: " + range(fillet_centre.z() - fillet_radius, fillet_to_wall.z()) + "}\n";
+  }
+  yaml += "    - {type: quadratic_height, z0_mm: " + num(floor_z0) + ", hxx_per_mm: " +
+          num(floor_hxx) + ", hxy_per_mm: 0, hyy_per_mm: 0, x_range_mm: " +
+          range(-floor_end_x, floor_end_x) + ", y_range_mm: " + y_range + "}\n";
+  yaml += "strategy: {kind: parallel_planes, plane: xz, direction: zig_zag, stepover_mm: " +
+          num(stepover) + ", passes: " + std::to_string(passes) +
+          ", point_step_max_mm: " + num(point_step) + ", safe_z_mm: " + num(z_safe) + "}\n";
+  yaml += feeds_yaml(10000.0, 100.0);
+  yaml += "tolerance_um: 10                # a finishing tolerance of a mould cavity: the report's verdict\n";
+
+  return {"mould_cavity", apt_text(path), yaml, summary("mould_cavity", path, ""), ""};
+}
+
+// ---------------------------------------------------------------------------------------------
 
 /// Writes text to a temporary name beside path, then renames it: never a half-written file.
 void write_file(const std::filesystem::path& path, const std::string& text) {
@@ -788,7 +966,8 @@ int main(int argc, char** argv) {
     }
     const std::vector<PartFiles> parts =
         die ? std::vector<PartFiles>{part1_tangency(width_mm)}
-            : std::vector<PartFiles>{part1_tangency(), part2_corner(), part3_five_axis(), path1_yz(), path2_blade()};
+            : std::vector<PartFiles>{part1_tangency(), part2_corner(), part3_five_axis(), path1_yz(), path2_blade(),
+                                     mould_cavity()};
     for (const PartFiles& part : parts) {
       const std::filesystem::path dir = out_dir / part.name;
       std::filesystem::create_directories(dir);

@@ -37,7 +37,8 @@ TEST(PartFileWarnings, FeedOf500MetresPerMinuteIsWarnedAbout) {
 }
 
 TEST(PartFileWarnings, TheSamplePartsHaveNone) {
-  for (const char* name : {"part1_tangency", "part2_corner", "part3_five_axis", "path1_yz", "path2_blade"}) {
+  for (const char* name : {"part1_tangency", "part2_corner", "part3_five_axis", "path1_yz", "path2_blade",
+                           "mould_cavity"}) {
     const app::PartDescription part =
         app::load_part(kRoot + "/samples/parts/" + name + "/part.yaml");
     EXPECT_TRUE(part.warnings.empty()) << name << ": " << part.warnings.front();

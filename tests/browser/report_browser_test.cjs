@@ -7,8 +7,15 @@
 //    background) or looks unlike the committed baseline (block colours, loosely);
 //  - a click on the deepest mark's point (after its "3-D" link in the marks table centred the
 //    view on it) does not read that mark's depth, number and program line from report.json;
-//  - the page's text holds an absolute path or a code identifier.
-// Usage: node report_browser_test.cjs RESULT_FOLDER BASELINE.json SHOTS_FOLDER [--update-baseline]
+//  - the page's text holds an absolute path or a code identifier;
+//  - the page is wider than a 1280 px window (a horizontal scroll bar), states no verdict (when
+//    report.json has one), or its marks table is not the deepest marks of report.json, each no
+//    smaller than a speck, at most 25 of them, the rest counted in marks.csv;
+//  - the listed marks are not drawn in the 3-D view (a numbered label per mark of the view shown,
+//    the deepest mark outlined and its label on the canvas once its "3-D" link centred it).
+// Screenshots (SHOTS_FOLDER): the top of the page, the marks table, the 3-D view.
+// Usage: node report_browser_test.cjs RESULT_FOLDER BASELINE.json SHOTS_FOLDER [--update-baseline | --no-baseline]
+// --no-baseline: for a report other than the baseline's (the mould sample, by hand).
 // Environment: VMSIM_WEB_MODULES (viz/web/node_modules), VMSIM_CHROMIUM (default /usr/bin/chromium).
 'use strict';
 const fs = require('fs');
@@ -17,6 +24,7 @@ const { pathToFileURL } = require('url');
 
 const [folder, baselinePath, shotsFolder] = process.argv.slice(2);
 const updateBaseline = process.argv.includes('--update-baseline');
+const noBaseline = process.argv.includes('--no-baseline');
 if (!folder || !baselinePath || !shotsFolder) {
   console.error('usage: node report_browser_test.cjs RESULT_FOLDER BASELINE.json SHOTS_FOLDER [--update-baseline]');
   process.exit(2);
@@ -111,6 +119,52 @@ async function imageStatistics(page, png, blocksX, blocksY) {
   check(view && view.triangles > 1000, '3-D view has a surface (' + (view ? view.triangles : 0) + ' triangles, ' +
         (view ? view.vertices : 0) + ' vertices)');
 
+  // A page to forward: as wide as the window at most (no horizontal scroll at 1280 px).
+  const widths = await page.evaluate(() => ({ scroll: document.documentElement.scrollWidth,
+                                              client: document.documentElement.clientWidth }));
+  check(widths.scroll <= widths.client, 'the page fits a 1280 px window (scroll width ' + widths.scroll +
+        ' px, window ' + widths.client + ' px)');
+  await page.screenshot({ path: path.join(shotsFolder, 'report_top.png'), fullPage: false });
+  // The verdict, as report.json states it.
+  if (report.verdict) {
+    const headline = await page.evaluate(() => {
+      const h = document.querySelector('.verdict h2');
+      return h ? h.innerText : '';
+    });
+    check(headline.length > 0 && headline === report.verdict.headline, 'the page states the verdict: "' + headline + '"');
+  }
+  // The marks table: the deepest marks of report.json, in order, none smaller than a speck, at
+  // most 25; marks.csv holds every mark and speck.
+  const listed = await page.evaluate(() => Array.from(document.querySelectorAll('table.marks tr'))
+    .slice(1).map((row) => Number(row.cells[0].innerText.split(/\s/)[0])));
+  const allMarks = report.marks || [];
+  const expectedRows = Math.min(25, allMarks.length);
+  check(listed.length === expectedRows && listed.every((rank, k) => rank === allMarks[k].rank),
+        'the marks table lists report.json\'s ' + expectedRows + ' deepest marks in order (' + listed.length + ' rows)');
+  const minArea = report.specks ? report.specks.min_area_mm2 : 0;
+  check(allMarks.slice(0, expectedRows).every((m, k) => m.area_mm2 >= minArea &&
+        (k === 0 || m.depth_um <= allMarks[k - 1].depth_um)),
+        'listed marks are deepest first and none is smaller than a speck (' + (minArea || 0).toFixed(3) + ' mm2)');
+  const csvRows = fs.readFileSync(path.join(folder, 'marks.csv'), 'utf8').split('\n').filter((l) => l.length).length - 1;
+  const specks = report.specks ? report.specks.count : 0;
+  check(csvRows === allMarks.length + specks, 'marks.csv has every mark and speck (' + csvRows + ' rows = ' +
+        allMarks.length + ' marks + ' + specks + ' specks)');
+  console.log('marks: ' + allMarks.length + ' marks, ' + specks + ' specks, ' + listed.length + ' listed in the page');
+  if (listed.length) {
+    await page.locator('table.marks').scrollIntoViewIfNeeded();
+    await page.evaluate(() => document.querySelector('table.marks').scrollIntoView());
+    await page.screenshot({ path: path.join(shotsFolder, 'report_marks_table.png'), fullPage: false });
+  }
+  // The listed marks of the first surface view are labelled in the 3-D view.
+  if (view && view.ready) {
+    const overlay = await page.evaluate(() => ({
+      labels: window.vmsimView3d.markLabels, view: window.vmsimView3d.view,
+      elements: document.querySelectorAll('#view3d .view3d-mark-label').length }));
+    const wanted = allMarks.filter((m) => listed.includes(m.rank) && m.view === overlay.view).length;
+    check(overlay.labels === wanted && overlay.elements === wanted,
+          'the 3-D view labels the ' + wanted + ' listed marks of its ' + overlay.view + ' view (' + overlay.elements + ' labels)');
+  }
+
   // The page at its 3-D section, and the view alone, against the baseline.
   await page.locator('#view-3d').scrollIntoViewIfNeeded();
   await page.evaluate(() => document.getElementById('view-3d').scrollIntoView());
@@ -121,7 +175,9 @@ async function imageStatistics(page, png, blocksX, blocksY) {
               ', red ' + statistics.red.toFixed(4));
   check(statistics.foreground > 0.05, 'the 3-D view is not blank (' + (100 * statistics.foreground).toFixed(1) +
         ' % of its pixels are not background; at least 5 %)');
-  if (updateBaseline) {
+  if (noBaseline) {
+    console.log('no baseline comparison (--no-baseline)');
+  } else if (updateBaseline) {
     fs.writeFileSync(baselinePath, JSON.stringify(statistics, null, 1) + '\n');
     console.log('baseline written: ' + baselinePath);
   } else {
@@ -143,6 +199,13 @@ async function imageStatistics(page, png, blocksX, blocksY) {
     const mark = marks[0];
     await page.locator('a.show-in-3d[data-rank="1"]').click();
     await page.evaluate(() => new Promise((done) => requestAnimationFrame(() => requestAnimationFrame(done))));
+    const centred = await page.evaluate(() => {
+      const label = document.querySelector('#view3d .view3d-mark-label[data-rank="1"]');
+      return { outlines: window.vmsimView3d.markOutlines, labelShown: !!label && label.style.display !== 'none' };
+    });
+    check(centred.outlines >= 1 && centred.labelShown, 'mark 1 is outlined (' + centred.outlines +
+          ' marks outlined in its view) and labelled in the 3-D view');
+    await page.locator('#view3d').screenshot({ path: path.join(shotsFolder, 'view3d_mark1.png') });
     const box = await page.locator('#view3d').boundingBox();
     await page.mouse.click(box.x + box.width / 2, box.y + box.height / 2);
     await page.evaluate(() => new Promise((done) => requestAnimationFrame(done)));

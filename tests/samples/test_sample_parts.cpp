@@ -34,7 +34,7 @@ namespace fs = std::filesystem;
 constexpr double kDegree = std::numbers::pi / 180.0;
 const fs::path kPartsDir = fs::path(VMSIM_SOURCE_DIR) / "samples" / "parts";
 const std::vector<std::string> kParts = {"part1_tangency", "part2_corner", "part3_five_axis",
-                                         "path1_yz", "path2_blade"};
+                                         "path1_yz", "path2_blade", "mould_cavity"};
 
 std::string read_text(const fs::path& path) {
   std::ifstream in(path, std::ios::binary);
@@ -127,9 +127,8 @@ Vector3d vec3(const YAML::Node& node) {
   return {node[0].as<double>(), node[1].as<double>(), node[2].as<double>()};
 }
 
-bool in_range(const YAML::Node& surface, const char* key, double value) {
+bool in_range(const YAML::Node& surface, const char* key, double value, double kSlack = 1e-9) {
   if (!surface[key]) return true;
-  constexpr double kSlack = 1e-9;
   return value >= surface[key][0].as<double>() - kSlack &&
          value <= surface[key][1].as<double>() + kSlack;
 }
@@ -143,6 +142,7 @@ struct Foot {
   bool inside = false;  //!< the foot point lies on the bounded patch
   double distance_mm = std::numeric_limits<double>::infinity();
   Vector3d normal = Vector3d::Zero();  //!< unit surface normal at the foot, towards the point
+  Vector3d point = Vector3d::Zero();   //!< the foot point
 };
 
 /// Foot of the perpendicular from p on a plane, cylinder or sphere patch of a part.yaml.
@@ -175,6 +175,7 @@ Foot foot_on(const YAML::Node& surface, const Vector3d& p) {
     return result;
   }
   result.inside = foot_in_ranges(surface, foot);
+  result.point = foot;
   return result;
 }
 
@@ -265,7 +266,7 @@ TEST(SampleParts, EveryPartIsWellFormed) {
     const std::string type = y["tool"]["type"].as<std::string>();
     EXPECT_TRUE(type == "ball" || type == "flat" || type == "bull");
     EXPECT_GT(apt.moves.size(), 2u);
-    EXPECT_LE(apt.moves.size(), 20000u);
+    EXPECT_LE(apt.moves.size(), 25000u);
     EXPECT_TRUE(apt.moves.front().rapid);
     for (const AptMove& move : apt.moves) {
       EXPECT_NEAR(move.axis.norm(), 1.0, 2e-6) << "line " << move.line;
@@ -332,6 +333,99 @@ TEST(SampleParts, Part1BallCentresAtTheRadiusFromThePlanesAndCylinderOnPasses025
   }
   EXPECT_EQ(contact_patches.size(), 3u);
   EXPECT_GE(contact_patches["1"], 20) << "points on the cylinder";
+}
+
+/// Distance from p to a quadratic_height patch that depends on x only (hxy = hyy = 0: a profile
+/// z = z0 + hxx x^2 / 2 extruded along y), by a dense scan of the profile's x and a golden-section
+/// refinement; the foot's x is checked against x_range_mm.
+Foot foot_on_x_parabola(const YAML::Node& surface, const Vector3d& p) {
+  const double z0 = surface["z0_mm"].as<double>();
+  const double hxx = surface["hxx_per_mm"].as<double>();
+  EXPECT_EQ(surface["hxy_per_mm"].as<double>(), 0.0);
+  EXPECT_EQ(surface["hyy_per_mm"].as<double>(), 0.0);
+  const auto distance_at = [&](double x) { return std::hypot(p.x() - x, p.z() - (z0 + 0.5 * hxx * x * x)); };
+  double best_x = p.x();
+  for (double x = p.x() - 20.0; x <= p.x() + 20.0; x += 0.01) {
+    if (distance_at(x) < distance_at(best_x)) best_x = x;
+  }
+  double low = best_x - 0.01, high = best_x + 0.01;
+  const double golden = (std::sqrt(5.0) - 1.0) / 2.0;
+  for (int i = 0; i < 100; ++i) {
+    const double a = high - golden * (high - low), b = low + golden * (high - low);
+    if (distance_at(a) < distance_at(b)) high = b; else low = a;
+  }
+  const double x = 0.5 * (low + high);
+  Foot result;
+  result.distance_mm = distance_at(x);
+  result.point = Vector3d(x, p.y(), z0 + 0.5 * hxx * x * x);
+  return result;
+}
+
+/// The foot on any patch of the mould; `inside` with a slack of 0.1 um on the ranges: a ball
+/// centre at a tangency (APT's 6 decimals) has its foot on the patch border, and on a fillet
+/// whose centre circle is 1 mm in radius the rounding is magnified six times.
+Foot any_foot_on(const YAML::Node& surface, const Vector3d& p) {
+  Foot foot = surface["type"].as<std::string>() == "quadratic_height" ? foot_on_x_parabola(surface, p)
+                                                                       : foot_on(surface, p);
+  constexpr double kSlack = 1e-4;
+  foot.inside = in_range(surface, "x_range_mm", foot.point.x(), kSlack) &&
+                in_range(surface, "y_range_mm", foot.point.y(), kSlack) &&
+                in_range(surface, "z_range_mm", foot.point.z(), kSlack);
+  return foot;
+}
+
+// The mould: every ball centre inside the stock is the ball radius from the design surface (the
+// nearest patch whose foot lies on it) and no patch is nearer (no gouge), on points and at the
+// middle of the long straight moves (walls, lands); zig-zag passes 0.5 mm apart; each pass
+// touches all nine patches (ten tangency zones crossed).
+TEST(SampleParts, MouldBallCentresAtTheRadiusFromEveryPatchOnZigZagPasses) {
+  const Part part = load("mould_cavity");
+  const double radius = part.yaml["tool"]["corner_radius_mm"].as<double>();
+  ASSERT_EQ(radius, 5.0);
+  const YAML::Node surfaces = part.yaml["design"]["surfaces"];
+  ASSERT_EQ(surfaces.size(), 9u);
+  const double stock_x = vec3(part.yaml["stock"]["box"]["max_mm"]).x();
+  const auto runs = passes(part.apt);
+  ASSERT_EQ(runs.size(), 1u) << "one continuous zig-zag";
+  const auto& run = runs[0];
+  const auto check_centre = [&](const Vector3d& centre, int line, std::vector<int>* touched) {
+    if (std::abs(centre.x()) > stock_x) return;  // outside the stock: turning round
+    double nearest = std::numeric_limits<double>::infinity();
+    for (std::size_t s = 0; s < surfaces.size(); ++s) {
+      const Foot foot = any_foot_on(surfaces[s], centre);
+      if (!foot.inside) continue;
+      EXPECT_GE(foot.distance_mm, radius - 2e-6) << "gouge at line " << line << ", patch " << s;
+      nearest = std::min(nearest, foot.distance_mm);
+      if (touched && std::abs(foot.distance_mm - radius) < 2e-6) (*touched)[s] += 1;
+    }
+    EXPECT_NEAR(nearest, radius, 2e-6) << "line " << line;
+  };
+  std::vector<int> touched(surfaces.size(), 0);
+  std::vector<double> pass_y;
+  for (std::size_t i = 0; i < run.size(); ++i) {
+    const AptMove& m = run[i];
+    EXPECT_EQ(m.axis, Vector3d::UnitZ());
+    check_centre(m.tip_mm + radius * m.axis, m.line, &touched);
+    if (i == 0) continue;
+    const Vector3d step = m.tip_mm - run[i - 1].tip_mm;
+    if (step.y() != 0.0) {  // a stepover: outside the stock, along y only
+      EXPECT_EQ(step.x(), 0.0);
+      EXPECT_EQ(step.z(), 0.0);
+      EXPECT_GT(std::abs(m.tip_mm.x()), stock_x + radius);
+      EXPECT_NEAR(step.y(), 0.5, 1e-9);
+      pass_y.push_back(m.tip_mm.y());
+    } else if (step.norm() > 1.0) {  // a straight move (wall, land): its middle too
+      check_centre(0.5 * (m.tip_mm + run[i - 1].tip_mm) + radius * m.axis, m.line, nullptr);
+    } else {
+      EXPECT_LE(step.norm(), 0.2 + 1e-5) << "line " << m.line;
+    }
+  }
+  EXPECT_EQ(pass_y.size() + 1, 61u);
+  EXPECT_DOUBLE_EQ(run.front().tip_mm.y(), -15.0);
+  EXPECT_DOUBLE_EQ(run.back().tip_mm.y(), 15.0);
+  for (std::size_t s = 0; s < surfaces.size(); ++s) {
+    EXPECT_GE(touched[s], 61) << "patch " << s << " is touched on every pass";
+  }
 }
 
 TEST(SampleParts, Part2FlatMillTouchesBothWallsUpToTheCorner) {

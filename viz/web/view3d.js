@@ -7,7 +7,8 @@
 // window.vmsimView3d tells the browser test (tests/browser/) whether the view came up.
 (async function () {
   'use strict';
-  const state = { ready: false, error: null, vertices: 0, triangles: 0, timings_ms: {} };
+  const state = { ready: false, error: null, vertices: 0, triangles: 0, timings_ms: {},
+                  markOutlines: 0, markLabels: 0 };
   const started = performance.now();
   window.vmsimView3d = state;
 
@@ -53,6 +54,11 @@
     return text === '-' + (0).toFixed(decimals) ? (0).toFixed(decimals) : text.replace('-', '\u2212');
   }
 
+  const listedRanks = new Set(Array.from(document.querySelectorAll('a.show-in-3d'), (a) => Number(a.dataset.rank)));
+  const labelLayer = document.createElement('div');
+  labelLayer.className = 'view3d-labels';
+  labelLayer.style.cssText = 'position:absolute;left:0;top:0;right:0;bottom:0;pointer-events:none;overflow:hidden';
+
   let renderWindow, renderer, interactor;
   try {
     const generic = vtk.Rendering.Misc.vtkGenericRenderWindow.newInstance({
@@ -62,6 +68,7 @@
     renderWindow = generic.getRenderWindow();
     renderer = generic.getRenderer();
     interactor = generic.getInteractor();
+    container.appendChild(labelLayer);
   } catch (error) {
     return fail('this browser could not open a WebGL canvas (' + error + ').');
   }
@@ -168,12 +175,111 @@
     renderer.resetCameraClippingRange();
   }
 
+  // The marks the page lists (its marks table's "3-D" links), drawn over the surface: each one's
+  // outline (the border of the triangles whose three corners lie in it, lifted a little off the
+  // surface towards the camera's side so that it is not hidden in it) and a label with its number
+  // at its deepest point, kept beside the point as the view turns (vtk.js's pixel-space callback
+  // gives the point's place on the canvas at every frame).
+
+  function buildMarkOverlay(entry) {
+    const listed = [];  // indices into data.marks of this view's listed marks
+    data.marks.forEach((m, index) => {
+      if (!m.speck && listedRanks.has(m.rank) && m.view === entry.source.id) listed.push(index);
+    });
+    entry.overlayActors = [];
+    entry.labels = [];
+    if (!listed.length) return;
+    const wanted = new Map(listed.map((index) => [index, true]));
+    const normals = entry.surface.getPointData().getNormals();
+    const bounds = entry.actor.getBounds();
+    const lift = 0.002 * Math.hypot(bounds[1] - bounds[0], bounds[3] - bounds[2], bounds[5] - bounds[4]);
+    // Edges of the triangles wholly in one listed mark; those used once are its border.
+    const edges = new Map();
+    const cells = entry.polyData.getPolys().getData();
+    for (let c = 0; c < cells.length; c += 4) {
+      const a = cells[c + 1], b = cells[c + 2], d = cells[c + 3];
+      const m = entry.mark[a];
+      if (m < 0 || !wanted.has(m) || entry.mark[b] !== m || entry.mark[d] !== m) continue;
+      for (const [p, q] of [[a, b], [b, d], [d, a]]) {
+        const key = p < q ? p + ',' + q : q + ',' + p;
+        edges.set(key, (edges.get(key) || 0) + 1);
+      }
+    }
+    const points = [], lines = [];
+    const index = new Map();
+    const pointOf = (v) => {
+      if (!index.has(v)) {
+        const n = normals.getTuple(v);
+        index.set(v, points.length / 3);
+        for (let k = 0; k < 3; ++k) points.push(entry.positions[3 * v + k] + lift * n[k]);
+      }
+      return index.get(v);
+    };
+    for (const [key, uses] of edges) {
+      if (uses !== 1) continue;
+      const [p, q] = key.split(',').map(Number);
+      lines.push(2, pointOf(p), pointOf(q));
+    }
+    if (lines.length) {
+      const outline = vtk.Common.DataModel.vtkPolyData.newInstance();
+      outline.getPoints().setData(Float32Array.from(points), 3);
+      outline.getLines().setData(Uint32Array.from(lines));
+      const mapper = vtk.Rendering.Core.vtkMapper.newInstance();
+      mapper.setInputData(outline);
+      const actor = vtk.Rendering.Core.vtkActor.newInstance();
+      actor.setMapper(mapper);
+      actor.getProperty().setColor(0.05, 0.05, 0.05);
+      actor.getProperty().setLineWidth(2);
+      actor.setPickable(false);
+      entry.overlayActors.push(actor);
+    }
+    entry.outlinedMarks = new Set(Array.from(edges.keys(), (key) => entry.mark[Number(key.split(',')[0])])).size;
+    // One label a mark at its deepest point; the callback places the labels at every frame.
+    const anchors = [];
+    for (const m of listed) {
+      anchors.push(...data.marks[m].deepest_point_mm);
+      const label = document.createElement('div');
+      label.className = 'view3d-mark-label';
+      label.dataset.rank = String(data.marks[m].rank);
+      label.textContent = String(data.marks[m].rank);
+      label.title = 'mark ' + data.marks[m].rank + ', ' + data.marks[m].kind + ', ' +
+        format(data.marks[m].depth_um, 2) + ' \u00b5m deep';
+      label.style.cssText = 'position:absolute;transform:translate(4px,-100%);font:bold 12px sans-serif;' +
+        'color:#111;background:rgba(255,255,255,0.8);border:1px solid #111;border-radius:3px;padding:0 3px;' +
+        'white-space:nowrap;display:none';
+      entry.labels.push(label);
+    }
+    const anchorData = vtk.Common.DataModel.vtkPolyData.newInstance();
+    anchorData.getPoints().setData(Float32Array.from(anchors), 3);
+    const pixelMapper = vtk.Rendering.Core.vtkPixelSpaceCallbackMapper.newInstance();
+    pixelMapper.setInputData(anchorData);
+    pixelMapper.setCallback((coordinates, camera, aspect, depth, size) => {
+      const ratio = window.devicePixelRatio || 1;
+      coordinates.forEach(([x, y, z], k) => {
+        const label = entry.labels[k];
+        const inside = z > -1 && z < 1 && x >= 0 && y >= 0 && x <= size[0] && y <= size[1];
+        label.style.display = inside ? 'block' : 'none';
+        label.style.left = (x / ratio).toFixed(1) + 'px';
+        label.style.top = ((size[1] - y) / ratio).toFixed(1) + 'px';
+      });
+    });
+    const anchorActor = vtk.Rendering.Core.vtkActor.newInstance();
+    anchorActor.setMapper(pixelMapper);
+    anchorActor.setPickable(false);
+    entry.overlayActors.push(anchorActor);
+  }
+
   function show(index) {
     const entry = views[index];
-    if (!entry.actor) buildView(entry);
-    if (shown) renderer.removeActor(shown.actor);
+    if (!entry.actor) { buildView(entry); buildMarkOverlay(entry); }
+    if (shown) {
+      renderer.removeActor(shown.actor);
+      for (const actor of shown.overlayActors) renderer.removeActor(actor);
+    }
     shown = entry;
     renderer.addActor(entry.actor);
+    for (const actor of entry.overlayActors) renderer.addActor(actor);
+    labelLayer.replaceChildren(...entry.labels);
     if (scalarBar) renderer.removeActor(scalarBar);
     scalarBar = vtk.Rendering.Core.vtkScalarBarActor.newInstance();
     scalarBar.setScalarsToColors(entry.lookup);
@@ -191,6 +297,8 @@
     state.vertices = entry.deviation.length;
     state.triangles = entry.cells;
     state.view = entry.source.id;
+    state.markOutlines = entry.outlinedMarks || 0;
+    state.markLabels = entry.labels.length;
   }
 
   // A small sphere at the picked vertex.
