@@ -199,22 +199,54 @@ bool profile_sweep_interval(const Profile& profile, const Eigen::Vector3d& tip0,
     }
   }
   if (std::isnan(s_in)) {
-    // The least signed distance of a tool of the motion along the line (convex in both sigma
-    // and t): below zero at a sigma whose tool the line meets.
+    // g(sigma), the least signed distance along the line of the tool at sigma, is convex and
+    // |d|-Lipschitz in sigma: on [s0, s1] it stays above (g(s0) + g(s1) - |d| (s1 - s0)) / 2,
+    // so intervals where that is positive hold no tool the line meets (branch and bound);
+    // a negative value found is a tool the line meets. The inner minimum over t (convex too)
+    // stops at the first negative value.
+    const double lip = d.norm();
     auto along = [&](double sigma) {
       const Eigen::Vector3d tip = tip0 + sigma * d;
-      double arg = 0.0;
-      return golden_min_ends(
-          [&](double t) {
-            const Eigen::Vector3d w = o + t * u - tip;
-            const double axial = w.dot(a);
-            return profile.signed_distance((w - axial * a).norm(), axial);
-          },
-          ca, cb, arg, 70);
+      auto sd = [&](double t) {
+        const Eigen::Vector3d w = o + t * u - tip;
+        const double axial = w.dot(a);
+        return profile.signed_distance((w - axial * a).norm(), axial);
+      };
+      constexpr double g = 0.6180339887498949;
+      double lo = ca, hi = cb, x1 = hi - g * (hi - lo), x2 = lo + g * (hi - lo);
+      double f1 = sd(x1), f2 = sd(x2);
+      double best = std::min({f1, f2, sd(ca), sd(cb)});
+      for (int i = 0; i < 70 && best >= 0.0; ++i) {
+        if (f1 <= f2) {
+          hi = x2, x2 = x1, f2 = f1, x1 = hi - g * (hi - lo), f1 = sd(x1);
+        } else {
+          lo = x1, x1 = x2, f1 = f2, x2 = lo + g * (hi - lo), f2 = sd(x2);
+        }
+        best = std::min({best, f1, f2});
+      }
+      return best;
     };
-    double sigma = 0.0;
-    if (!(golden_min_ends(along, 0.0, 1.0, sigma, 70) <= 0.0) || !at(sigma, e, x)) return false;
-    s_in = sigma;
+    struct Piece {
+      double s0, s1, g0, g1;
+    };
+    std::vector<Piece> pieces = {{0.0, 1.0, along(0.0), along(1.0)}};
+    for (int evaluations = 0; !pieces.empty() && std::isnan(s_in);) {
+      const Piece p = pieces.back();
+      pieces.pop_back();
+      if (0.5 * (p.g0 + p.g1 - lip * (p.s1 - p.s0)) > 0.0) continue;
+      if (++evaluations > 400) {  // (grazing: the bound cannot close) a miss within ~1e-13 m
+        pieces.clear();
+        break;
+      }
+      const double mid = 0.5 * (p.s0 + p.s1), gm = along(mid);
+      if (gm < 0.0) {
+        if (at(mid, e, x)) s_in = mid;
+        break;
+      }
+      pieces.push_back({p.s0, mid, p.g0, gm});
+      pieces.push_back({mid, p.s1, gm, p.g1});
+    }
+    if (std::isnan(s_in)) return false;
   }
   // The sigma range whose tools the line meets (an interval: the sweep is convex).
   auto range_end = [&](double inside, double outside) {

@@ -1117,7 +1117,10 @@ bool flat_interval(const Sweep& s, const Eigen::Vector3d& o, const Eigen::Vector
 
 bool line_interval(const Sweep& s, const Eigen::Vector3d& o, const Eigen::Vector3d& u, double& t0,
                    double& t1) {
-  if (s.profile.active) return profile_sweep_interval(s.profile, s.c0, s.c1, s.a, o, u, t0, t1);
+  if (s.profile.active) {
+    // (The cylinder that holds the tool first: closed form, it rejects most lines.)
+    return flat_interval(s, o, u, t0, t1) && profile_sweep_interval(s.profile, s.c0, s.c1, s.a, o, u, t0, t1);
+  }
   if (s.vertical && u.x() == 0.0 && u.y() == 0.0 && u.z() == 1.0) {
     double z0 = 0.0, z1 = 0.0;
     if (!vertical_entry(s, o.x(), o.y(), z0, z1)) return false;

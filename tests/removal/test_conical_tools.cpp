@@ -190,14 +190,18 @@ TEST(ConicalTools, ZmapAgreesWithGeneralLines) {
   const std::vector<Tool> tools = {v_tool(3, 90), v_tool(3, 60, 0.2), tapered(ToolType::tapered_flat, 3, 0.6, 12),
                                    tapered(ToolType::tapered_ball, 3, 0.8, 6)};
   const Eigen::Vector3d tilt = Eigen::Vector3d(0.2, -0.1, 1.0).normalized();
-  const std::vector<Pose> path = {pose_mm(-2, -0.5, 6),     pose_mm(-2, -0.5, 4.4),  pose_mm(1.5, -0.3, 4.4),
-                                  pose_mm(1.5, 0.4, 4.0),   pose_mm(-1.0, 0.9, 4.7), pose_mm(-1.0, 0.9, 4.7, tilt),
-                                  pose_mm(1.2, 1.1, 4.3, tilt), pose_mm(1.6, 1.3, 4.5, tilt)};
+  // (Two trajectories: the tilted one with a constant axis; a turning axis only adds sub-steps.)
+  const std::vector<Pose> path = {pose_mm(-2, -0.5, 6), pose_mm(-2, -0.5, 4.4), pose_mm(1.5, -0.3, 4.4),
+                                  pose_mm(1.5, 0.4, 4.0), pose_mm(-1.0, 0.9, 4.7)};
+  const std::vector<Pose> tilted = {pose_mm(-1.0, 0.9, 4.7, tilt), pose_mm(1.2, 1.1, 4.3, tilt),
+                                    pose_mm(1.6, 1.3, 4.5, tilt)};
   for (std::size_t k = 0; k < tools.size(); ++k) {
     NBuffer zmap = NBuffer::zmap(box_mm(-3, -2, 0, 3, 2.5, 5), 0.04 * mm);
     NBuffer general = test::general_lines_like(zmap);
-    zmap.cut(tools[k], path);
-    general.cut(tools[k], path);
+    for (const auto* p : {&path, &tilted}) {
+      zmap.cut(tools[k], *p);
+      general.cut(tools[k], *p);
+    }
     const test::BufferDifference d = test::compare_lines(zmap, general, 5 * mm);
     EXPECT_LT(d.worst_m, 1e-11) << "tool " << k;
     EXPECT_GT(d.lowered, 1000u) << "tool " << k;
@@ -211,24 +215,26 @@ TEST(ConicalTools, LevelSetAgreesWithZmap) {
   const std::vector<Tool> tools = {v_tool(3, 90), v_tool(3, 120, 0.3), tapered(ToolType::tapered_flat, 3, 0.8, 15),
                                    tapered(ToolType::tapered_ball, 3, 1.0, 10)};
   const Eigen::Vector3d tilt = Eigen::Vector3d(0.15, 0.0, 1.0).normalized();
-  const std::vector<Pose> path = {pose_mm(-1.5, -0.4, 1.5), pose_mm(1.5, -0.4, 1.5), pose_mm(1.5, 0.3, 1.7),
-                                  pose_mm(-1.5, 0.5, 1.6, tilt)};
+  const std::vector<Pose> path = {pose_mm(-1.5, -0.4, 1.5), pose_mm(1.5, -0.4, 1.5), pose_mm(1.5, 0.3, 1.7)};
+  const std::vector<Pose> tilted = {pose_mm(1.5, 0.6, 1.65, tilt), pose_mm(-1.5, 0.6, 1.6, tilt)};
   for (std::size_t k = 0; k < tools.size(); ++k) {
     LevelSetOptions options;
     options.voxel_m = voxel;
     LevelSetStock stock = LevelSetStock::box(box_mm(-2, -1.5, 0, 2, 1.5, 2), options);
-    stock.cut(tools[k], path);
     NBuffer zmap = NBuffer::zmap(box_mm(-2, -1.5, 0, 2, 1.5, 2), 0.05 * mm);
-    zmap.cut(tools[k], path);
+    for (const auto* p : {&path, &tilted}) {
+      stock.cut(tools[k], *p);
+      zmap.cut(tools[k], *p);
+    }
     double worst = 0.0;
     int checked = 0;
     for (int j = 2; j < zmap.nv() - 2; ++j) {
       for (int i = 2; i < zmap.nu() - 2; ++i) {
         const double z = height(zmap, i, j);
-        // Off the creases: the heights of the neighbours on a straight line (a smooth spot).
+        // Off the creases (a V groove bottom bends the heights by ~100 um, a 0.5 mm ball by 5 um).
         const double bend = std::abs(height(zmap, i, j - 1) + height(zmap, i, j + 1) - 2 * z) +
                             std::abs(height(zmap, i - 1, j) + height(zmap, i + 1, j) - 2 * z);
-        if (bend > 2 * um || z > 2 * mm - 4 * voxel) continue;
+        if (bend > 15 * um || z > 2 * mm - 4 * voxel) continue;
         const Eigen::Vector3d o = zmap.origin(i, j);
         const double phi = stock.signed_distance(Eigen::Vector3d(o.x(), o.y(), z));
         worst = std::max(worst, std::abs(phi));
