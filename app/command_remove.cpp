@@ -18,6 +18,7 @@
 #include "commands.hpp"
 #include "json_text.hpp"
 #include "part_file.hpp"
+#include "tool_table.hpp"
 #include "vmsim/common/errors.hpp"
 #include "vmsim/common/files.hpp"
 #include "vmsim/common/output_folder.hpp"
@@ -203,11 +204,7 @@ int run_remove(const RemoveOptions& o, const CommandContext& context) {
   if (!o.part_path.empty()) {
     const PartDescription part = load_part(o.part_path);
     for (const std::string& warning : part.warnings) context.warn(warning);
-    tool.type = part.tool.type == ToolType::ball ? removal::ToolType::ball
-                : part.tool.type == ToolType::flat ? removal::ToolType::flat
-                                                   : removal::ToolType::bull;
-    tool.diameter_m = part.tool.diameter_m;
-    tool.corner_radius_m = part.tool.corner_radius_m;
+    tool = removal_tool(part.tool);  // (type, sizes, conical shapes)
     tool.length_m = part.tool.length_m;
     have_tool = true;
     stock = stock_from_part(o.part_path);

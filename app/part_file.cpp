@@ -221,10 +221,41 @@ void read_design(const PartReader& reader, const YAML::Node& design, PartDescrip
   }
 }
 
+// The keys of a V or tapered tool (validated here, where the line is known; the ranges are
+// removal::Tool::validate's).
+void read_conical_tool(PartReader& reader, const YAML::Node& tool, ToolDescription& result, const std::string& path) {
+  auto bad = [&](const char* key, const std::string& why) {
+    reader.fail(tool[key], path + "." + key + ": " + why + ", got '" + tool[key].Scalar() + "'");
+  };
+  const double diameter_mm = result.diameter_m * 1e3;
+  if (result.type == ToolType::v) {
+    const double angle = reader.number(reader.required(tool, "tip_angle_deg", path), path + ".tip_angle_deg");
+    if (!(angle > 0.0 && angle < 180.0)) bad("tip_angle_deg", "the included angle of a V tool must be in (0, 180) deg");
+    result.tip_angle_rad = angle * M_PI / 180.0;
+    if (tool["tip_diameter_mm"]) {
+      const double tip = reader.number(tool["tip_diameter_mm"], path + ".tip_diameter_mm");
+      if (!(tip >= 0.0 && tip < diameter_mm)) bad("tip_diameter_mm", "must be in [0, diameter_mm)");
+      result.tip_diameter_m = tip * 1e-3;
+    }
+    return;
+  }
+  const double taper = reader.number(reader.required(tool, "taper_angle_deg", path), path + ".taper_angle_deg");
+  if (!(taper >= 0.0 && taper < 45.0)) bad("taper_angle_deg", "the angle per side must be in [0, 45) deg");
+  result.taper_angle_rad = taper * M_PI / 180.0;
+  const double tip = reader.number(reader.required(tool, "tip_diameter_mm", path), path + ".tip_diameter_mm");
+  const bool ball = result.type == ToolType::tapered_ball;
+  if (!(tip > 0.0 && (ball ? tip <= diameter_mm : tip < diameter_mm))) {
+    bad("tip_diameter_mm", ball ? "the ball's diameter must be in (0, diameter_mm]" : "must be in (0, diameter_mm)");
+  }
+  result.tip_diameter_m = tip * 1e-3;
+  if (ball) result.corner_radius_m = 0.5 * result.tip_diameter_m;
+}
+
 // `tool:`, or one entry of `tools:` (path "tools[k]", with its `number`).
 void read_tool(PartReader& reader, const YAML::Node& tool, ToolDescription& result,
                const std::string& path = "tool", const Keys& extra_keys = {}) {
-  Keys keys{"type", "diameter_mm", "corner_radius_mm", "length_mm", "cutting_length_mm"};
+  Keys keys{"type",          "diameter_mm",   "corner_radius_mm", "length_mm",      "cutting_length_mm",
+            "tip_angle_deg", "taper_angle_deg", "tip_diameter_mm"};
   keys.insert(keys.end(), extra_keys.begin(), extra_keys.end());
   reader.require_map(tool, path, keys);
   const std::string type = reader.text(tool, "type", path);
@@ -234,9 +265,28 @@ void read_tool(PartReader& reader, const YAML::Node& tool, ToolDescription& resu
     result.type = ToolType::flat;
   } else if (type == "bull") {
     result.type = ToolType::bull;
+  } else if (type == "v") {
+    result.type = ToolType::v;
+  } else if (type == "tapered_flat") {
+    result.type = ToolType::tapered_flat;
+  } else if (type == "tapered_ball") {
+    result.type = ToolType::tapered_ball;
   } else {
-    reader.fail(tool["type"], path + ".type: '" + type + "' is not one of ball, flat, bull");
+    reader.fail(tool["type"], path + ".type: '" + type +
+                                  "' is not one of ball, flat, bull, v, tapered_flat, tapered_ball");
   }
+  const bool conical = result.type == ToolType::v || result.type == ToolType::tapered_flat ||
+                       result.type == ToolType::tapered_ball;
+  // The conical tools' keys: only for them, and each where its type needs it.
+  auto only_for = [&](const char* key, bool allowed, const std::string& which) {
+    if (tool[key] && !allowed) {
+      reader.fail(tool[key], path + "." + key + ": only for " + which + " tools (type is " + type + ")");
+    }
+  };
+  only_for("tip_angle_deg", result.type == ToolType::v, "v");
+  only_for("taper_angle_deg", conical && result.type != ToolType::v, "tapered_flat and tapered_ball");
+  only_for("tip_diameter_mm", conical, "v, tapered_flat and tapered_ball");
+  only_for("corner_radius_mm", !conical, "ball, flat and bull (tapered_ball: tip_diameter_mm)");
   for (const char* key : {"diameter_mm", "length_mm"}) {
     const double value_mm = reader.positive_number(tool, key, path);
     if (value_mm > kToolSizeLimit_mm) {
@@ -261,6 +311,7 @@ void read_tool(PartReader& reader, const YAML::Node& tool, ToolDescription& resu
   } else if (result.type == ToolType::ball) {
     result.corner_radius_m = result.diameter_m / 2.0;
   }
+  if (conical) read_conical_tool(reader, tool, result, path);
   if (tool["cutting_length_mm"]) {
     result.cutting_length_m = reader.positive_number(tool, "cutting_length_mm", path) * 1e-3;
     if (result.cutting_length_m < result.diameter_m - 1e-12 ||

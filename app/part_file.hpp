@@ -12,7 +12,9 @@
 
 namespace vmsim::app {
 
-enum class ToolType { ball, flat, bull };
+/// ball, flat, bull; v (engraving / chamfer), tapered_flat, tapered_ball: conical tools
+/// (removal::Tool, samples/parts/README.md).
+enum class ToolType { ball, flat, bull, v, tapered_flat, tapered_ball };
 
 struct ToolDescription {
   ToolType type = ToolType::ball;
@@ -23,6 +25,11 @@ struct ToolDescription {
   /// material removal sweeps (removal::Tool::length_m); the shank and holder above it are not
   /// modelled. 0 = not given: the whole length_m.
   double cutting_length_m = 0.0;
+  /// Conical tools: the tip's flat (v, tapered_flat) or ball (tapered_ball) diameter
+  /// (`tip_diameter_mm`) [m]; v: 0 unless given.
+  double tip_diameter_m = 0.0;
+  double tip_angle_rad = 0.0;    ///< v: included angle (`tip_angle_deg`, in (0, 180)) [rad]
+  double taper_angle_rad = 0.0;  ///< tapered_*: angle per side (`taper_angle_deg`, in [0, 45)) [rad]
 };
 
 /// One entry of the part file's `tools:` table: the tool a program selects with T<number> M6.

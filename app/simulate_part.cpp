@@ -1195,9 +1195,12 @@ Json report_context(const Context& context, const FeedSetting& production_feed, 
   out["machine"] = context.inputs.machine.name + " (" +
                    path_for_report(context.inputs.machine.source_file, options.part_path) + ")";
   out["toolpath"] = path_for_report(context.part.toolpath_path, options.part_path);
-  const char* type = context.tool.type == removal::ToolType::ball   ? "ball-end"
-                     : context.tool.type == removal::ToolType::flat ? "flat-end"
-                                                                     : "bull-nose";
+  const char* type = context.tool.type == removal::ToolType::ball           ? "ball-end"
+                     : context.tool.type == removal::ToolType::flat         ? "flat-end"
+                     : context.tool.type == removal::ToolType::bull         ? "bull-nose"
+                     : context.tool.type == removal::ToolType::v            ? "V"
+                     : context.tool.type == removal::ToolType::tapered_flat ? "tapered flat-end"
+                                                                            : "tapered ball-end";
   out["tool"] = std::string(type) + " mill, diameter " + millimetres_text(context.tool.diameter_m) +
                 " mm, corner radius " + millimetres_text(context.tool.corner_radius()) + " mm, length " +
                 millimetres_text(context.part.tool.length_m) + " mm (cutting body " +

@@ -13,9 +13,17 @@ namespace vmsim::app {
 // body on a tilted tool costs orientation sub-steps on every segment.
 removal::Tool removal_tool(const ToolDescription& description) {
   removal::Tool tool;
-  tool.type = description.type == ToolType::ball   ? removal::ToolType::ball
-              : description.type == ToolType::flat ? removal::ToolType::flat
-                                                   : removal::ToolType::bull;
+  switch (description.type) {
+    case ToolType::ball: tool.type = removal::ToolType::ball; break;
+    case ToolType::flat: tool.type = removal::ToolType::flat; break;
+    case ToolType::bull: tool.type = removal::ToolType::bull; break;
+    case ToolType::v: tool.type = removal::ToolType::v; break;
+    case ToolType::tapered_flat: tool.type = removal::ToolType::tapered_flat; break;
+    case ToolType::tapered_ball: tool.type = removal::ToolType::tapered_ball; break;
+  }
+  tool.tip_diameter_m = description.tip_diameter_m;
+  tool.tip_angle_rad = description.tip_angle_rad;
+  tool.taper_angle_rad = description.taper_angle_rad;
   tool.diameter_m = description.diameter_m;
   tool.corner_radius_m = description.corner_radius_m;
   tool.length_m = description.cutting_length_m > 0 ? description.cutting_length_m : description.length_m;

@@ -464,7 +464,8 @@ LevelSetCutStatistics LevelSetStock::cut(const Tool& tool, std::span<const Pose>
       const double moved = have_previous ? (previous.c1 - s.c0).norm() +
                                                std::hypot(std::max(previous.ell, s.ell), s.rho) * (previous.a - s.a).norm()
                                          : detail::kInf;
-      const bool covered = moved <= 2.5 * sub_tolerance;
+      // (Not for conical tools: behind_start reasons on the Disc (+) Segment core.)
+      const bool covered = moved <= 2.5 * sub_tolerance && !s.profile.active;
       pieces.push_back(Piece{detail::SweepDistance(s, golden_tolerance), covered});
       previous = s;
       have_previous = true;

@@ -31,6 +31,18 @@ SweepDistance::SweepDistance(const Sweep& s, double tolerance_m)
   a_dot_d = a.dot(d);
   const double dn = d.norm();
   d_perp = (d - a_dot_d * a).norm();
+  if (s.profile.active) {
+    // A conical tool: its section's signed distance is non-decreasing in the radius, so for a
+    // motion normal to the axis the nearest tool is the one whose axis passes nearest (closed
+    // form); else golden section as for `general`.
+    kind = Kind::profile;
+    profile = s.profile;
+    golden_steps = std::abs(a_dot_d) <= 1e-9 * dn ? 0
+                   : dn > tolerance_m
+                       ? static_cast<int>(std::ceil(std::log(tolerance_m / dn) / std::log(0.6180339887498949)))
+                       : 1;
+    return;
+  }
   // Perpendicular enough: projecting d on the plane normal to a moves the sweep by |a.d|.
   if (std::abs(a_dot_d) <= 1e-9 * dn) {
     kind = Kind::prism;
@@ -74,6 +86,16 @@ double SweepDistance::start_tool(const Eigen::Vector3d& p) const { return start_
 double SweepDistance::operator()(const Eigen::Vector3d& p) const {
   const Eigen::Vector3d q = p - c0;
   switch (kind) {
+    case Kind::profile: {
+      if (golden_steps == 0) {
+        const double axial = q.dot(a);
+        const Eigen::Vector3d w = q - axial * a;
+        const double dd = d.squaredNorm();
+        const double sigma = dd > 0.0 ? std::clamp(w.dot(d) / dd, 0.0, 1.0) : 0.0;
+        return profile.signed_distance((w - sigma * d).norm(), axial);
+      }
+      return profile_sweep_distance(profile, c0, c0 + d, a, p, golden_steps);
+    }
     case Kind::prism: {
       return prism(q.dot(e1), q.dot(a), q.dot(e3));
     }

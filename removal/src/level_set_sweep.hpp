@@ -19,7 +19,9 @@ namespace vmsim::removal::detail {
 ///  - flat-end / bull-nose with d not perpendicular to a (ramps, tilted axes): minimum over the
 ///    segment of the tool's exact signed distance by golden section (convex in the segment
 ///    parameter), to `tolerance_m` outside; inside it is >= the exact value (a conservative
-///    depth), which the cut only uses beyond the narrow band.
+///    depth), which the cut only uses beyond the narrow band;
+///  - conical tools (V, tapered; Kind::profile): closed form for a motion normal to the axis,
+///    else the minimum over the motion by golden section (exact outside, as above).
 struct SweepDistance {
   SweepDistance(const Sweep& sweep, double tolerance_m);
 
@@ -52,7 +54,10 @@ struct SweepDistance {
   Eigen::Vector3d c0, d, a, e1, e3;
   double rho = 0.0, r = 0.0, ell = 0.0, length = 0.0;
   double a_dot_d = 0.0, d_perp = 0.0;
-  enum class Kind { prism, parallelogram, general } kind = Kind::prism;
+  /// profile: a conical tool (Sweep::profile), c0 its tip; golden_steps 0 for a motion normal
+  /// to the axis (closed form), else the minimum over the motion by golden section.
+  enum class Kind { prism, parallelogram, general, profile } kind = Kind::prism;
+  Profile profile;
   Eigen::Matrix3d inverse;  // parallelogram coordinates
   int golden_steps = 0;
   Eigen::Vector3d lo, hi;   // bounding box of the sweep

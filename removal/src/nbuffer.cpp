@@ -31,6 +31,29 @@ void Tool::validate() const {
   if (!std::isfinite(length_m) || length_m < diameter_m) {
     bad("length", length_m, "must be at least the diameter");
   }
+  if (!conical()) return;
+  auto bad_angle = [](const std::string& field, double value_rad, const std::string& why) {
+    throw InputError("tool: " + field + " = " + format_double(value_rad * 180.0 / M_PI) + " deg: " + why);
+  };
+  if (type == ToolType::v) {
+    if (!std::isfinite(tip_angle_rad) || tip_angle_rad <= 0.0 || tip_angle_rad >= M_PI) {
+      bad_angle("tip angle", tip_angle_rad, "a V tool needs 0 < angle < 180 deg");
+    }
+    if (!std::isfinite(tip_diameter_m) || tip_diameter_m < 0.0 || tip_diameter_m >= diameter_m) {
+      bad("tip diameter", tip_diameter_m, "a V tool needs 0 <= tip diameter < diameter");
+    }
+    return;
+  }
+  if (!std::isfinite(taper_angle_rad) || taper_angle_rad < 0.0 || taper_angle_rad >= M_PI / 4.0) {
+    bad_angle("taper angle", taper_angle_rad, "a tapered tool needs 0 <= angle < 45 deg");
+  }
+  const bool ball_tip = type == ToolType::tapered_ball;
+  if (!std::isfinite(tip_diameter_m) || tip_diameter_m <= 0.0 || tip_diameter_m > diameter_m ||
+      (!ball_tip && tip_diameter_m == diameter_m)) {
+    bad("tip diameter", tip_diameter_m,
+        ball_tip ? "a tapered ball-end needs 0 < tip (ball) diameter <= diameter"
+                 : "a tapered flat-end needs 0 < tip diameter < diameter");
+  }
 }
 
 double Tool::corner_radius() const {
@@ -38,6 +61,9 @@ double Tool::corner_radius() const {
     case ToolType::ball: return 0.5 * diameter_m;
     case ToolType::flat: return 0.0;
     case ToolType::bull: return corner_radius_m;
+    case ToolType::tapered_ball: return 0.5 * tip_diameter_m;
+    case ToolType::v:
+    case ToolType::tapered_flat: return 0.0;
   }
   return 0.0;
 }
@@ -456,6 +482,7 @@ bool chains(const Sweep& s, const Sweep& next, double top, Junction* junction = 
   // (Sub-steps along the tip's line meet with their core points apart, SubStepPath::tip: that
   // distance adds to D below.)
   const double jump = (next.c0 - s.c1).norm();
+  if (s.profile.active || next.profile.active) return false;  // (the section tables are for the other tools)
   if (!(along_x(s) && along_x(next) && s.rho == next.rho && s.r == next.r &&
         (s.c1.x() > s.c0.x()) == (next.c1.x() > next.c0.x()))) {
     return false;
@@ -786,6 +813,7 @@ CutStatistics NBuffer::cut(const Tool& tool, std::span<const Pose> trajectory, c
                     ((previous.vertical && s.vertical && previous.ell == s.ell) || s.rho == 0.0);
       s.continues_axis = have_previous && previous.c1 == s.c0 && previous.a == s.a && previous.rho == s.rho &&
                          previous.r == s.r;
+      if (s.profile.active) s.continues = s.continues_axis = false;  // (those skips are for the other tools)
       previous = s;
       have_previous = true;
     }
@@ -1147,7 +1175,17 @@ CutStatistics NBuffer::cut(const Tool& tool, std::span<const Pose> trajectory, c
             }
             const double x = origin0_.x() + iu * sp;
             double t0 = 0.0, t1 = 0.0;
-            if (tilted && s.rho > 0.0) {  // flat-end / bull-nose, tilted: VerticalEntry decides most lines
+            if (s.profile.active) {  // conical tools: closed form (vertical) or the general sweep
+              bool hit = false;
+              if (s.vertical) {
+                hit = detail::vertical_entry(s, x, y, t0, t1);
+                t0 -= z0;
+                t1 -= z0;
+              } else {
+                hit = detail::line_interval(s, Eigen::Vector3d(x, y, z0), Eigen::Vector3d::UnitZ(), t0, t1);
+              }
+              if (!hit) continue;
+            } else if (tilted && s.rho > 0.0) {  // flat-end / bull-nose, tilted: VerticalEntry decides most lines
               double z = 0.0;
               const auto result = fast.entry(x, y, z0, z0 + h, iv, iu, warm, z);
               if (result == detail::VerticalEntry::Result::above) continue;

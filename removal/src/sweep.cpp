@@ -255,9 +255,27 @@ double reachable_length(const Box& box, const Eigen::Vector3d& c0, const Eigen::
 
 }  // namespace
 
+namespace {
+void split_segment_core(const Tool& tool, const Pose& pose0, const Pose& pose1, double tolerance_m,
+                        std::vector<Sweep>& out, const Box* material, SubStepPath path);
+}  // namespace
+
 void split_segment(const Tool& tool, const Pose& pose0, const Pose& pose1, double tolerance_m,
                    std::vector<Sweep>& out, const Box* material, SubStepPath path) {
-  const double r = tool.corner_radius(), rho = tool.disc_radius();
+  const std::size_t before = out.size();
+  split_segment_core(tool, pose0, pose1, tolerance_m, out, material, path);
+  if (tool.conical()) {
+    const Profile profile = make_profile(tool);
+    for (std::size_t k = before; k < out.size(); ++k) out[k].profile = profile;
+  }
+}
+
+namespace {
+// A conical tool is split as the cylinder Disc(D / 2) (+) Segment(tip, tip + length a) that
+// holds it (c = tip): the sub-step bound holds for every point of it.
+void split_segment_core(const Tool& tool, const Pose& pose0, const Pose& pose1, double tolerance_m,
+                        std::vector<Sweep>& out, const Box* material, SubStepPath path) {
+  const double r = tool.conical() ? 0.0 : tool.corner_radius(), rho = tool.disc_radius();
   double ell = tool.core_length();
   const Eigen::Vector3d a0 = pose0.axis_W.normalized(), a1 = pose1.axis_W.normalized();
   const Eigen::Vector3d c0 = pose0.tip_W_m + r * a0, c1 = pose1.tip_W_m + r * a1;
@@ -303,6 +321,8 @@ void split_segment(const Tool& tool, const Pose& pose0, const Pose& pose1, doubl
     }
   }
 }
+
+}  // namespace
 
 bool section_point_x(const Sweep& s, double eta, double slope, double& x_lo, double& x_hi, SectionWarm* warm,
                      double* z_low, double* z_point) {
@@ -665,6 +685,7 @@ double signed_distance_fast(const Sweep& s, const Eigen::Vector3d& p) {
 }  // namespace
 
 double signed_distance(const Sweep& s, const Eigen::Vector3d& p) {
+  if (s.profile.active) return profile_sweep_distance(s.profile, s.c0, s.c1, s.a, p);
   if (s.rho == 0.0) return parallelogram_distance(s, p) - s.r;
   const Eigen::Vector3d delta = s.c1 - s.c0, x = p - s.c0;
   double arg = 0.0;
@@ -674,6 +695,7 @@ double signed_distance(const Sweep& s, const Eigen::Vector3d& p) {
 }
 
 bool vertical_entry(const Sweep& s, double x, double y, double& z0, double& z1) {
+  if (s.profile.active) return profile_vertical_entry(s.profile, s.c0, s.c1, x, y, z0, z1);
   z1 = std::max(s.c0.z(), s.c1.z()) + s.ell + s.r;
   if (s.rho == 0.0 && s.c0.z() == s.c1.z()) {  // ball, horizontal: the 2-D distance decides
     const double d = distance_2d(x, y, s.c0.x(), s.c0.y(), s.c1.x(), s.c1.y());
@@ -1095,6 +1117,10 @@ bool flat_interval(const Sweep& s, const Eigen::Vector3d& o, const Eigen::Vector
 
 bool line_interval(const Sweep& s, const Eigen::Vector3d& o, const Eigen::Vector3d& u, double& t0,
                    double& t1) {
+  if (s.profile.active) {
+    // (The cylinder that holds the tool first: closed form, it rejects most lines.)
+    return flat_interval(s, o, u, t0, t1) && profile_sweep_interval(s.profile, s.c0, s.c1, s.a, o, u, t0, t1);
+  }
   if (s.vertical && u.x() == 0.0 && u.y() == 0.0 && u.z() == 1.0) {
     double z0 = 0.0, z1 = 0.0;
     if (!vertical_entry(s, o.x(), o.y(), z0, z1)) return false;

@@ -6,6 +6,7 @@
 #include <limits>
 #include <vector>
 
+#include "profile.hpp"
 #include "vmsim/removal/tool.hpp"
 
 namespace vmsim::removal::detail {
@@ -28,6 +29,11 @@ struct Sweep {
   /// The sweep before it in the same run ended at c0 with the same axis and tool section (rho,
   /// r): every line is already at or below the tool's bottom at c0.
   bool continues_axis = false;
+  /// A conical tool (V, tapered): the tool itself, its tip at c0 -> c1 (r = 0, c = tip), and
+  /// Disc(rho) (+) Segment(0, ell a) the cylinder that holds it, which every bound and culling
+  /// above uses (valid: it holds the tool). line_interval, vertical_entry and signed_distance
+  /// take the tool itself; nbuffer.cpp's fast paths and chains are for the others only.
+  Profile profile;
 };
 
 Sweep make_sweep(const Eigen::Vector3d& c0, const Eigen::Vector3d& c1, const Eigen::Vector3d& a,

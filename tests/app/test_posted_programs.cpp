@@ -175,6 +175,7 @@ struct Case {
 const Case kCases[] = {
     {"fusion360_mm", "program.nc", 30, 1e-3},        {"fusion360_inch", "program.nc", 30, 1e-3},
     {"mastercam", "program.nc", 30, 1e-3},           {"powermill", "program.tap", 30, 1e-3},
+    {"fusion360_engrave", "program.nc", 30, 1e-3},
     {"nx", "program.ptp", 30, 0.015},                {"freecad_linuxcnc", "program.ngc", 30, 0.015},
     {"haas", "program.nc", 30, 0.075},               {"linuxcnc_macros", "program.ngc", 30, 0.015},
     {"fanuc_macro_b", "program.nc", 30, 1e-3},       {"five_axis_tcp", "program.nc", 0, 1e-3},
