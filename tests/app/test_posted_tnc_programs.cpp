@@ -34,15 +34,18 @@ struct Case {
   /// the ISO twin gives the tilted links as chords of 2 deg (0.4 um from the arc).
   double same_within_mm;
   bool simulate;  ///< simulate-part runs to the end (see the note at kCases)
+  /// The stock in W [mm]: the program's BLK FORM (MIN, MAX in the preset's coordinates) moved
+  /// by the preset's place in W (the part file's G54).
+  std::vector<double> stock_min_mm, stock_max_mm;
 };
 
 // powermill_5axis used to stop at simulate-part's check of the reference (3.1 um against the
 // programmed polyline's surface, limit 2 um); the check now cuts the planned path the set points
 // follow, and the program runs through.
 const Case kCases[] = {
-    {"hypermill_3axis", 2e-3, true},
-    {"nx_3plus2", 2e-3, true},
-    {"powermill_5axis", 2e-3, true},
+    {"hypermill_3axis", 2e-3, true, {-50, -40, 0}, {50, 40, 30}},  // BLK FORM Z-30 .. Z+0, preset at W z 30
+    {"nx_3plus2", 2e-3, true, {-50, -40, 0}, {50, 40, 30}},
+    {"powermill_5axis", 2e-3, true, {-30, -30, 0}, {30, 30, 26}},  // BLK FORM Z+0 .. Z+26, preset at W 0
 };
 
 class PostedTncProgram : public ::testing::TestWithParam<Case> {};
@@ -61,13 +64,16 @@ TEST_P(PostedTncProgram, RunsUnmodifiedThroughKinematicsPlanAndSimulatePart) {
   const test::RunResult simulate = test::run_vmsim("-q simulate-part --no-renders --grid-um 200 --part " +
                                                    part.string() + " --out " + (out / "sim").string());
   ASSERT_EQ(simulate.exit_code, 0) << simulate.output;
-  // The stock is the program's BLK FORM (the part file gives none): MIN and MAX in the preset's
-  // coordinates, the preset at the stock's top centre (W z 30).
+  // The stock is the program's BLK FORM (the part file gives none), in W (Case::stock_*).
   std::ifstream report_file(out / "sim" / "report.json");
   const nlohmann::json report = nlohmann::json::parse(report_file);
   const std::vector<double> min = report["stock"]["min_mm"], max = report["stock"]["max_mm"];
-  EXPECT_EQ(min, (std::vector<double>{-50, -40, 0}));
-  EXPECT_EQ(max, (std::vector<double>{50, 40, 30}));
+  ASSERT_EQ(min.size(), 3u);
+  ASSERT_EQ(max.size(), 3u);
+  for (std::size_t k = 0; k < 3; ++k) {  // (the preset's offset went through the kinematics: 1e-12 mm)
+    EXPECT_NEAR(min[k], c.stock_min_mm[k], 1e-9) << k;
+    EXPECT_NEAR(max[k], c.stock_max_mm[k], 1e-9) << k;
+  }
 }
 
 /// The tool path as the chain reads it (the part's machine and set-up), corners not blended.
