@@ -18,12 +18,16 @@
 //  2. check and refine: the tip of the spline's q at interior samples of every segment (direct
 //     kinematics with the path's tool length) is compared with the programmed segment, and the
 //     tool axis with the programmed one (great-circle interpolation at the same fraction of the
-//     segment); a segment off by more than the tolerance gets the midpoint of its programmed
-//     segment, and the spline is rebuilt, until every segment is within it.
-// An inserted point lies on the programmed geometry: the tip on the segment (so s of every
-// point is unchanged), the tool axis interpolated, q from the inverse kinematics seeded by the
-// linear interpolation of its neighbours' q (continuity, rotary axes unwrapped). Every stretch
-// stays C2 (the third-order planner bounds q_sss); corners are not touched.
+//     segment); a segment off by more than the tolerance gets a point at its middle, and the
+//     spline is rebuilt, until every segment is within it. That point goes where the spline
+//     already is, drawn towards the programmed segment (the tip across it, the tool axis towards
+//     the programmed one) only as far as the worst sample must come in: a point inserted on an
+//     interpolating spline leaves it unchanged, so the spline moves by the excess alone and a
+//     tessellated arc keeps its curvature (points on the chords bent it at their spacing).
+// A grading point lies on the programmed geometry (the tip on the segment), a check point within
+// the tolerance of it; either keeps s of every point. q comes from the inverse kinematics seeded
+// by the linear interpolation of the neighbours' q (continuity, rotary axes unwrapped). Every
+// stretch stays C2 (the third-order planner bounds q_sss); corners are not touched.
 // Only paths with fitted derivatives (kinematics::solve_path_kinematics) are refined: a path made
 // by hand carries the exact derivatives of a smooth curve, not a polyline.
 #include <Eigen/Core>
