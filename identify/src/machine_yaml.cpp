@@ -91,6 +91,9 @@ void write_axis(YAML::Node node, const kinematics::Axis& axis) {
     s["damping_ratio"] = number(e.compliance.damping_ratio);
     s["motor_side_inertia_kg_m2"] = number(e.compliance.motor_side_inertia_kg_m2);
     if (e.compliance.compensate_gravity_deflection) s["compensate_gravity_deflection"] = true;
+    // Always written: the loader's default depends on the machine's kind, and a robot's explicit
+    // `load` must come back as it was.
+    s["friction_side"] = e.compliance.friction_side == kinematics::FrictionSide::motor ? "motor" : "load";
     effects["compliance"] = s;
   }
   if (e.smooth_friction.enabled) {

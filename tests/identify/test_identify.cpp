@@ -160,3 +160,32 @@ TEST(Diagnose, AnAxisAtStandstillFindsNothingAndDoesNotCrash) {
 
 }  // namespace
 }  // namespace vmsim::identify::test
+
+namespace vmsim::identify {
+namespace {
+
+// A robot's joints default to friction on the motor side; a machine file that says `load` for
+// one of them must say so again after identify writes it back (the writer used to leave the key
+// out, and the loader's robot default turned it into `motor`).
+TEST(MachineYaml, TheFrictionSideOfAnElasticJointSurvivesTheRoundTrip) {
+  const std::string path = std::string(VMSIM_SOURCE_DIR) + "/samples/machines/kr180_class.yaml";
+  kinematics::MachineModel robot = kinematics::load_machine(path);
+  std::size_t elastic = 0;
+  for (auto& axis : robot.axes) {
+    if (!axis.effects.compliance.enabled) continue;
+    ASSERT_EQ(axis.effects.compliance.friction_side, kinematics::FrictionSide::motor) << axis.name;
+    if (elastic++ == 0) axis.effects.compliance.friction_side = kinematics::FrictionSide::load;
+  }
+  ASSERT_GT(elastic, 0u);
+  const std::string yaml = updated_machine_yaml(read_file(path), robot, {}, path, std::string(VMSIM_SOURCE_DIR) + "/samples/machines");
+  const kinematics::MachineModel back = kinematics::parse_machine(yaml, path, std::string(VMSIM_SOURCE_DIR) + "/samples/machines");
+  ASSERT_EQ(back.axes.size(), robot.axes.size());
+  for (std::size_t j = 0; j < robot.axes.size(); ++j) {
+    if (!robot.axes[j].effects.compliance.enabled) continue;
+    EXPECT_EQ(back.axes[j].effects.compliance.friction_side, robot.axes[j].effects.compliance.friction_side)
+        << robot.axes[j].name;
+  }
+}
+
+}  // namespace
+}  // namespace vmsim::identify
