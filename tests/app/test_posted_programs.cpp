@@ -237,10 +237,12 @@ TEST_P(PostedProgram, RunsUnmodifiedAndTheAxesGoWhereTheProgramPutsThem) {
 // against the planned path's surface). A coarse grid and a fixed reference feed (100 mm/min,
 // 2 to 10 % of these programs' feeds) keep it within a CI budget; the reference check says
 // whether that feed is slow enough.
-TEST_P(PostedProgram, SimulatePartRunsThroughWithEveryCheckPassed) {
-  const Case& c = GetParam();
-  const fs::path part = kCorpus / c.folder / "part.yaml";
-  const fs::path out = test::fresh_folder(std::string("posted_simulate_") + c.folder);
+class PostedProgramSimulated : public ::testing::TestWithParam<std::string> {};
+
+TEST_P(PostedProgramSimulated, SimulatePartRunsThroughWithEveryCheckPassed) {
+  const std::string folder = GetParam();
+  const fs::path part = kCorpus / folder / "part.yaml";
+  const fs::path out = test::fresh_folder(std::string("posted_simulate_") + folder);
   const test::RunResult simulate =
       test::run_vmsim("-q simulate-part --no-renders --grid-um 400 --reference-feed-mm-per-min 100 --part " +
                       part.string() + " --out " + (out / "sim").string());
@@ -253,9 +255,9 @@ TEST_P(PostedProgram, SimulatePartRunsThroughWithEveryCheckPassed) {
     // An axis overshooting an end of its travel where a set point sits exactly at it (a G28
     // return to the Z home) is a warning, not a failure; every other check must pass.
     if (id.rfind("actual_within_travel", 0) == 0) {
-      EXPECT_NE(check["status"], "FAILED") << c.folder << ": " << check.dump();
+      EXPECT_NE(check["status"], "FAILED") << folder << ": " << check.dump();
     } else {
-      EXPECT_EQ(check["status"], "ok") << c.folder << ": " << check.dump();
+      EXPECT_EQ(check["status"], "ok") << folder << ": " << check.dump();
     }
     ++checks;
   }
@@ -265,6 +267,18 @@ TEST_P(PostedProgram, SimulatePartRunsThroughWithEveryCheckPassed) {
 
 INSTANTIATE_TEST_SUITE_P(Corpus, PostedProgram, ::testing::ValuesIn(kCases),
                          [](const ::testing::TestParamInfo<Case>& info) { return std::string(info.param.folder); });
+
+/// Every program of the corpus: kCases and the cutter compensation program (its own tests check
+/// its positions, which are offset from the programmed contour).
+std::vector<std::string> simulated_folders() {
+  std::vector<std::string> folders;
+  for (const Case& c : kCases) folders.push_back(c.folder);
+  folders.push_back("fanuc_cutter_comp");
+  return folders;
+}
+
+INSTANTIATE_TEST_SUITE_P(Corpus, PostedProgramSimulated, ::testing::ValuesIn(simulated_folders()),
+                         [](const ::testing::TestParamInfo<std::string>& info) { return info.param; });
 
 // Under G43.4 the rotary axes go to the programmed A and C words (the program chooses the
 // branch): every block with A and C gives those axis values.
