@@ -333,8 +333,6 @@ TEST(HeidenhainCompensation, ErrorsAreLocated) {
   e = error(head + "L Y+0 RL F300\nL R0 FMAX\n");
   EXPECT_NE(e.find("t.h:5:3: 'R0': RL / RR / R0 on a block without a point"), std::string::npos) << e;
   EXPECT_EQ(error(head + "L R0 FMAX\nL X+0 F300\n"), "");  // R0 alone without compensation: nothing to do
-  e = error(head + "APPR LT X+0 Y+0 LEN10 RL F300\n");
-  EXPECT_NE(e.find("t.h:4:1: 'APPR': APPR / DEP"), std::string::npos) << e;
   e = error(head + "L Y+0 RL F300\nL X+40\nL Y+40 A+10\n");
   EXPECT_NE(e.find("t.h:6:1: 'L': rotary axis words or a tool vector under radius compensation"), std::string::npos) << e;
 }

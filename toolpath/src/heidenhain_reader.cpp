@@ -101,6 +101,10 @@ class HeidenhainReader {
       block(line);
       start = end + 1;
     }
+    if (pending_approach_) {
+      line_ = pending_approach_->line;
+      fail(pending_approach_->column, "APPR at the end of the program: no contour element follows it");
+    }
     if (compensation_side_ && !pending_corner_) {
       warn("radius compensation RL / RR is still on at the end of the program (no R0): its last "
            "element ends at its offset end");
@@ -562,8 +566,8 @@ class HeidenhainReader {
     }
     if (k == "LP" || k == "CP") fail(head, "polar coordinates are not supported: output X Y Z");
     if (k == "APPR" || k == "DEP") {
-      fail(head, "APPR / DEP (approach and departure contours) are not read: program the approach as "
-                 "an L block with RL / RR and the departure as an L block with R0");
+      approach_block(k == "APPR", head, tokens, first + 1);
+      return;
     }
     if (k.rfind("FL", 0) == 0 || k.rfind("FC", 0) == 0 || k.rfind("FPOL", 0) == 0) {
       fail(head, "FK free contour programming is not supported");
@@ -1332,6 +1336,7 @@ class HeidenhainReader {
       fail(*m.head, std::string(pending_corner_->chamfer ? "CHF" : "RND") + " before the block with RL / RR");
     }
     const double radius_mm = cutter_radius_of(word);
+    compensation_radius_mm_ = radius_mm;
     compensation_side_ = side;
     compensator_.emplace(side, radius_mm, Vec2(start.x(), start.y()), start.z(), EntryRule::normal_to_next);
   }
@@ -1468,6 +1473,269 @@ class HeidenhainReader {
       }
       if (!move.corner) compensated_sources_.erase(source);
     }
+  }
+
+  // --- APPR / DEP (TNC 640 user's manual, "Approaching and departing a contour") ------------
+  //
+  // PS: where the tool is before APPR (without compensation); PH: the auxiliary point; PA: the
+  // first contour point (the APPR block's X Y); PE: the last contour point; PN: DEP's end point.
+  // t: the contour's unit tangent at PA (PE); n: its normal to the compensation side (left of t
+  // for RL). The tool centre, tool radius r, moves:
+  //  APPR LT: PS -> PH + r n, PH = PA - LEN t (on the contour's extension), then along t to PA + r n.
+  //  APPR LN: PS -> PA + (LEN + r) n (the manual: PH is LEN plus the tool radius from PA), then
+  //           along -n to PA + r n.
+  //  APPR CT: PS -> PH on an arc of radius |R| tangent to the contour at PA, swept CCA; the
+  //           direction: RL with R > 0 (RR with R < 0) counter-clockwise, else clockwise; the arc
+  //           is travelled compensated (tool centre r to the compensation side of it).
+  //  DEP LT / LN / CT: the mirror from PE + r n (the compensated contour's end), compensation
+  //           off at PN.
+  // A Z in APPR: to PH in the plane, then to that depth, then on to PA. A Z in DEP: to PN in the
+  // plane, then to that height.
+
+  static Vec2 left_of(const Vec2& t) { return Vec2(-t.y(), t.x()); }
+
+  void approach_block(bool approach, const Token& head, const std::vector<Token>& tokens, std::size_t first) {
+    const std::string what = approach ? "APPR" : "DEP";
+    if (first >= tokens.size()) fail(head, what + " needs its form: LT, LN, CT or LCT");
+    const Token& form_token = tokens[first];
+    const std::string form = form_token.upper;
+    if (form == "LCT") fail(form_token, what + " LCT (line then tangential arc) is not read: use LT, LN or CT");
+    if (form != "LT" && form != "LN" && form != "CT") {
+      fail(form_token, what + " " + form + " is not read: the forms read are LT, LN and CT (Cartesian)");
+    }
+    const std::vector<Word> words = words_of(tokens, first + 1);
+    std::array<const Word*, 3> xyz{};
+    const Word *len = nullptr, *cca = nullptr, *radius = nullptr, *side = nullptr, *f_word = nullptr;
+    const auto once = [&](const Word*& slot, const Word& word) {
+      if (slot) fail(word, "the address appears twice in one block");
+      if (!word.value && &slot != &side) fail(word, "expected a value");
+      slot = &word;
+    };
+    for (const Word& word : words) {
+      const std::string& a = word.address;
+      if (const int k = linear_axis(a); k >= 0) {
+        once(xyz[static_cast<std::size_t>(k)], word);
+      } else if (a == "LEN") {
+        once(len, word);
+      } else if (a == "CCA") {
+        once(cca, word);
+      } else if (a == "R") {
+        once(radius, word);
+      } else if (a == "RL" || a == "RR") {
+        if (word.value || word.sign_only) fail(word, "expected RL or RR alone");
+        once(side, word);
+      } else if (a == "F") {
+        once(f_word, word);
+      } else if (a == "M") {
+        if (!word.value) fail(word, "expected the M function's number");
+      } else {
+        fail(word, "unsupported word in " + what + " " + form);
+      }
+    }
+    for (const Word* w : {xyz[0], xyz[1], xyz[2]}) {
+      if (w) require_within(*w->token, *w->value * mm_per_unit_, -detail::kMaxCoordinateMm, detail::kMaxCoordinateMm, "length", "mm");
+    }
+    const bool arc_form = form == "CT";
+    if (arc_form) {
+      if (!cca) fail(form_token, what + " CT needs the centre angle CCA");
+      if (!radius) fail(form_token, what + " CT needs the radius R");
+      if (!(*cca->value > 0.0 && *cca->value <= 360.0)) fail(*cca, "CCA must be within (0, 360] deg");
+      if (*radius->value == 0.0) fail(*radius, "R0 in " + what + " CT: the arc needs a radius");
+      require_within(*radius->token, *radius->value * mm_per_unit_, -detail::kMaxCoordinateMm, detail::kMaxCoordinateMm, "radius", "mm");
+      if (len) fail(*len, "LEN belongs to LT and LN");
+    } else {
+      if (!len) fail(form_token, what + " " + form + " needs the length LEN");
+      if (!(*len->value > 0.0)) fail(*len, "LEN must be positive");
+      require_within(*len->token, *len->value * mm_per_unit_, 0.0, detail::kMaxCoordinateMm, "LEN", "mm");
+      if (cca) fail(*cca, "CCA belongs to CT");
+      if (radius) fail(*radius, "R belongs to CT (and LCT) here; RL / RR name the compensation side");
+    }
+    std::optional<double> block_feed;
+    if (f_word) {
+      block_feed = feed_from(*f_word);
+      feed_m_per_s_ = block_feed;
+    }
+    const std::optional<double> feed = block_feed ? block_feed : feed_m_per_s_;
+    if (!feed) fail(head, "feed motion before any F: the feed is unknown");
+    require_no_pending_corner(head);
+
+    if (approach) {
+      if (!side) fail(form_token, "APPR " + form + " needs the radius compensation RL or RR");
+      if (compensation_side_) fail(head, "APPR under radius compensation: cancel it (R0) first");
+      if (pending_approach_) fail(head, "APPR after APPR: a contour element must follow APPR");
+      if (tcp_like()) fail(head, "APPR under M128 / FUNCTION TCPM or in a tilted working plane is not supported");
+      if (!xyz[0] || !xyz[1]) fail(form_token, "APPR needs the first contour point's X and Y");
+      if (!pos_[0] || !pos_[1] || !pos_[2] || !started_) {
+        fail(head, "APPR before the start point PS is known: position the tool first (L X.. Y.. Z.. R0)");
+      }
+      PendingApproach pending;
+      pending.form = form;
+      pending.start_mm = Vec3(*pos_[0], *pos_[1], *pos_[2]);
+      for (int k = 0; k < 3; ++k) {
+        const Word* w = xyz[static_cast<std::size_t>(k)];
+        const double v = w ? *w->value * mm_per_unit_ : 0.0;
+        pending.contour_mm[k] = !w ? pending.start_mm[k] : (w->incremental ? pending.start_mm[k] + v : v);
+      }
+      if (len) pending.length_mm = *len->value * mm_per_unit_;
+      if (radius) pending.radius_mm = *radius->value * mm_per_unit_;
+      if (cca) pending.sweep_deg = *cca->value;
+      pending.side = side->address == "RL" ? CompensationSide::left : CompensationSide::right;
+      pending.tool_radius_mm = cutter_radius_of(*side);
+      // To PH at the feed (or rapid) of the motion before APPR.
+      pending.to_auxiliary_rapid = !path_.points.empty() && path_.points.back().kind == MotionKind::rapid;
+      pending.to_auxiliary_feed_m_per_s = path_.points.empty() ? feed : std::optional<double>(path_.points.back().feed_m_per_s);
+      pending.feed_m_per_s = feed;
+      pending.line = line_;
+      pending.column = head.column;
+      pending.text = line_text_;
+      pending.block = add_source_block();
+      for (int k = 0; k < 3; ++k) pos_[static_cast<std::size_t>(k)] = pending.contour_mm[k];
+      pending_approach_ = pending;
+      return;
+    }
+
+    // DEP: leaves the compensated contour at PE.
+    if (side) fail(*side, "RL / RR in DEP: DEP ends the radius compensation");
+    if (!compensation_side_) fail(head, "DEP without radius compensation RL / RR in force");
+    if (pending_approach_) fail(head, "DEP right after APPR: no contour element between them");
+    if (xyz[0] || xyz[1]) fail(*(xyz[0] ? xyz[0] : xyz[1]), "DEP " + form + " takes no X / Y (only Z, the height after PN)");
+    if (!last_ || last_->tangent.norm() < 0.5) {
+      fail(head, "DEP: the last contour element has no direction in the plane X/Y");
+    }
+    const Vec2 t = last_->tangent.normalized();
+    const double s = *compensation_side_ == CompensationSide::left ? 1.0 : -1.0;
+    const double r = compensation_radius_mm_;
+    const Vec3 contour_end(*pos_[0], *pos_[1], *pos_[2]);  // PE
+    const Vec3 tool = end_compensation(head.column);        // PE + r n
+    PathPoint point = new_point(MotionKind::linear, add_source_block());
+    point.feed_m_per_s = *feed;
+    const Vec2 n = s * left_of(t);
+    CompensatedMove move;
+    move.start = tool.head<2>();
+    move.start_w_mm = move.end_w_mm = tool.z();
+    if (form == "LT") {
+      move.end = contour_end.head<2>() + (*len->value * mm_per_unit_) * t + r * n;
+    } else if (form == "LN") {
+      move.end = contour_end.head<2>() + (*len->value * mm_per_unit_ + r) * n;
+    } else {
+      const double arc_radius = *radius->value * mm_per_unit_;
+      const bool ccw = s * arc_radius > 0.0;
+      const Vec2 centre = contour_end.head<2>() + (ccw ? 1.0 : -1.0) * std::abs(arc_radius) * left_of(t);
+      const double sweep = (ccw ? 1.0 : -1.0) * *cca->value * std::numbers::pi / 180.0;
+      const double factor = tool_arc_factor(ccw, s, r, arc_radius, *radius);
+      const Vec2 rel = contour_end.head<2>() - centre;
+      const Vec2 contour_pn = centre + Eigen::Rotation2Dd(sweep) * rel;
+      move.arc = true;
+      move.centre = centre;
+      move.sweep_rad = sweep;
+      move.end = centre + factor * (contour_pn - centre);
+    }
+    emit_tool_centre(move, point);
+    Vec3 end(move.end.x(), move.end.y(), tool.z());
+    if (xyz[2]) {
+      const double v = *xyz[2]->value * mm_per_unit_;
+      CompensatedMove lift;
+      lift.start = lift.end = move.end;
+      lift.start_w_mm = tool.z();
+      lift.end_w_mm = end.z() = xyz[2]->incremental ? tool.z() + v : v;
+      emit_tool_centre(lift, point);
+    }
+    for (int k = 0; k < 3; ++k) pos_[static_cast<std::size_t>(k)] = end[k];
+    last_.reset();
+  }
+
+  /// The tool centre's distance from an approach / departure arc's centre over the arc's radius
+  /// |R|: the tool r to the compensation side s of an arc turning counter-clockwise or not.
+  double tool_arc_factor(bool ccw, double s, double r, double arc_radius, const Word& radius_word) const {
+    const double factor = 1.0 - (ccw ? 1.0 : -1.0) * s * r / std::abs(arc_radius);
+    if (!(factor > 1e-9)) {
+      fail(radius_word, "the arc radius " + detail::format_number(std::abs(arc_radius)) +
+                            " mm is not larger than the tool radius " + detail::format_number(r) +
+                            " mm on the arc's inside");
+    }
+    return factor;
+  }
+
+  /// APPR, made when the first contour element (start PA, end `end`) comes: the tool centre's
+  /// moves to PA + r n, then radius compensation on from there.
+  void realise_approach(const Motion& m, const Vec3& contour_start, const Vec3& end) {
+    const PendingApproach a = *pending_approach_;
+    pending_approach_.reset();
+    Vec2 t;
+    if (m.kind == "L") {
+      t = end.head<2>() - contour_start.head<2>();
+    } else {
+      const ArcSpec spec = arc_spec(m, contour_start, end);
+      if (spec.plane != kPlaneXY) fail(*m.head, "an arc outside the plane X/Y after APPR is not supported");
+      const Vec2 radial = contour_start.head<2>() - spec.centre;
+      t = spec.ccw ? left_of(radial) : Vec2(-left_of(radial));
+    }
+    if (t.norm() <= kTinyMm) fail(*m.head, "the first contour element after APPR does not move in the plane X/Y");
+    t.normalize();
+    const double s = a.side == CompensationSide::left ? 1.0 : -1.0;
+    const double r = a.tool_radius_mm;
+    const Vec2 n = s * left_of(t);
+    const Vec2 pa = a.contour_mm.head<2>();
+    const Vec2 tool_at_pa = pa + r * n;
+    CompensatedMove approach;  // PH -> PA + r n
+    approach.end = tool_at_pa;
+    if (a.form == "LT") {
+      approach.start = pa - a.length_mm * t + r * n;
+    } else if (a.form == "LN") {
+      approach.start = pa + (a.length_mm + r) * n;
+    } else {
+      const bool ccw = s * a.radius_mm > 0.0;
+      const Vec2 centre = pa + (ccw ? 1.0 : -1.0) * std::abs(a.radius_mm) * left_of(t);
+      const double sweep = (ccw ? 1.0 : -1.0) * a.sweep_deg * std::numbers::pi / 180.0;
+      const double factor = 1.0 - (ccw ? 1.0 : -1.0) * s * r / std::abs(a.radius_mm);
+      if (!(factor > 1e-9)) {
+        line_ = a.line;
+        fail(a.column, "APPR CT: the arc radius " + detail::format_number(std::abs(a.radius_mm)) +
+                           " mm is not larger than the tool radius " + detail::format_number(r) +
+                           " mm on the arc's inside");
+      }
+      const Vec2 ph = centre + Eigen::Rotation2Dd(-sweep) * (pa - centre);
+      approach.arc = true;
+      approach.centre = centre;
+      approach.sweep_rad = sweep;
+      approach.start = centre + factor * (ph - centre);
+    }
+    PathPoint to_auxiliary = new_point(a.to_auxiliary_rapid ? MotionKind::rapid : MotionKind::linear, a.block);
+    if (!a.to_auxiliary_rapid) to_auxiliary.feed_m_per_s = a.to_auxiliary_feed_m_per_s.value_or(*a.feed_m_per_s);
+    CompensatedMove move;
+    move.start = a.start_mm.head<2>();
+    move.end = approach.start;
+    move.start_w_mm = move.end_w_mm = a.start_mm.z();
+    emit_tool_centre(move, to_auxiliary);
+    if (std::abs(a.contour_mm.z() - a.start_mm.z()) > kTinyMm) {  // to depth at PH
+      move.start = move.end;
+      move.end_w_mm = a.contour_mm.z();
+      PathPoint plunge = to_auxiliary;
+      plunge.kind = MotionKind::linear;
+      plunge.feed_m_per_s = *a.feed_m_per_s;
+      emit_tool_centre(move, plunge);
+    }
+    PathPoint point = new_point(approach.arc ? MotionKind::arc : MotionKind::linear, a.block);
+    point.feed_m_per_s = *a.feed_m_per_s;
+    approach.start_w_mm = approach.end_w_mm = a.contour_mm.z();
+    emit_tool_centre(approach, point);
+    // Compensation on, the tool at PA + r n: the entry (to PA) ends where the contour's offset starts.
+    if (pending_corner_) fail(*m.head, "RND / CHF right after APPR");
+    compensation_side_ = a.side;
+    compensation_radius_mm_ = r;
+    compensator_.emplace(a.side, r, tool_at_pa, a.contour_mm.z(), EntryRule::normal_to_next);
+    PlaneElement entry;
+    entry.start = tool_at_pa;
+    entry.end = pa;
+    entry.start_w_mm = entry.end_w_mm = a.contour_mm.z();
+    entry.tag = next_compensation_tag_++;  // no source: the entry's (zero) move is not emitted
+    emit_compensated(compensation_call(a.line, a.column, a.text, [&] { return compensator_->add(entry); }));
+  }
+
+  void emit_tool_centre(CompensatedMove move, const PathPoint& point) {
+    move.tag = next_compensation_tag_++;
+    compensated_sources_[move.tag] = point;
+    emit_compensated({move});
   }
 
   // --- Poses ----------------------------------------------------------------------------------
@@ -1688,6 +1956,13 @@ class HeidenhainReader {
       shift_W = dr_mm_ * (plane_R_ * detail::unit_tool_axis(n, file_, line_, m.head->column, line_text_));
     }
 
+    if (pending_approach_) {
+      if (m.compensation || m.machine || (m.kind != "L" && m.kind != "C" && m.kind != "CR")) {
+        fail(*m.head, "the block after APPR must be the first contour element: L, C or CR without "
+                      "RL / RR / R0 or M91 / M92");
+      }
+      realise_approach(m, start, end);
+    }
     // Radius compensation: RL / RR start it on this block (the approach), R0 ends it here.
     const bool cancel = m.compensation && m.compensation->address == "R";
     if (m.compensation && !cancel) start_compensation(*m.compensation, m, start);
@@ -2069,6 +2344,23 @@ class HeidenhainReader {
   std::optional<HeldElement> held_;               // the last element, not yet given to the compensator
   std::map<int, PathPoint> compensated_sources_;  // by element tag, until its moves are made
   int next_compensation_tag_ = 0;
+  double compensation_radius_mm_ = 0.0;
+  // APPR: read, made once the first contour element (the next motion) gives its tangent at PA.
+  struct PendingApproach {
+    std::string form;          ///< LT, LN or CT
+    Vec3 contour_mm = Vec3::Zero();  ///< PA, the first contour point [program mm]
+    Vec3 start_mm = Vec3::Zero();    ///< PS, where the tool centre is
+    double length_mm = 0.0;    ///< LEN
+    double radius_mm = 0.0;    ///< CT: R (signed)
+    double sweep_deg = 0.0;    ///< CT: CCA
+    CompensationSide side = CompensationSide::left;
+    double tool_radius_mm = 0.0;
+    bool to_auxiliary_rapid = false;
+    std::optional<double> to_auxiliary_feed_m_per_s, feed_m_per_s;
+    int line = 0, column = 0, block = -1;
+    std::string text;
+  };
+  std::optional<PendingApproach> pending_approach_;
 };
 
 }  // namespace
