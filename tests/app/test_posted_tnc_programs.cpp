@@ -150,8 +150,8 @@ TEST(PostedTncProgram, BadInputExitsThreeAndWritesNothing) {
   std::string text((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
   const std::string good = "23 L X+30 Y-20\n";
   ASSERT_NE(text.find(good), std::string::npos);
-  // APPR (an approach contour) is not read: a located error naming the word.
-  text.replace(text.find(good), good.size(), "23 APPR LT X+30 Y-20 LEN15 RL\n");
+  // APPR LT without its length LEN: a located error naming the word.
+  text.replace(text.find(good), good.size(), "23 APPR LT X+30 Y-20 RL\n");
   std::ofstream(folder / "program.h") << text;
   // The part file names the machine relative to the corpus folder.
   std::string part_text;
@@ -167,7 +167,7 @@ TEST(PostedTncProgram, BadInputExitsThreeAndWritesNothing) {
                                     "simulate-part --no-renders --out " + (folder / "sim").string()}) {
     const test::RunResult run = test::run_vmsim(command + " --part " + (folder / "part.yaml").string());
     EXPECT_EQ(run.exit_code, 3) << run.output;
-    EXPECT_NE(run.output.find("program.h:24:4: 'APPR'"), std::string::npos) << run.output;
+    EXPECT_NE(run.output.find("program.h:24:9: 'LT': APPR LT needs the length LEN"), std::string::npos) << run.output;
   }
   EXPECT_FALSE(fs::exists(folder / "k.csv"));
   EXPECT_FALSE(fs::exists(folder / "sim"));

@@ -151,6 +151,35 @@ TEST(HeidenhainApproach, RightCompensation) {
   expect_xy(end_of_line(path, 9), -10.0, 0.0);
 }
 
+// APPR LCT: the arc of radius R = 10 tangent to the contour at PA from the compensation side,
+// C = PA + R n = (-10, 0); the tool centre on its inside, radius R - r = 5. From PS = (-10, -10)
+// (10 from C) the tangent touches that circle alpha = acos(5 / 10) = 60 deg from C -> PS, on the
+// side that goes on counter-clockwise (RL): at -90 + 60 = -30 deg, PH = (-10 + 5 cos 30, -2.5);
+// then the arc (30 deg) to PA + r n = (-5, 0).
+// DEP LCT X-20 Y-10 R+10: C = PE + R n = (0, -10), the tool from (0, -5) counter-clockwise on
+// radius 5 until the tangent to PN = (-20, -10): alpha = acos(5 / 20), cos = 1/4, the point at
+// 180 deg - alpha: (-1.25, -10 + 5 sqrt(15) / 4); then the line to PN.
+TEST(HeidenhainApproach, LineThenTangentialArc) {
+  const Toolpath path = parse(
+      "BEGIN PGM P MM\nTOOL CALL 1 Z S1000\nL X-10 Y-10 Z-2 R0 FMAX\n"  // 1-3
+      "APPR LCT X+0 Y+0 R+10 RL F200\n"                                 // 4
+      "L Y+40\nL X+40\nL Y+0\nL X+0\n"                                  // 5-8
+      "DEP LCT X-20 Y-10 R+10 F400\nEND PGM P MM\n");                   // 9
+  const std::vector<PathPoint> appr = points_of_lines(path, 4, 4);
+  ASSERT_GE(appr.size(), 3u);
+  expect_xy(xy_mm(appr[0]), -10.0 + 2.5 * std::sqrt(3.0), -2.5);
+  expect_xy(xy_mm(appr.back()), -5.0, 0.0);
+  for (const PathPoint& p : appr) EXPECT_NEAR((xy_mm(p) - Eigen::Vector2d(-10.0, 0.0)).norm(), 5.0, 1e-9);
+  expect_xy(end_of_line(path, 5), -5.0, 40.0);
+  const std::vector<PathPoint> dep = points_of_lines(path, 9, 9);
+  ASSERT_GE(dep.size(), 2u);
+  expect_xy(xy_mm(dep[dep.size() - 2]), -1.25, -10.0 + 1.25 * std::sqrt(15.0));
+  expect_xy(xy_mm(dep.back()), -20.0, -10.0);
+  for (std::size_t i = 0; i + 1 < dep.size(); ++i) {
+    EXPECT_NEAR((xy_mm(dep[i]) - Eigen::Vector2d(0.0, -10.0)).norm(), 5.0, 1e-9) << i;
+  }
+}
+
 TEST(HeidenhainApproach, ErrorsAreLocated) {
   const std::string head = "BEGIN PGM P MM\nTOOL CALL 1 Z S1000\nL X-30 Y-30 Z-2 FMAX\n";  // 1-3
   const std::string contour = "L Y+40\nL X+40\nL Y+0\nL X+0\n";
@@ -175,8 +204,15 @@ TEST(HeidenhainApproach, ErrorsAreLocated) {
   EXPECT_NE(e.find("t.h:9:5: 'LT': DEP LT needs the length LEN"), std::string::npos) << e;
   e = error(head + "APPR LT X+0 Y+0 LEN10 RL F300\n" + contour + "DEP CT CCA90 F300\n");
   EXPECT_NE(e.find("t.h:9:5: 'CT': DEP CT needs the radius R"), std::string::npos) << e;
-  e = error(head + "APPR LCT X+0 Y+0 R+10 RL F300\n" + contour);
-  EXPECT_NE(e.find("t.h:4:6: 'LCT': APPR LCT (line then tangential arc) is not read"), std::string::npos) << e;
+  e = error(head + "APPR LCT X+0 Y+0 RL F300\n" + contour);
+  EXPECT_NE(e.find("t.h:4:6: 'LCT': APPR LCT needs the radius R"), std::string::npos) << e;
+  e = error(head + "APPR LCT X+0 Y+0 R-10 RL F300\n" + contour);
+  EXPECT_NE(e.find("t.h:4:"), std::string::npos) << e;
+  EXPECT_NE(e.find("R in APPR LCT must be positive"), std::string::npos) << e;
+  e = error(head + "APPR LT X+0 Y+0 LEN10 RL F300\n" + contour + "DEP LCT R+10 F300\n");
+  EXPECT_NE(e.find("t.h:9:5: 'LCT': DEP LCT needs the end point PN's X and Y"), std::string::npos) << e;
+  e = error(head + "APPR PLT X+0 Y+0 RL F300\n" + contour);
+  EXPECT_NE(e.find("t.h:4:6: 'PLT': APPR PLT is not read"), std::string::npos) << e;
   e = error(head + "APPR LT X+0 Y+0 LEN10 RL F300\nEND PGM P MM\n");
   EXPECT_NE(e.find("t.h:4:1: "), std::string::npos) << e;
   EXPECT_NE(e.find("no contour element follows it"), std::string::npos) << e;

@@ -1499,9 +1499,8 @@ class HeidenhainReader {
     if (first >= tokens.size()) fail(head, what + " needs its form: LT, LN, CT or LCT");
     const Token& form_token = tokens[first];
     const std::string form = form_token.upper;
-    if (form == "LCT") fail(form_token, what + " LCT (line then tangential arc) is not read: use LT, LN or CT");
-    if (form != "LT" && form != "LN" && form != "CT") {
-      fail(form_token, what + " " + form + " is not read: the forms read are LT, LN and CT (Cartesian)");
+    if (form != "LT" && form != "LN" && form != "CT" && form != "LCT") {
+      fail(form_token, what + " " + form + " is not read: the forms read are LT, LN, CT and LCT (Cartesian)");
     }
     const std::vector<Word> words = words_of(tokens, first + 1);
     std::array<const Word*, 3> xyz{};
@@ -1536,7 +1535,13 @@ class HeidenhainReader {
       if (w) require_within(*w->token, *w->value * mm_per_unit_, -detail::kMaxCoordinateMm, detail::kMaxCoordinateMm, "length", "mm");
     }
     const bool arc_form = form == "CT";
-    if (arc_form) {
+    if (form == "LCT") {
+      if (!radius) fail(form_token, what + " LCT needs the radius R");
+      if (!(*radius->value > 0.0)) fail(*radius, "R in " + what + " LCT must be positive");
+      require_within(*radius->token, *radius->value * mm_per_unit_, 0.0, detail::kMaxCoordinateMm, "radius", "mm");
+      if (len) fail(*len, "LEN belongs to LT and LN");
+      if (cca) fail(*cca, "CCA belongs to CT");
+    } else if (arc_form) {
       if (!cca) fail(form_token, what + " CT needs the centre angle CCA");
       if (!radius) fail(form_token, what + " CT needs the radius R");
       if (!(*cca->value > 0.0 && *cca->value <= 360.0)) fail(*cca, "CCA must be within (0, 360] deg");
@@ -1598,7 +1603,10 @@ class HeidenhainReader {
     if (side) fail(*side, "RL / RR in DEP: DEP ends the radius compensation");
     if (!compensation_side_) fail(head, "DEP without radius compensation RL / RR in force");
     if (pending_approach_) fail(head, "DEP right after APPR: no contour element between them");
-    if (xyz[0] || xyz[1]) fail(*(xyz[0] ? xyz[0] : xyz[1]), "DEP " + form + " takes no X / Y (only Z, the height after PN)");
+    if (form != "LCT" && (xyz[0] || xyz[1])) {
+      fail(*(xyz[0] ? xyz[0] : xyz[1]), "DEP " + form + " takes no X / Y (only Z, the height after PN)");
+    }
+    if (form == "LCT" && (!xyz[0] || !xyz[1])) fail(form_token, "DEP LCT needs the end point PN's X and Y");
     if (!last_ || last_->tangent.norm() < 0.5) {
       fail(head, "DEP: the last contour element has no direction in the plane X/Y");
     }
@@ -1617,6 +1625,30 @@ class HeidenhainReader {
       move.end = contour_end.head<2>() + (*len->value * mm_per_unit_) * t + r * n;
     } else if (form == "LN") {
       move.end = contour_end.head<2>() + (*len->value * mm_per_unit_ + r) * n;
+    } else if (form == "LCT") {
+      // An arc of radius R tangent to the contour at PE, turning to the compensation side, then
+      // the tangent from it to PN (X Y: the tool centre's end).
+      Vec2 pn;
+      for (int k = 0; k < 2; ++k) {
+        const double v = *xyz[static_cast<std::size_t>(k)]->value * mm_per_unit_;
+        pn[k] = xyz[static_cast<std::size_t>(k)]->incremental ? contour_end[k] + v : v;
+      }
+      const double arc_radius = *radius->value * mm_per_unit_;
+      const bool ccw = s > 0.0;
+      const Vec2 centre = contour_end.head<2>() + arc_radius * n;
+      const double rho = arc_radius - r;
+      if (!(rho > 1e-9)) fail(*radius, "the arc radius " + detail::format_number(arc_radius) + " mm is not larger than the tool radius " + detail::format_number(r) + " mm on the arc's inside");
+      // Leaving the circle (centre C, radius rho) along a tangent towards PN.
+      const Vec2 ph = tangent_point(centre, rho, pn, !ccw, *radius);
+      move.arc = true;
+      move.centre = centre;
+      move.end = ph;
+      move.sweep_rad = detail::arc_sweep_rad(move.start, ph, centre, ccw, false);
+      emit_tool_centre(move, point);
+      move = CompensatedMove{};
+      move.start = ph;
+      move.end = pn;
+      move.start_w_mm = move.end_w_mm = tool.z();
     } else {
       const double arc_radius = *radius->value * mm_per_unit_;
       const bool ccw = s * arc_radius > 0.0;
@@ -1642,6 +1674,21 @@ class HeidenhainReader {
     }
     for (int k = 0; k < 3; ++k) pos_[static_cast<std::size_t>(k)] = end[k];
     last_.reset();
+  }
+
+  /// Where a line through `point` touches the circle (centre, radius_mm) so that a motion
+  /// arriving on it goes on counter-clockwise (arriving_ccw) or clockwise; a motion leaving a
+  /// counter-clockwise arc for the point is the clockwise arrival's point reversed.
+  Vec2 tangent_point(const Vec2& centre, double radius_mm, const Vec2& point, bool arriving_ccw, const Word& word) const {
+    const Vec2 d = point - centre;
+    const double distance = d.norm();
+    if (!(distance > radius_mm + 1e-9)) {
+      fail(word, "the point " + detail::format_number(point.x()) + ", " + detail::format_number(point.y()) +
+                     " is inside the tool centre's arc (radius " + detail::format_number(radius_mm) +
+                     " mm): no tangent line from it");
+    }
+    const double alpha = std::acos(radius_mm / distance);
+    return centre + radius_mm * (Eigen::Rotation2Dd(arriving_ccw ? alpha : -alpha) * (d / distance));
   }
 
   /// The tool centre's distance from an approach / departure arc's centre over the arc's radius
@@ -1683,6 +1730,29 @@ class HeidenhainReader {
       approach.start = pa - a.length_mm * t + r * n;
     } else if (a.form == "LN") {
       approach.start = pa + (a.length_mm + r) * n;
+    } else if (a.form == "LCT") {
+      // An arc of radius R tangent to the contour at PA from the compensation side, entered on
+      // the tangent from PS (the line PS -> PH touches the tool centre's arc).
+      const bool ccw = s > 0.0;
+      const Vec2 centre = pa + a.radius_mm * n;
+      const double rho = a.radius_mm - r;
+      if (!(rho > 1e-9)) {
+        line_ = a.line;
+        fail(a.column, "APPR LCT: the arc radius " + detail::format_number(a.radius_mm) +
+                           " mm is not larger than the tool radius " + detail::format_number(r) + " mm on the arc's inside");
+      }
+      const Vec2 ps = a.start_mm.head<2>();
+      if (!((ps - centre).norm() > rho + 1e-9)) {
+        line_ = a.line;
+        fail(a.column, "APPR LCT: the start point PS is inside the tool centre's arc (radius " +
+                           detail::format_number(rho) + " mm): no tangent line from it");
+      }
+      const double alpha = std::acos(rho / (ps - centre).norm());
+      const Vec2 ph = centre + rho * (Eigen::Rotation2Dd(ccw ? alpha : -alpha) * (ps - centre).normalized());
+      approach.arc = true;
+      approach.centre = centre;
+      approach.start = ph;
+      approach.sweep_rad = detail::arc_sweep_rad(ph, tool_at_pa, centre, ccw, false);
     } else {
       const bool ccw = s * a.radius_mm > 0.0;
       const Vec2 centre = pa + (ccw ? 1.0 : -1.0) * std::abs(a.radius_mm) * left_of(t);
