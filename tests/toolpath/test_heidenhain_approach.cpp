@@ -1,5 +1,5 @@
 // Heidenhain TNC APPR / DEP (toolpath/src/heidenhain_reader.cpp): the approach and departure
-// forms LT, LN and CT on the outside of the square (0, 0)-(40, 40), run clockwise from the first
+// forms LT, LN, CT and LCT on the outside of the square (0, 0)-(40, 40), run clockwise from the first
 // contour point PA = (0, 0) with RL (the tool outside), tool radius r = 5. The expected tool-centre
 // points are worked out by hand from the TNC 640 manual's geometry (PS, PH, PA, PE, PN):
 //  - first side (0, 0) -> (0, 40): tangent t = (0, 1), the compensation side (left) n = (-1, 0);

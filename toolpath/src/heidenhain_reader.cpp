@@ -1487,7 +1487,10 @@ class HeidenhainReader {
   //  APPR CT: PS -> PH on an arc of radius |R| tangent to the contour at PA, swept CCA; the
   //           direction: RL with R > 0 (RR with R < 0) counter-clockwise, else clockwise; the arc
   //           is travelled compensated (tool centre r to the compensation side of it).
-  //  DEP LT / LN / CT: the mirror from PE + r n (the compensated contour's end), compensation
+  //  APPR LCT: an arc of radius R > 0 tangent to the contour at PA, its centre PA + R n (turning
+  //           as CT with R > 0); the tool centre on radius R - r, entered on the line from PS
+  //           that touches that circle (PH: where it touches).
+  //  DEP LT / LN / CT / LCT: the mirror (DEP LCT: the arc, then its tangent to X Y, PN) from PE + r n (the compensated contour's end), compensation
   //           off at PN.
   // A Z in APPR: to PH in the plane, then to that depth, then on to PA. A Z in DEP: to PN in the
   // plane, then to that height.
@@ -2417,11 +2420,11 @@ class HeidenhainReader {
   double compensation_radius_mm_ = 0.0;
   // APPR: read, made once the first contour element (the next motion) gives its tangent at PA.
   struct PendingApproach {
-    std::string form;          ///< LT, LN or CT
+    std::string form;          ///< LT, LN, CT or LCT
     Vec3 contour_mm = Vec3::Zero();  ///< PA, the first contour point [program mm]
     Vec3 start_mm = Vec3::Zero();    ///< PS, where the tool centre is
     double length_mm = 0.0;    ///< LEN
-    double radius_mm = 0.0;    ///< CT: R (signed)
+    double radius_mm = 0.0;    ///< CT: R (signed); LCT: R
     double sweep_deg = 0.0;    ///< CT: CCA
     CompensationSide side = CompensationSide::left;
     double tool_radius_mm = 0.0;
