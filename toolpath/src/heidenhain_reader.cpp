@@ -2054,19 +2054,7 @@ class HeidenhainReader {
       compensated_move(m, start, end);
       started_ = true;
       for (int k = 0; k < 3; ++k) pos_[static_cast<std::size_t>(k)] = end[k];
-      LastElement element;
-      element.line = !arc;
-      element.start = start;
-      element.end = end;
-      element.rotary = rotary_deg_;
-      if (!arc) {
-        const Vec2 d(end.x() - start.x(), end.y() - start.y());
-        element.tangent = d.norm() > kTinyMm ? Vec2(d.normalized()) : Vec2::Zero();
-        element.in_plane = std::abs(end.z() - start.z()) <= kTinyMm;
-      } else {
-        element.tangent = arc_end_tangent_;
-      }
-      last_ = element;
+      last_ = moved_element(arc, start, end, rotary_deg_);
       return;
     }
 
@@ -2102,22 +2090,28 @@ class HeidenhainReader {
     }
     for (int k = 0; k < 3; ++k) pos_[static_cast<std::size_t>(k)] = end[k];
     // The element, for CT / RND / CHF.
+    LastElement element = moved_element(arc, start, end, rotary);
+    element.point_made = path_.points.size() > first_point;
+    element.point_index = path_.points.size() - 1;
+    last_ = element;
+  }
+
+  /// The line or arc just moved from `start` to `end` (program coordinates [mm]), for CT / RND /
+  /// CHF and the compensation: an arc's end tangent is arc_end_tangent_ (set by its motion).
+  LastElement moved_element(bool arc, const Vec3& start, const Vec3& end, const RotaryDeg& rotary) const {
     LastElement element;
     element.line = !arc;
     element.start = start;
     element.end = end;
     element.rotary = rotary;
-    element.point_made = path_.points.size() > first_point;
-    element.point_index = path_.points.size() - 1;
     if (!arc) {
       const Vec2 d(end.x() - start.x(), end.y() - start.y());
       element.tangent = d.norm() > kTinyMm ? Vec2(d.normalized()) : Vec2::Zero();
       element.in_plane = std::abs(end.z() - start.z()) <= kTinyMm;
     } else {
       element.tangent = arc_end_tangent_;
-      element.in_plane = false;
     }
-    last_ = element;
+    return element;
   }
 
   /// RND / CHF pending at the corner `corner` (the start of this line to `end`): moves the
