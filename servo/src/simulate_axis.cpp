@@ -3,6 +3,7 @@
 #include <Eigen/Core>
 #include <array>
 #include <deque>
+#include <memory>
 #include <cmath>
 #include <numbers>
 
@@ -42,69 +43,104 @@ Eigen::MatrixXd matrix_exponential(const Eigen::MatrixXd& m) {
 }
 
 /// Set points with their fine interpolation and derivatives (central differences at the knots,
-/// so that position, velocity and acceleration line up in time).
+/// so that position, velocity and acceleration line up in time), received window by window: the
+/// knots are pushed as they come and those no lookup reaches any more are forgotten. A value
+/// read at u = (t - t0) / period is the same whatever the windows were, as long as the knots up
+/// to floor(u) + 2 have been pushed, or the signal is finished (the caller makes sure of it).
 class SetpointSignal {
  public:
   struct Sample {
     double x = 0.0, v = 0.0, a = 0.0;
   };
 
-  SetpointSignal(const AxisInput& input, FineInterpolation interpolation)
-      : t0_(input.start_time_s),
-        period_(input.period_s),
-        inverse_period_(1.0 / input.period_s),
+  SetpointSignal(double start_time_s, double period_s, FineInterpolation interpolation, bool held)
+      : t0_(start_time_s),
+        period_(period_s),
+        inverse_period_(1.0 / period_s),
         cubic_(interpolation == FineInterpolation::cubic),
-        held_(input.kind == AxisInput::Kind::velocity),
-        x_(input.values) {
-    const std::size_t n = x_.size();
-    v_.resize(n);
-    a_.resize(n);
-    for (std::size_t k = 0; k < n; ++k) {
-      const double before = x_[k == 0 ? 0 : k - 1];
-      const double after = x_[k + 1 < n ? k + 1 : n - 1];
-      v_[k] = (after - before) * 0.5 * inverse_period_;
-      a_[k] = (after - 2.0 * x_[k] + before) * inverse_period_ * inverse_period_;
-    }
+        held_(held) {}
+
+  void push(double value) {
+    if (count_ == 0) front_ = value;
+    x_.push_back(value);
+    v_.push_back(0.0);
+    a_.push_back(0.0);
+    ++count_;
+    // The central differences of the knot before, now that its neighbour is known.
+    if (count_ >= 2) derive(count_ - 2);
   }
+  /// No more knots: the last one's differences hold it (as at the end of the run).
+  void finish() {
+    if (finished_ || count_ == 0) return;
+    finished_ = true;
+    derive(count_ - 1);
+  }
+  std::size_t count() const { return count_; }
+  double front() const { return front_; }
+  bool finished() const { return finished_; }
+  /// Forgets the knots before `index` (no lookup reaches them any more).
+  void forget_before(std::size_t index) {
+    if (index <= first_ + x_.size() / 2 || index > first_ + x_.size()) return;
+    const auto drop = static_cast<std::ptrdiff_t>(index - first_);
+    x_.erase(x_.begin(), x_.begin() + drop);
+    v_.erase(v_.begin(), v_.begin() + drop);
+    a_.erase(a_.begin(), a_.begin() + drop);
+    first_ = index;
+  }
+  /// The knot index at time t (floor of u, may be negative or past the end).
+  double knot_position(double t) const { return (t - t0_) * inverse_period_; }
 
   Sample at(double t) const {
     const double u = (t - t0_) * inverse_period_;
-    const std::size_t last = x_.size() - 1;
-    if (u <= 0.0) return {x_.front(), 0.0, 0.0};
-    if (u >= static_cast<double>(last)) return {x_.back(), 0.0, 0.0};
+    const std::size_t last = count_ - 1;
+    if (u <= 0.0) return {front_, 0.0, 0.0};
+    if (u >= static_cast<double>(last)) return {x(last), 0.0, 0.0};
     const std::size_t k = static_cast<std::size_t>(u);
     const double f = u - static_cast<double>(k);
-    if (held_) return {x_[k], 0.0, 0.0};
+    if (held_) return {x(k), 0.0, 0.0};
+    const std::size_t i = k - first_;
     Sample s;
-    s.a = a_[k] + f * (a_[k + 1] - a_[k]);
+    s.a = a_[i] + f * (a_[i + 1] - a_[i]);
     if (!cubic_) {
-      s.x = x_[k] + f * (x_[k + 1] - x_[k]);
-      s.v = v_[k] + f * (v_[k + 1] - v_[k]);
+      s.x = x_[i] + f * (x_[i + 1] - x_[i]);
+      s.v = v_[i] + f * (v_[i + 1] - v_[i]);
       return s;
     }
     // Cubic Hermite with the central-difference slopes (Catmull-Rom): C1 in x.
     const double f2 = f * f, f3 = f2 * f;
-    const double dx = x_[k + 1] - x_[k];
-    const double m0 = v_[k] * period_, m1 = v_[k + 1] * period_;
-    s.x = x_[k] + (3.0 * f2 - 2.0 * f3) * dx + (f3 - 2.0 * f2 + f) * m0 + (f3 - f2) * m1;
+    const double dx = x_[i + 1] - x_[i];
+    const double m0 = v_[i] * period_, m1 = v_[i + 1] * period_;
+    s.x = x_[i] + (3.0 * f2 - 2.0 * f3) * dx + (f3 - 2.0 * f2 + f) * m0 + (f3 - f2) * m1;
     s.v = ((6.0 * f - 6.0 * f2) * dx + (3.0 * f2 - 4.0 * f + 1.0) * m0 + (3.0 * f2 - 2.0 * f) * m1) *
           inverse_period_;
     return s;
   }
 
-  /// The sample held at t (for the external force).
-  static double held(const std::vector<double>& values, double t0, double inverse_period,
-                     double t) {
-    if (values.empty()) return 0.0;
-    const double u = (t - t0) * inverse_period;
-    if (u <= 0.0) return values.front();
+  /// The knot held at t (for the external force): 0 without knots.
+  double held(double t) const {
+    if (count_ == 0) return 0.0;
+    const double u = (t - t0_) * inverse_period_;
+    if (u <= 0.0) return front_;
     const std::size_t k = static_cast<std::size_t>(u);
-    return k < values.size() ? values[k] : values.back();
+    return k < count_ ? x(k) : x(count_ - 1);
   }
 
  private:
+  double x(std::size_t k) const { return x_[k - first_]; }
+  void derive(std::size_t k) {
+    const std::size_t i = k - first_;
+    const double before = x_[k == 0 ? i : i - 1];
+    const double after = x_[k + 1 < count_ ? i + 1 : i];
+    v_[i] = (after - before) * 0.5 * inverse_period_;
+    a_[i] = (after - 2.0 * x_[i] + before) * inverse_period_ * inverse_period_;
+  }
+
   double t0_, period_, inverse_period_;
   bool cubic_, held_;
+  bool finished_ = false;
+  std::size_t count_ = 0;  ///< knots pushed so far
+  std::size_t first_ = 0;  ///< index of x_[0]
+  double front_ = 0.0;     ///< the first knot (held before the start)
   std::vector<double> x_, v_, a_;
 };
 
@@ -282,9 +318,17 @@ class AxisRun {
  public:
   static constexpr bool kTwoBody = N == 5;
 
-  AxisRun(const AxisServoModel& model, const AxisInput& input, const SimulationOptions& options)
-      : model_(model), c_(model.axis.controller), p_(derive(model)), input_(input),
-        options_(options), setpoints_(input, c_.fine_interpolation) {
+  // `compensate_deflection`: the set points pushed are shifted by the spring's static
+  // deflection under gravity (the motor is commanded further, see simulate_axis); the recorded
+  // command stays the one given.
+  AxisRun(const AxisServoModel& model, double start_time_s, double period_s, AxisInput::Kind kind,
+          const SimulationOptions& options, bool compensate_deflection)
+      : model_(model), c_(model.axis.controller), p_(derive(model)), options_(options),
+        start_time_s_(start_time_s), period_s_(period_s), position_input_(kind == AxisInput::Kind::position),
+        compensate_(compensate_deflection),
+        setpoints_(start_time_s, period_s, c_.fine_interpolation, kind == AxisInput::Kind::velocity),
+        given_(start_time_s, period_s, c_.fine_interpolation, kind == AxisInput::Kind::velocity),
+        force_(start_time_s, period_s, c_.fine_interpolation, true) {
     base_ = base_period_s(c_);
     n_pos_ = std::max(1L, std::lround(c_.position_period_s / base_));
     n_vel_ = std::max(1L, std::lround(c_.velocity_period_s / base_));
@@ -301,9 +345,21 @@ class AxisRun {
     build_matrices();
   }
 
-  AxisSignals run();
+  /// Appends set points (and, optionally, the external force on each; either with every
+  /// window or never).
+  void push(const double* values, const double* external_force, std::size_t count);
+  /// Simulates every tick the set points pushed so far determine, appending the records.
+  void advance(AxisSignals& out);
+  /// No more set points: simulates to the last one plus extra_time_s.
+  void finish(double extra_time_s, AxisSignals& out);
+  std::size_t pushed() const { return setpoints_.count(); }
 
  private:
+  struct LoopState;
+  void start();
+  // Simulates the ticks up to `last_tick` (inclusive); `final_tick`: the run's last tick (no
+  // plant step after it), or -1 while the end is not known.
+  void simulate_ticks(long last_tick, long final_tick, AxisSignals& out);
   using State = Eigen::Matrix<double, N, 1>;
   using Input = Eigen::Matrix<double, kInputs, 1>;
 
@@ -372,9 +428,16 @@ class AxisRun {
   const AxisServoModel& model_;
   const kinematics::Controller& c_;
   Parameters p_;
-  const AxisInput& input_;
   SimulationOptions options_;
-  SetpointSignal setpoints_;
+  double start_time_s_, period_s_;
+  bool position_input_, compensate_;
+  SetpointSignal setpoints_;  ///< what the controller follows
+  SetpointSignal given_;      ///< the set points as given (recorded command), when compensated
+  SetpointSignal force_;      ///< external force [N or N m], held per sample
+  bool has_force_ = false;
+  bool started_ = false;
+  long next_tick_ = 0;        ///< the first tick not simulated yet
+  std::unique_ptr<LoopState> loop_;
   double base_ = 0.0;
   long n_pos_ = 1, n_vel_ = 1, n_cur_ = 1;
   int substeps_ = 1;
@@ -606,29 +669,100 @@ void AxisRun<N>::plant_step(const Input& held) {
   }
 }
 
+
+// The controllers' constants and the loop state carried from one window to the next (what were
+// the locals of one whole run). simulate_ticks copies them into locals for its loop (the hot
+// path keeps them in registers) and stores them back at the end of the window.
 template <int N>
-AxisSignals AxisRun<N>::run() {
-  const bool position_input = input_.kind == AxisInput::Kind::position;
-  const double inverse_input_period = 1.0 / input_.period_s;
-  const double duration =
-      static_cast<double>(input_.values.size() - 1) * input_.period_s + input_.extra_time_s;
-  const long ticks = static_cast<long>(std::floor(duration / base_ + 1e-9));
-  const double record_period = options_.record_period_s > 0.0 ? options_.record_period_s : input_.period_s;
-  const double record_ratio = record_period / base_;
-  const long n_record = std::lround(record_ratio);
-  if (n_record < 1 || std::abs(record_ratio - static_cast<double>(n_record)) > 1e-6 * record_ratio) {
+struct AxisRun<N>::LoopState {
+  // Constants.
+  double inverse_input_period = 0.0, record_period = 0.0;
+  long n_record = 1;
+  double kv = 0.0, velocity_period = 0.0, inverse_r = 1.0, inverse_kt = 1.0, current_period = 0.0,
+         position_period = 0.0, kp_per_kt = 0.0, ki_per_kt = 0.0, velocity_filter = 0.0;
+  bool counted = false;
+  double difference_gain = 0.0, imax = 0.0, wmax = 0.0;
+  bool current_pi = false, current_ideal = false;
+  double kpi = 0.0, kii = 0.0, vmax = 0.0;
+  double lag_alpha = 0.0, lag_b0 = 1.0, lag_b1 = 0.0;
+  double tff_gain = 0.0, vff_gain = 0.0;
+  bool feedforward = false, interpolate_feedforward = false, backward_feedforward = false;
+  double inverse_position_ticks = 1.0;
+  long dead_ticks = 0;
+  /// How far ahead of and behind a tick's time the set points are read [s] (with a margin).
+  double ahead_s = 0.0, behind_s = 0.0;
+  // State.
+  struct PendingOutput {
+    long due = 0;
+    double p = 0.0, vff = 0.0, vff_step = 0.0, tff = 0.0, tff_step = 0.0;
+  };
+  double velocity_integral_A = 0.0, current_integral = 0.0, encoder_previous = 0.0,
+         omega_filtered = 0.0, lag_state = 0.0, lag_input_previous = 0.0;
+  // Position controller outputs, each after the output delay: the P term [rad/s], the velocity
+  // feedforward [rad/s] and the torque feedforward / Kt [A] at the position tick, and their
+  // change per base tick until the next position tick (0 when held).
+  DelayLine out_p, out_vff, out_vff_step, out_tff, out_tff_step;
+  std::deque<PendingOutput> pending;
+  long applied_tick = 0;
+  DelayLine velocity_out, current_out;
+  double p_term = 0.0, vff = 0.0, vff_step = 0.0, tff = 0.0, tff_step = 0.0;
+  double omega_input = 0.0, current_command = 0.0, voltage = 0.0;
+  // The same, undelayed, for the inner signals [joint units, N m].
+  double deviation = 0.0, p_term_joint = 0.0, vff_joint = 0.0, vff_step_joint = 0.0;
+  double tff_now = 0.0, tff_step_now = 0.0, current_set_now = 0.0;
+  Eigen::Matrix<double, kInputs, 1> u = Eigen::Matrix<double, kInputs, 1>::Zero();
+  // Countdown counters rather than k % n (an integer division per loop and tick).
+  long position_count = 0, velocity_count = 0, current_count = 0, record_count = 0;
+  long record_index = 0;
+  double gravity_q = 0.0, gravity_value = 0.0, gravity_slope = 0.0;
+};
+
+template <int N>
+void AxisRun<N>::push(const double* values, const double* external_force, std::size_t count) {
+  if (count == 0) return;
+  if (setpoints_.count() == 0) has_force_ = external_force != nullptr;
+  if ((external_force != nullptr) != has_force_) {
+    throw InputError("axis " + model_.axis.name +
+                     ": the external force is given with every window of set points or with none");
+  }
+  for (std::size_t k = 0; k < count; ++k) {
+    double q = values[k];
+    if (compensate_) {
+      // Deflection compensation: the motor is commanded further by the spring's static
+      // deflection under gravity at the set point, tau_g(q) / (k r) at the joint (tau_g at the
+      // motor), so that at rest the load stands at the set point.
+      given_.push(q);
+      double tau = model_.gravity_constant_N_m;
+      if (model_.axis.type == kinematics::AxisType::rotary) {
+        tau += model_.gravity_cos_N_m * std::cos(q) + model_.gravity_sin_N_m * std::sin(q);
+      }
+      q += tau / (model_.axis.effects.compliance.stiffness * model_.axis.drive.ratio);
+    }
+    setpoints_.push(q);
+    if (has_force_) force_.push(external_force[k]);
+  }
+}
+
+template <int N>
+void AxisRun<N>::start() {
+  started_ = true;
+  loop_ = std::make_unique<LoopState>();
+  LoopState& L = *loop_;
+  L.inverse_input_period = 1.0 / period_s_;
+  L.record_period = options_.record_period_s > 0.0 ? options_.record_period_s : period_s_;
+  const double record_ratio = L.record_period / base_;
+  L.n_record = std::lround(record_ratio);
+  if (L.n_record < 1 || std::abs(record_ratio - static_cast<double>(L.n_record)) > 1e-6 * record_ratio) {
     throw InputError("axis " + model_.axis.name + ": the record period " +
-                     std::to_string(record_period) +
+                     std::to_string(L.record_period) +
                      " s is not a whole multiple of the fastest loop period " +
                      std::to_string(base_) + " s");
   }
 
   // Initial state: at rest at the first set point, the static torque (gravity minus the
   // external force) carried by the motor and the PI integrators, as after a long standstill.
-  const double q0 = position_input ? input_.values.front() : model_.axis.home;
-  const double static_torque =
-      gravity(q0) - p_.r * SetpointSignal::held(input_.external_force, input_.start_time_s,
-                                                inverse_input_period, input_.start_time_s);
+  const double q0 = position_input_ ? setpoints_.front() : model_.axis.home;
+  const double static_torque = gravity(q0) - p_.r * force_.held(start_time_s_);
   double i0 = static_torque / p_.kt;
   if (c_.current_max_A > 0.0) i0 = std::clamp(i0, -c_.current_max_A, c_.current_max_A);
   x_(0) = q0 / p_.r;
@@ -649,104 +783,157 @@ AxisSignals AxisRun<N>::run() {
   }
   stuck_ = p_.coulomb && !p_.smooth;
 
-  const double kv = c_.position_gain_kv_per_s;
-  const double velocity_period = static_cast<double>(n_vel_) * base_;
-  const double inverse_r = 1.0 / p_.r;
-  const double inverse_kt = 1.0 / p_.kt;
-  const double current_period = static_cast<double>(n_cur_) * base_;
-  const double position_period = static_cast<double>(n_pos_) * base_;
+  L.kv = c_.position_gain_kv_per_s;
+  L.velocity_period = static_cast<double>(n_vel_) * base_;
+  L.inverse_r = 1.0 / p_.r;
+  L.inverse_kt = 1.0 / p_.kt;
+  L.current_period = static_cast<double>(n_cur_) * base_;
+  L.position_period = static_cast<double>(n_pos_) * base_;
   // The velocity loop is a chain of dependent operations run at every tick, on the critical
   // path of the simulation: its constants are folded so that it is a few multiply-adds
   // (Kp / Kt, the integrator kept in amperes, the filter gain times 1 / T).
-  const double kp_per_kt = c_.velocity_gain_N_m_s_per_rad * inverse_kt;
-  const double ki_per_kt = c_.velocity_type == VelocityControllerType::PI
-                               ? kp_per_kt * velocity_period / c_.velocity_integral_time_s
-                               : 0.0;
-  const double velocity_filter =
-      c_.velocity_filter_time_s > 0.0 ? std::exp(-velocity_period / c_.velocity_filter_time_s) : 0.0;
+  L.kp_per_kt = c_.velocity_gain_N_m_s_per_rad * L.inverse_kt;
+  L.ki_per_kt = c_.velocity_type == VelocityControllerType::PI
+                    ? L.kp_per_kt * L.velocity_period / c_.velocity_integral_time_s
+                    : 0.0;
+  L.velocity_filter =
+      c_.velocity_filter_time_s > 0.0 ? std::exp(-L.velocity_period / c_.velocity_filter_time_s) : 0.0;
   // The velocity loop differences the encoder in counts (the angle itself when ideal), the
   // count's size folded into the gain: one multiplication less on the critical path.
-  const bool counted = p_.motor_count > 0.0;
-  const double difference_gain =
-      (1.0 - velocity_filter) / velocity_period * (counted ? p_.motor_count : 1.0);
-  auto encoder_reading = [&](double angle) {
-    return counted ? round_to_integer(angle * p_.inverse_motor_count) : angle;
-  };
-  const double imax = c_.current_max_A > 0.0 ? c_.current_max_A : 0.0;
-  const double wmax = c_.velocity_max_rad_per_s > 0.0 ? c_.velocity_max_rad_per_s : 0.0;
-  const bool current_pi = c_.current_model == CurrentLoopModel::PI;
-  const bool current_ideal = c_.current_model == CurrentLoopModel::ideal;
-  const double kpi = c_.current_gain_V_per_A;
-  const double kii = current_pi ? kpi * current_period / c_.current_integral_time_s : 0.0;
-  const double vmax = c_.voltage_max_V;
+  L.counted = p_.motor_count > 0.0;
+  L.difference_gain =
+      (1.0 - L.velocity_filter) / L.velocity_period * (L.counted ? p_.motor_count : 1.0);
+  L.imax = c_.current_max_A > 0.0 ? c_.current_max_A : 0.0;
+  L.wmax = c_.velocity_max_rad_per_s > 0.0 ? c_.velocity_max_rad_per_s : 0.0;
+  L.current_pi = c_.current_model == CurrentLoopModel::PI;
+  L.current_ideal = c_.current_model == CurrentLoopModel::ideal;
+  L.kpi = c_.current_gain_V_per_A;
+  L.kii = L.current_pi ? L.kpi * L.current_period / c_.current_integral_time_s : 0.0;
+  L.vmax = c_.voltage_max_V;
   // Balancing lag, discretised exactly for a set point linear between position ticks (so that
   // on a ramp it lags by exactly its time constant).
-  double lag_alpha = 0.0, lag_b0 = 1.0, lag_b1 = 0.0;
   if (c_.balancing_type == BalancingType::first_order_lag) {
     const double tau = c_.balancing_time_s;
-    lag_alpha = std::exp(-position_period / tau);
-    const double ramp = 1.0 - tau / position_period * (1.0 - lag_alpha);
-    lag_b0 = ramp;
-    lag_b1 = 1.0 - lag_alpha - ramp;
+    L.lag_alpha = std::exp(-L.position_period / tau);
+    const double ramp = 1.0 - tau / L.position_period * (1.0 - L.lag_alpha);
+    L.lag_b0 = ramp;
+    L.lag_b1 = 1.0 - L.lag_alpha - ramp;
   }
-  const double tff_gain =
-      c_.torque_feedforward ? c_.torque_feedforward_weight * p_.j_total / p_.r : 0.0;
-  const double vff_gain = c_.velocity_feedforward ? c_.velocity_feedforward_weight : 0.0;
-  const bool feedforward = vff_gain != 0.0 || tff_gain != 0.0;
-  const bool interpolate_feedforward =
-      feedforward && options_.interpolate_feedforward &&
-      c_.feedforward_timing == kinematics::FeedforwardTiming::interpolated;
-  const bool backward_feedforward =
-      c_.feedforward_timing == kinematics::FeedforwardTiming::held_backward;
-  const double inverse_position_ticks = 1.0 / static_cast<double>(n_pos_);
-
-  double velocity_integral_A =
-      c_.velocity_type == VelocityControllerType::PI ? static_torque * inverse_kt : 0.0;
-  double current_integral = current_pi ? c_.resistance_ohm * i0 : 0.0;
-  double encoder_previous = encoder_reading(x_(0));
-  double omega_filtered = 0.0;
-  double lag_state = q0, lag_input_previous = q0;
-  // Position controller outputs, each after the output delay: the P term [rad/s], the velocity
-  // feedforward [rad/s] and the torque feedforward / Kt [A] at the position tick, and their
-  // change per base tick until the next position tick (0 when held).
-  DelayLine out_p, out_vff, out_vff_step, out_tff, out_tff_step;
-  for (DelayLine* line : {&out_p, &out_vff, &out_vff_step, &out_tff, &out_tff_step}) {
-    line->reset(c_.position_output_delay_samples, 0.0);
-  }
+  L.tff_gain = c_.torque_feedforward ? c_.torque_feedforward_weight * p_.j_total / p_.r : 0.0;
+  L.vff_gain = c_.velocity_feedforward ? c_.velocity_feedforward_weight : 0.0;
+  L.feedforward = L.vff_gain != 0.0 || L.tff_gain != 0.0;
+  L.interpolate_feedforward = L.feedforward && options_.interpolate_feedforward &&
+                              c_.feedforward_timing == kinematics::FeedforwardTiming::interpolated;
+  L.backward_feedforward = c_.feedforward_timing == kinematics::FeedforwardTiming::held_backward;
+  L.inverse_position_ticks = 1.0 / static_cast<double>(n_pos_);
   // Output dead time given as a time (position.output_dead_time_*): the outputs computed at a
   // position tick take effect this many base ticks later, at any tick (e.g. the next velocity
   // cycle), not only at a later position tick.
-  const long dead_ticks = c_.position_output_dead_time_s > 0.0
-                              ? std::lround(c_.position_output_dead_time_s / base_)
-                              : 0;
-  struct PendingOutput {
-    long due = 0;
-    double p = 0.0, vff = 0.0, vff_step = 0.0, tff = 0.0, tff_step = 0.0;
-  };
-  std::deque<PendingOutput> pending;
-  long applied_tick = 0;
-  DelayLine velocity_out, current_out;
-  velocity_out.reset(c_.velocity_output_delay_samples, i0);
-  current_out.reset(c_.current_output_delay_samples, c_.resistance_ohm * i0);
-  double p_term = 0.0, vff = 0.0, vff_step = 0.0, tff = 0.0, tff_step = 0.0;
-  double omega_input = 0.0, current_command = i0, voltage = c_.resistance_ohm * i0;
-  // The same, undelayed, for the inner signals [joint units, N m].
-  double deviation = 0.0, p_term_joint = 0.0, vff_joint = 0.0, vff_step_joint = 0.0;
-  double tff_now = 0.0, tff_step_now = 0.0;
-  double current_set_now = i0;
+  L.dead_ticks = c_.position_output_dead_time_s > 0.0 ? std::lround(c_.position_output_dead_time_s / base_) : 0;
+  const double balancing = c_.balancing_type == BalancingType::dead_time ? std::abs(c_.balancing_time_s) : 0.0;
+  L.ahead_s = std::abs(c_.delay_s) + L.position_period + 2.0 * base_;
+  L.behind_s = std::abs(c_.delay_s) + balancing + 2.0 * L.position_period + 2.0 * base_;
 
-  AxisSignals out;
-  const std::size_t records = static_cast<std::size_t>(ticks / n_record) + 1;
-  for (auto* v : {&out.t, &out.cmd, &out.pos, &out.load_pos, &out.motor_pos, &out.vel, &out.current}) {
-    v->reserve(records);
+  L.velocity_integral_A = c_.velocity_type == VelocityControllerType::PI ? static_torque * L.inverse_kt : 0.0;
+  L.current_integral = L.current_pi ? c_.resistance_ohm * i0 : 0.0;
+  L.encoder_previous = L.counted ? round_to_integer(x_(0) * p_.inverse_motor_count) : x_(0);
+  L.lag_state = q0;
+  L.lag_input_previous = q0;
+  for (DelayLine* line : {&L.out_p, &L.out_vff, &L.out_vff_step, &L.out_tff, &L.out_tff_step}) {
+    line->reset(c_.position_output_delay_samples, 0.0);
   }
-  Input u = Input::Zero();
-  // Countdown counters rather than k % n (an integer division per loop and tick).
-  long position_count = 0, velocity_count = 0, current_count = 0, record_count = 0;
-  long record_index = 0;
-  double gravity_q = 0.0, gravity_value = 0.0, gravity_slope = 0.0;
+  L.velocity_out.reset(c_.velocity_output_delay_samples, i0);
+  L.current_out.reset(c_.current_output_delay_samples, c_.resistance_ohm * i0);
+  L.current_command = i0;
+  L.voltage = c_.resistance_ohm * i0;
+  L.current_set_now = i0;
+}
 
-  for (long k = 0; k <= ticks; ++k) {
+template <int N>
+void AxisRun<N>::advance(AxisSignals& out) {
+  // Two knots beyond the last one read are needed (the central difference of the next knot).
+  if (setpoints_.count() < 4) return;
+  if (!started_) start();
+  const LoopState& L = *loop_;
+  const double known_s = static_cast<double>(setpoints_.count() - 3) * period_s_ - L.ahead_s;
+  const long last_tick = static_cast<long>(std::floor(known_s / base_)) - 1;
+  if (last_tick < next_tick_) return;
+  simulate_ticks(last_tick, -1, out);
+  // Knots no later tick reads again.
+  const double t_next = start_time_s_ + static_cast<double>(next_tick_) * base_;
+  const double oldest = std::floor(setpoints_.knot_position(t_next - L.behind_s)) - 2.0;
+  if (oldest > 0.0) {
+    const auto index = static_cast<std::size_t>(oldest);
+    setpoints_.forget_before(index);
+    given_.forget_before(index);
+    force_.forget_before(index);
+  }
+}
+
+template <int N>
+void AxisRun<N>::finish(double extra_time_s, AxisSignals& out) {
+  if (setpoints_.count() < 2) {
+    throw InputError("axis " + model_.axis.name + ": at least two set points are needed");
+  }
+  setpoints_.finish();
+  given_.finish();
+  force_.finish();
+  if (!started_) start();
+  const double duration = static_cast<double>(setpoints_.count() - 1) * period_s_ + extra_time_s;
+  const long ticks = static_cast<long>(std::floor(duration / base_ + 1e-9));
+  if (next_tick_ > ticks) return;
+  const auto records = static_cast<std::size_t>((ticks - next_tick_) / loop_->n_record) + 2;
+  for (auto* v : {&out.t, &out.cmd, &out.pos, &out.load_pos, &out.motor_pos, &out.vel, &out.current}) {
+    v->reserve(v->size() + records);
+  }
+  simulate_ticks(ticks, ticks, out);
+}
+
+template <int N>
+void AxisRun<N>::simulate_ticks(long last_tick, long final_tick, AxisSignals& out) {
+  LoopState& L = *loop_;
+  const bool position_input = position_input_;
+  const double inverse_r = L.inverse_r, inverse_kt = L.inverse_kt;
+  const double kv = L.kv, position_period = L.position_period;
+  const double kp_per_kt = L.kp_per_kt, ki_per_kt = L.ki_per_kt;
+  const double velocity_filter = L.velocity_filter, difference_gain = L.difference_gain;
+  const bool counted = L.counted;
+  auto encoder_reading = [&](double angle) {
+    return counted ? round_to_integer(angle * p_.inverse_motor_count) : angle;
+  };
+  const double imax = L.imax, wmax = L.wmax;
+  const bool current_pi = L.current_pi, current_ideal = L.current_ideal;
+  const double kpi = L.kpi, kii = L.kii, vmax = L.vmax;
+  const double lag_alpha = L.lag_alpha, lag_b0 = L.lag_b0, lag_b1 = L.lag_b1;
+  const double tff_gain = L.tff_gain, vff_gain = L.vff_gain;
+  const bool feedforward = L.feedforward, interpolate_feedforward = L.interpolate_feedforward;
+  const bool backward_feedforward = L.backward_feedforward;
+  const double inverse_position_ticks = L.inverse_position_ticks;
+  const long dead_ticks = L.dead_ticks;
+  const long n_record = L.n_record;
+  const double record_period = L.record_period;
+
+  double velocity_integral_A = L.velocity_integral_A, current_integral = L.current_integral;
+  double encoder_previous = L.encoder_previous, omega_filtered = L.omega_filtered;
+  double lag_state = L.lag_state, lag_input_previous = L.lag_input_previous;
+  DelayLine out_p = L.out_p, out_vff = L.out_vff, out_vff_step = L.out_vff_step, out_tff = L.out_tff,
+            out_tff_step = L.out_tff_step;
+  auto& pending = L.pending;
+  long applied_tick = L.applied_tick;
+  DelayLine velocity_out = L.velocity_out, current_out = L.current_out;
+  double p_term = L.p_term, vff = L.vff, vff_step = L.vff_step, tff = L.tff, tff_step = L.tff_step;
+  double omega_input = L.omega_input, current_command = L.current_command, voltage = L.voltage;
+  double deviation = L.deviation, p_term_joint = L.p_term_joint, vff_joint = L.vff_joint,
+         vff_step_joint = L.vff_step_joint;
+  double tff_now = L.tff_now, tff_step_now = L.tff_step_now, current_set_now = L.current_set_now;
+  Input u = L.u;
+  long position_count = L.position_count, velocity_count = L.velocity_count,
+       current_count = L.current_count, record_count = L.record_count;
+  long record_index = L.record_index;
+  double gravity_q = L.gravity_q, gravity_value = L.gravity_value, gravity_slope = L.gravity_slope;
+
+  long k = next_tick_;
+  for (; k <= last_tick; ++k) {
     const long position_phase = position_count;  // base ticks since the last position tick
     const bool position_tick = position_count == 0;
     const bool velocity_tick = velocity_count == 0;
@@ -756,7 +943,7 @@ AxisSignals AxisRun<N>::run() {
     velocity_count = velocity_count + 1 == n_vel_ ? 0 : velocity_count + 1;
     current_count = current_count + 1 == n_cur_ ? 0 : current_count + 1;
     record_count = record_count + 1 == n_record ? 0 : record_count + 1;
-    const double t = input_.start_time_s + static_cast<double>(k) * base_;
+    const double t = start_time_s_ + static_cast<double>(k) * base_;
     // Position loop (NC): fine interpolation, delay, balancing, P controller, feedforward.
     if (!position_input && velocity_tick) {
       // Velocity input: the set point goes straight to the velocity controller.
@@ -809,7 +996,7 @@ AxisSignals AxisRun<N>::run() {
       }
     }
     while (!pending.empty() && pending.front().due <= k) {
-      const PendingOutput& o = pending.front();
+      const auto& o = pending.front();
       p_term = o.p;
       vff = o.vff;
       vff_step = o.vff_step;
@@ -859,9 +1046,11 @@ AxisSignals AxisRun<N>::run() {
     }
 
     if (record_tick) {
-      const double cmd = setpoints_.at(t).x;
       const double pos = measured_position();
-      out.t.push_back(input_.start_time_s + static_cast<double>(record_index++) * record_period);
+      const double record_t = start_time_s_ + static_cast<double>(record_index++) * record_period;
+      // The set point as given (a deflection compensation is inside the controller).
+      const double cmd = compensate_ ? given_.at(record_t).x : setpoints_.at(t).x;
+      out.t.push_back(record_t);
       out.cmd.push_back(cmd);
       out.pos.push_back(pos);
       out.load_pos.push_back(load_position());
@@ -879,15 +1068,15 @@ AxisSignals AxisRun<N>::run() {
         out.current_setpoint.push_back(current_set_now);
       }
     }
-    if (k == ticks) break;
+    if (k == final_tick) {
+      ++k;  // the run is over
+      break;
+    }
 
     // Disturbances held over the tick: gravity, external force, cogging (on the motor).
     const double q_nut = p_.r * load_angle();
     double external = 0.0;
-    if (!input_.external_force.empty()) {
-      external = p_.r * SetpointSignal::held(input_.external_force, input_.start_time_s,
-                                             inverse_input_period, t);
-    }
+    if (has_force_) external = p_.r * force_.held(t);
     // Gravity of a tilting axis: sinusoid evaluated at each position tick, linearised in between
     // (relative error below 1e-5 at the Mikron A axis's top speed).
     if (p_.gravity_trig && position_tick) {
@@ -908,10 +1097,106 @@ AxisSignals AxisRun<N>::run() {
       }
     }
   }
-  return out;
+  next_tick_ = k;
+
+  L.velocity_integral_A = velocity_integral_A;
+  L.current_integral = current_integral;
+  L.encoder_previous = encoder_previous;
+  L.omega_filtered = omega_filtered;
+  L.lag_state = lag_state;
+  L.lag_input_previous = lag_input_previous;
+  L.out_p = out_p;
+  L.out_vff = out_vff;
+  L.out_vff_step = out_vff_step;
+  L.out_tff = out_tff;
+  L.out_tff_step = out_tff_step;
+  L.applied_tick = applied_tick;
+  L.velocity_out = velocity_out;
+  L.current_out = current_out;
+  L.p_term = p_term;
+  L.vff = vff;
+  L.vff_step = vff_step;
+  L.tff = tff;
+  L.tff_step = tff_step;
+  L.omega_input = omega_input;
+  L.current_command = current_command;
+  L.voltage = voltage;
+  L.deviation = deviation;
+  L.p_term_joint = p_term_joint;
+  L.vff_joint = vff_joint;
+  L.vff_step_joint = vff_step_joint;
+  L.tff_now = tff_now;
+  L.tff_step_now = tff_step_now;
+  L.current_set_now = current_set_now;
+  L.u = u;
+  L.position_count = position_count;
+  L.velocity_count = velocity_count;
+  L.current_count = current_count;
+  L.record_count = record_count;
+  L.record_index = record_index;
+  L.gravity_q = gravity_q;
+  L.gravity_value = gravity_value;
+  L.gravity_slope = gravity_slope;
 }
 
 }  // namespace
+
+struct AxisSimulator::Impl {
+  AxisServoModel model;
+  std::unique_ptr<AxisRun<3>> rigid;
+  std::unique_ptr<AxisRun<5>> two_body;
+  bool finished = false;
+};
+
+AxisSimulator::AxisSimulator(const AxisServoModel& model, double start_time_s, double period_s,
+                             AxisInput::Kind kind, const SimulationOptions& options)
+    : impl_(std::make_unique<Impl>()) {
+  if (!(period_s > 0.0)) {
+    throw InputError("axis " + model.axis.name + ": the set-point period must be > 0");
+  }
+  impl_->model = model;
+  const AxisServoModel& m = impl_->model;
+  const auto& compliance = m.axis.effects.compliance;
+  const bool compensate = compliance.enabled && compliance.compensate_gravity_deflection &&
+                          kind == AxisInput::Kind::position &&
+                          m.axis.controller.position_feedback == PositionFeedback::motor;
+  if (compliance.enabled || m.axis.effects.backlash.enabled) {
+    impl_->two_body = std::make_unique<AxisRun<5>>(m, start_time_s, period_s, kind, options, compensate);
+  } else {
+    impl_->rigid = std::make_unique<AxisRun<3>>(m, start_time_s, period_s, kind, options, false);
+  }
+}
+
+AxisSimulator::~AxisSimulator() = default;
+AxisSimulator::AxisSimulator(AxisSimulator&&) noexcept = default;
+AxisSimulator& AxisSimulator::operator=(AxisSimulator&&) noexcept = default;
+
+void AxisSimulator::advance(std::span<const double> values, AxisSignals& out,
+                            std::span<const double> external_force) {
+  if (impl_->finished) throw InputError("axis " + impl_->model.axis.name + ": set points after the end");
+  if (!external_force.empty() && external_force.size() != values.size()) {
+    throw InputError("axis " + impl_->model.axis.name +
+                     ": the external force needs one value per set point");
+  }
+  const double* force = external_force.empty() ? nullptr : external_force.data();
+  if (impl_->rigid) {
+    impl_->rigid->push(values.data(), force, values.size());
+    impl_->rigid->advance(out);
+  } else {
+    impl_->two_body->push(values.data(), force, values.size());
+    impl_->two_body->advance(out);
+  }
+}
+
+void AxisSimulator::finish(AxisSignals& out, double extra_time_s) {
+  if (impl_->finished) return;
+  impl_->finished = true;
+  if (impl_->rigid) {
+    impl_->rigid->finish(extra_time_s, out);
+  } else {
+    impl_->two_body->finish(extra_time_s, out);
+  }
+}
 
 AxisSignals simulate_axis(const AxisServoModel& model, const AxisInput& input,
                           const SimulationOptions& options) {
@@ -925,38 +1210,12 @@ AxisSignals simulate_axis(const AxisServoModel& model, const AxisInput& input,
     throw InputError("axis " + model.axis.name +
                      ": the external force needs one value per set point");
   }
-  const auto& compliance = model.axis.effects.compliance;
-  if (compliance.enabled && compliance.compensate_gravity_deflection &&
-      input.kind == AxisInput::Kind::position &&
-      model.axis.controller.position_feedback == PositionFeedback::motor) {
-    // Deflection compensation: the motor is commanded further by the spring's static deflection
-    // under gravity at the set point, tau_g(q) / (k r) at the joint (tau_g at the motor), so that
-    // at rest the load stands at the set point.
-    AxisInput shifted = input;
-    const double r = model.axis.drive.ratio;
-    for (double& q : shifted.values) {
-      double tau = model.gravity_constant_N_m;
-      if (model.axis.type == kinematics::AxisType::rotary) {
-        tau += model.gravity_cos_N_m * std::cos(q) + model.gravity_sin_N_m * std::sin(q);
-      }
-      q += tau / (compliance.stiffness * r);
-    }
-    AxisRun<5> run(model, shifted, options);
-    AxisSignals out = run.run();
-    // The set point as given (the compensation is inside the controller).
-    const SetpointSignal given(input, model.axis.controller.fine_interpolation);
-    for (std::size_t k = 0; k < out.t.size(); ++k) {
-      out.cmd[k] = given.at(out.t[k]).x;
-      if (options.inner_signals) out.following_error[k] = out.cmd[k] - out.pos[k];
-    }
-    return out;
-  }
-  if (compliance.enabled || model.axis.effects.backlash.enabled) {
-    AxisRun<5> run(model, input, options);
-    return run.run();
-  }
-  AxisRun<3> run(model, input, options);
-  return run.run();
+  // The whole input as one window.
+  AxisSimulator simulator(model, input.start_time_s, input.period_s, input.kind, options);
+  AxisSignals out;
+  simulator.advance(input.values, out, input.external_force);
+  simulator.finish(out, input.extra_time_s);
+  return out;
 }
 
 }  // namespace vmsim::servo

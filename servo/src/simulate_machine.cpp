@@ -1,5 +1,7 @@
 // The whole machine from a set-point trace: every axis with a `.cmd` column, independently.
+#include <algorithm>
 #include <cmath>
+#include <limits>
 #include <numbers>
 
 #include "vmsim/common/errors.hpp"
@@ -20,7 +22,72 @@ std::vector<double> scaled(const std::vector<double>& values, double factor) {
   return result;
 }
 
+std::vector<double>* signal(AxisSignals& s, int i) {
+  std::vector<double>* all[] = {&s.t, &s.cmd, &s.pos, &s.load_pos, &s.motor_pos, &s.vel, &s.current,
+                                &s.following_error, &s.control_deviation, &s.velocity_setpoint,
+                                &s.velocity_feedforward, &s.torque_feedforward, &s.current_setpoint};
+  return all[i];
+}
+constexpr int kSignals = 13;
+
 }  // namespace
+
+void move_records(AxisSignals& from, std::size_t count, AxisSignals& to) {
+  for (int i = 0; i < kSignals; ++i) {
+    std::vector<double>& source = *signal(from, i);
+    std::vector<double>& target = *signal(to, i);
+    const std::size_t n = std::min(count, source.size());
+    if (n == 0) continue;
+    if (target.empty() && n == source.size()) {
+      target.swap(source);
+      continue;
+    }
+    target.insert(target.end(), source.begin(), source.begin() + static_cast<std::ptrdiff_t>(n));
+    source.erase(source.begin(), source.begin() + static_cast<std::ptrdiff_t>(n));
+  }
+}
+
+MachineSimulator::MachineSimulator(const kinematics::MachineModel& machine, const std::vector<int>& axes,
+                                   const std::vector<double>& reference, double start_time_s,
+                                   double period_s, const SimulationOptions& options) {
+  for (int j : axes) {
+    axes_.emplace_back(make_axis_servo_model(machine, j, reference, options.gravity), start_time_s,
+                       period_s, AxisInput::Kind::position, options);
+  }
+  ready_.resize(axes_.size());
+}
+
+MachineSimulator::~MachineSimulator() = default;
+MachineSimulator::MachineSimulator(MachineSimulator&&) noexcept = default;
+
+std::vector<AxisSignals> MachineSimulator::advance(const Eigen::Ref<const Eigen::MatrixXd>& setpoints) {
+  if (static_cast<std::size_t>(setpoints.rows()) != axes_.size()) {
+    throw InputError("servo: " + std::to_string(setpoints.rows()) + " rows of set points for " +
+                     std::to_string(axes_.size()) + " simulated axes");
+  }
+  for (std::size_t a = 0; a < axes_.size(); ++a) {
+    row_.resize(static_cast<std::size_t>(setpoints.cols()));
+    for (Eigen::Index k = 0; k < setpoints.cols(); ++k) {
+      row_[static_cast<std::size_t>(k)] = setpoints(static_cast<Eigen::Index>(a), k);
+    }
+    axes_[a].advance(row_, ready_[a]);
+  }
+  return release(false);
+}
+
+std::vector<AxisSignals> MachineSimulator::finish(double extra_time_s) {
+  for (std::size_t a = 0; a < axes_.size(); ++a) axes_[a].finish(ready_[a], extra_time_s);
+  return release(true);
+}
+
+std::vector<AxisSignals> MachineSimulator::release(bool all) {
+  std::size_t count = std::numeric_limits<std::size_t>::max();
+  for (const AxisSignals& s : ready_) count = std::min(count, s.t.size());
+  std::vector<AxisSignals> out(axes_.size());
+  if (ready_.empty()) return out;
+  for (std::size_t a = 0; a < ready_.size(); ++a) move_records(ready_[a], all ? ready_[a].t.size() : count, out[a]);
+  return out;
+}
 
 Trace simulate_machine(const kinematics::MachineModel& machine, const Trace& setpoints,
                        const std::string& setpoints_file, const SimulationOptions& options,
@@ -88,6 +155,8 @@ Trace simulate_machine(const kinematics::MachineModel& machine, const Trace& set
   out.metadata = {{"source", "vmsim servo (feed drive simulation)"},
                   {"machine", machine.source_file},
                   {"setpoints", setpoints_file}};
+  // Axis by axis (the axes are independent), each in one window: simulate_axis runs on
+  // AxisSimulator, the one code path of windowed and whole runs. One axis's signals at a time.
   bool first = true;
   for (int j : simulated) {
     const kinematics::Axis& axis = machine.axes[static_cast<std::size_t>(j)];

@@ -31,6 +31,9 @@
 // (inertias, viscous friction, spring, current dynamics) is integrated exactly by its matrix
 // exponential; the dry friction is a held input per (sub)step, with a stick state at zero
 // velocity (no chatter). See README.
+#include <Eigen/Core>
+#include <memory>
+#include <span>
 #include <string>
 #include <vector>
 
@@ -125,6 +128,74 @@ double base_period_s(const kinematics::Controller& controller);
 /// <= 0, record period not a multiple of the fastest loop period).
 AxisSignals simulate_axis(const AxisServoModel& model, const AxisInput& input,
                           const SimulationOptions& options = {});
+
+/// One axis simulated window by window along its set points: the loop state (plant,
+/// integrators, filters, delay lines, the set points still to be read) is kept between calls, so
+/// that the records of the set points split into any windows are, bit for bit, those of
+/// simulate_axis on the whole input (which runs on this class, in one window). Memory is bounded
+/// by the window, not by the run.
+///
+/// A tick is simulated once the set points it reads are known (up to its time plus the delay and
+/// one position period, and two more knots for the central differences): a window's records lag
+/// its set points by that much; finish() simulates the rest, to the last set point plus
+/// extra_time_s. The model is copied.
+class AxisSimulator {
+ public:
+  /// Set points on the grid start_time_s + k period_s. Throws vmsim::InputError when
+  /// period_s <= 0.
+  AxisSimulator(const AxisServoModel& model, double start_time_s, double period_s,
+                AxisInput::Kind kind = AxisInput::Kind::position, const SimulationOptions& options = {});
+  ~AxisSimulator();
+  AxisSimulator(AxisSimulator&&) noexcept;
+  AxisSimulator& operator=(AxisSimulator&&) noexcept;
+
+  /// Appends the next set points [joint unit, or joint unit / s for a velocity input] and,
+  /// optionally, the external force on the load at each [N or N m] (with every window or with
+  /// none), then simulates what they determine; its records are appended to `out`. Throws
+  /// vmsim::InputError when the force's length differs from the set points' or after finish().
+  void advance(std::span<const double> values, AxisSignals& out,
+               std::span<const double> external_force = {});
+  /// No more set points: simulates to the last one plus extra_time_s, appending to `out`.
+  /// Throws vmsim::InputError when fewer than two set points were given, or the record period
+  /// is not a whole multiple of the fastest loop period.
+  void finish(AxisSignals& out, double extra_time_s = 0.0);
+
+ private:
+  struct Impl;
+  std::unique_ptr<Impl> impl_;
+};
+
+/// Several axes of a machine advanced together window by window (an AxisSimulator each, SI
+/// joint units); a window's records are released once every axis has made them, so that all
+/// axes' signals returned have the same samples (the axes' loops may lag their set points by
+/// different amounts). The records of any split into windows are those of one window.
+class MachineSimulator {
+ public:
+  /// `axes`: the machine's axes simulated (indices); `reference`: per machine axis, the
+  /// configuration for the gravity torque (make_axis_servo_model). Throws vmsim::InputError as
+  /// make_axis_servo_model and AxisSimulator do.
+  MachineSimulator(const kinematics::MachineModel& machine, const std::vector<int>& axes,
+                   const std::vector<double>& reference, double start_time_s, double period_s,
+                   const SimulationOptions& options = {});
+  ~MachineSimulator();
+  MachineSimulator(MachineSimulator&&) noexcept;
+
+  /// The next set points, one row per simulated axis (in the order of `axes`), one column per
+  /// period; returns, per simulated axis, the records every axis has made so far and not yet
+  /// returned (possibly none).
+  std::vector<AxisSignals> advance(const Eigen::Ref<const Eigen::MatrixXd>& setpoints);
+  /// No more set points: the remaining records.
+  std::vector<AxisSignals> finish(double extra_time_s = 0.0);
+
+ private:
+  std::vector<AxisSignals> release(bool all);
+  std::vector<AxisSimulator> axes_;
+  std::vector<AxisSignals> ready_;  ///< per axis, records made and not yet released
+  std::vector<double> row_;         ///< scratch: one axis's set points of a window
+};
+
+/// Moves the first `count` records of `from` (every signal it holds) to the end of `to`.
+void move_records(AxisSignals& from, std::size_t count, AxisSignals& to);
 
 /// The whole machine from a set-point trace (trace format, `<AXIS>.cmd` columns in mm or deg,
 /// uniform period: shared/spec/trace-format.md). Every axis with a `.cmd` column is simulated;
