@@ -42,6 +42,7 @@ struct CommandOptions {
   double tolerance_um = 0.0;
   int threads = 0;
   long long compact_zmap_above_lines = static_cast<long long>(SimulatePartOptions{}.compact_zmap_above_lines);
+  double servo_window_s = SimulatePartOptions{}.servo_window_s;
 };
 
 // The built-in sample: part 1 of the second paper on the Mikron sample, from the source tree
@@ -87,6 +88,10 @@ int run(const CommandOptions& command, const CommandContext& context) {
     throw InputError("--compact-zmap-above-lines must be >= 0, got " + std::to_string(command.compact_zmap_above_lines));
   }
   options.compact_zmap_above_lines = static_cast<std::size_t>(command.compact_zmap_above_lines);
+  if (!(command.servo_window_s > 0) || !std::isfinite(command.servo_window_s)) {
+    throw InputError("--servo-window-s must be > 0, got " + format_double(command.servo_window_s));
+  }
+  options.servo_window_s = command.servo_window_s;
   options.perfect_drives = command.perfect_drives;
   if (command.third_order && command.no_third_order) {
     throw InputError("--third-order and --no-third-order contradict each other: give one");
@@ -230,6 +235,10 @@ void add_simulate_part_command(CLI::App& app, CommandContext& context) {
   command->add_option("--compact-zmap-above-lines", options->compact_zmap_above_lines,
                       "Z-maps with more lines store heights compactly (float offsets from a base a "
                       "tile, within 2^-24 of the depth; tiles only where a tool reaches); 0 = always")
+      ->capture_default_str();
+  command->add_option("--servo-window-s", options->servo_window_s,
+                      "the servo, direct kinematics and thinning run in windows of this much machine "
+                      "time [s] (memory bounded by the window; the results do not depend on it)")
       ->capture_default_str();
   command->callback([options, &context] { context.result = run(*options, context); });
 }

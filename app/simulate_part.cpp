@@ -23,6 +23,7 @@
 #include "report_marks.hpp"
 #include "part_file.hpp"
 #include "surface_views.hpp"
+#include "following_errors.hpp"
 #include "validity_checks.hpp"
 #include "vmsim/common/errors.hpp"
 #include "vmsim/common/files.hpp"
@@ -79,14 +80,10 @@ struct Run {
   planner::FeedratePlan plan;
   /// Servo sample times and the commanded and actual positions per axis (rows), per servo
   /// sample (SI): kept for the production run only (marks are related to them and plotted);
-  /// the reference run's are summarised (`summary`) and dropped after its direct kinematics,
-  /// so that the long low-feed run holds no trace while the others run.
+  /// the reference run's are consumed window by window as the servo makes them (ChainSink:
+  /// checks, following errors, direct kinematics and thinning) and never held.
   std::vector<double> t_s;
   Eigen::MatrixXd q_cmd, q_actual;
-  /// Drive currents [A] and, on axes with an elastic joint (a `.pos2` column), the motor-side
-  /// position (SI; 0 rows without such an axis): read for the saturation check and the tool
-  /// tip's deflection share, released once the run is summarised.
-  Eigen::MatrixXd current_A, q_motor;
   Json summary;                         ///< following errors over all moves and while cutting
   std::vector<removal::Pose> trajectory;  ///< actual tool poses, thinned
   std::vector<double> trajectory_t_s;   ///< the time of each kept pose
@@ -111,19 +108,6 @@ double record_period_s(const kinematics::MachineModel& machine, double feed_m_pe
   return base * std::min(multiple, ipo_multiple);
 }
 
-Trace setpoint_trace(const kinematics::MachineModel& machine, const planner::SetPoints& setpoints) {
-  Trace trace;
-  trace.add_column("t", setpoints.t_s);
-  for (std::size_t j = 0; j < machine.axes.size(); ++j) {
-    std::vector<double> column(setpoints.t_s.size());
-    for (std::size_t k = 0; k < column.size(); ++k) {
-      column[k] = to_trace_unit(machine.axes[j], setpoints.q(static_cast<Eigen::Index>(j),
-                                                             static_cast<Eigen::Index>(k)));
-    }
-    trace.add_column(machine.axes[j].name + ".cmd", std::move(column));
-  }
-  return trace;
-}
 
 double from_trace_unit(const kinematics::Axis& axis, double value) {
   return axis.type == kinematics::AxisType::linear ? value * 1e-3 : value * std::numbers::pi / 180.0;
@@ -224,64 +208,213 @@ void commanded_poses(const Context& context, const kinematics::PathKinematics& p
   thinner.finish();
 }
 
-// The commanded and actual (load) positions of every axis from the servo trace, in SI. Each
-// column is released once read (the trace of a long run is the largest thing the chain holds).
-void read_servo_positions(const kinematics::MachineModel& machine, Trace servo, Run& run) {
-  const auto release = [&](const std::string& name) {
-    if (const auto index = servo.column_index(name)) std::vector<double>().swap(servo.values[*index]);
-  };
-  // What is not read goes first: speeds.
-  for (const auto& axis : machine.axes) release(axis.name + ".vel");
-  run.t_s = servo.column("t");
-  release("t");
-  run.samples = run.t_s.size();
-  const auto n = static_cast<Eigen::Index>(run.samples);
-  const auto axes = static_cast<Eigen::Index>(machine.axes.size());
-  run.current_A.resize(axes, n);
-  for (std::size_t j = 0; j < machine.axes.size(); ++j) {
-    const auto& current = servo.column(machine.axes[j].name + ".cur");
-    for (Eigen::Index k = 0; k < n; ++k) run.current_A(static_cast<Eigen::Index>(j), k) = current[static_cast<std::size_t>(k)];
-    release(machine.axes[j].name + ".cur");
-  }
-  bool elastic = false;
-  for (const auto& axis : machine.axes) elastic = elastic || servo.column_index(axis.name + ".pos2");
-  if (elastic) run.q_motor.resize(axes, n);
-  run.q_cmd.resize(static_cast<Eigen::Index>(machine.axes.size()), n);
-  run.q_actual.resize(static_cast<Eigen::Index>(machine.axes.size()), n);
-  for (std::size_t j = 0; j < machine.axes.size(); ++j) {
-    const auto& axis = machine.axes[j];
-    const auto& cmd = servo.column(axis.name + ".cmd");
-    // The load position where the servo distinguishes it (backlash, compliance, pitch error).
-    const auto load_column = servo.column_index(axis.name + ".pos2");
-    const auto& actual = servo.column(load_column ? axis.name + ".pos2" : axis.name + ".pos");
-    for (Eigen::Index k = 0; k < n; ++k) {
-      run.q_cmd(static_cast<Eigen::Index>(j), k) = from_trace_unit(axis, cmd[static_cast<std::size_t>(k)]);
-      run.q_actual(static_cast<Eigen::Index>(j), k) = from_trace_unit(axis, actual[static_cast<std::size_t>(k)]);
-    }
-    if (elastic) {
-      // The motor side where the load is told apart; the load itself (actual) elsewhere.
-      const auto& motor = load_column ? servo.column(axis.name + ".pos") : actual;
-      for (Eigen::Index k = 0; k < n; ++k) {
-        run.q_motor(static_cast<Eigen::Index>(j), k) = from_trace_unit(axis, motor[static_cast<std::size_t>(k)]);
-      }
-    }
-    for (const char* column : {".cmd", ".pos", ".pos2"}) release(axis.name + column);
-  }
-}
-
 std::string method_name(planner::FeedrateMethod method) {
   return method == planner::FeedrateMethod::kinematic ? "kinematic" : "dynamic";
 }
 
-// The following errors of a run over all moves and over its cutting moves (run_summary's "axes"
-// and "axes_while_cutting"), from its servo samples.
-Json following_error_summary(const Context& context, const Run& run);
+// Whether the motion at time t of the plan is a cutting move (not a rapid).
+bool cutting_at(const Context& context, const planner::FeedratePlan& plan, double t_s) {
+  const auto& s_points = context.path.s_m;
+  const double s = plan_s_at(plan, t_s);
+  std::size_t i = static_cast<std::size_t>(std::upper_bound(s_points.begin(), s_points.end(), s) - s_points.begin());
+  i = std::min(std::max<std::size_t>(i, 1), s_points.size() - 1);
+  const auto& point = context.inputs.toolpath.points[context.inputs.toolpath_point[i]];
+  return point.kind != toolpath::MotionKind::rapid;
+}
 
-// `keep_signals`: keep the run's servo samples (t_s, q_cmd, q_actual) after its direct
-// kinematics (the production run: its marks are related to them).
+// Per kept servo sample of the run: whether its motion is a cutting move (not a rapid).
+std::vector<bool> cutting_samples(const Context& context, const Run& run) {
+  std::vector<bool> cutting(run.t_s.size(), false);
+  for (std::size_t k = 0; k < run.t_s.size(); ++k) cutting[k] = cutting_at(context, run.plan, run.t_s[k]);
+  return cutting;
+}
 
-// Per servo sample of the run: whether its motion is a cutting move (not a rapid).
-std::vector<bool> cutting_samples(const Context& context, const Run& run);
+// What consumes a run's servo samples as they come, window by window (issue 21: nothing holds
+// the run's trace): the production disturbance, the actual positions' and the drives' checks,
+// the following errors, and the direct kinematics into the trajectory's thinning. With
+// `keep_signals` the samples (t_s, q_cmd, q_actual) are also kept (the production run: its marks
+// are related to them).
+class ChainSink {
+ public:
+  ChainSink(const Context& context, Run& run, bool keep_signals, bool motor_side)
+      : context_(context),
+        run_(run),
+        keep_(keep_signals),
+        travel_(context.inputs.machine, run.name),
+        saturation_(context.inputs.machine, run.name),
+        errors_(context.inputs.machine, context.inputs.tool_length_m, !context.options.perfect_drives, motor_side),
+        thinner_(context.tool.length_m, context.options.trajectory_tolerance_m,
+                 [this](std::size_t k, const removal::Pose& pose) {
+                   run_.trajectory.push_back(pose);
+                   run_.trajectory_t_s.push_back(sample_t_s_[k - sample_first_]);
+                 }) {}
+
+  // One sample; `current_A` empty with perfect drives (no drive check).
+  void add(double t_s, const Eigen::VectorXd& q_cmd, Eigen::VectorXd q_actual, const Eigen::VectorXd& q_motor,
+           const Eigen::VectorXd& current_A) {
+    if (run_.name == "production" && context_.options.production_disturbance) {
+      context_.options.production_disturbance(t_s, q_actual);
+    }
+    const bool cutting = cutting_at(context_, run_.plan, t_s);
+    travel_.add(t_s, q_actual);
+    if (current_A.size() > 0) saturation_.add(t_s, current_A, cutting);
+    errors_.add(t_s, q_cmd, q_actual, q_motor, cutting);
+    if (keep_) {
+      t_kept_.push_back(t_s);
+      q_cmd_kept_.insert(q_cmd_kept_.end(), q_cmd.data(), q_cmd.data() + q_cmd.size());
+      q_actual_kept_.insert(q_actual_kept_.end(), q_actual.data(), q_actual.data() + q_actual.size());
+    }
+    // The thinning holds a window of poses: the times of the samples it may still keep.
+    sample_t_s_.push_back(t_s);
+    const kinematics::ToolPose pose =
+        kinematics::forward_kinematics(context_.inputs.machine, q_actual, context_.inputs.tool_length_m);
+    thinner_.push({pose.tip_W_m, pose.axis_W});
+    ++run_.samples;
+    if (sample_t_s_.size() > 4096) {
+      // Beyond the thinner's window (at most 257 poses) no sample is kept any more.
+      const std::size_t drop = sample_t_s_.size() - 1024;
+      sample_t_s_.erase(sample_t_s_.begin(), sample_t_s_.begin() + static_cast<std::ptrdiff_t>(drop));
+      sample_first_ += drop;
+    }
+  }
+
+  // After the last sample: the checks (in the order the report gives them), the summary and,
+  // kept, the samples.
+  void finish(bool drive_check) {
+    thinner_.finish();
+    run_.checks.push_back(travel_.result());
+    context_.progress(check_line(run_.checks.back()));
+    if (drive_check) {
+      run_.checks.push_back(saturation_.result());
+      context_.progress(check_line(run_.checks.back()));
+    }
+    run_.summary = errors_.finish([&](double t_s) { return plan_s_at(run_.plan, t_s); });
+    if (keep_) {
+      const auto axes = static_cast<Eigen::Index>(context_.inputs.machine.axes.size());
+      const auto n = static_cast<Eigen::Index>(t_kept_.size());
+      run_.t_s = std::move(t_kept_);
+      run_.q_cmd = Eigen::Map<const Eigen::MatrixXd>(q_cmd_kept_.data(), axes, n);
+      std::vector<double>().swap(q_cmd_kept_);
+      run_.q_actual = Eigen::Map<const Eigen::MatrixXd>(q_actual_kept_.data(), axes, n);
+      std::vector<double>().swap(q_actual_kept_);
+    }
+  }
+
+ private:
+  const Context& context_;
+  Run& run_;
+  bool keep_;
+  ActualTravelCheck travel_;
+  DriveSaturationCheck saturation_;
+  FollowingErrorSummary errors_;
+  std::vector<double> sample_t_s_;  ///< times of the samples from sample_first_ on
+  std::size_t sample_first_ = 0;
+  removal::TrajectoryThinner thinner_;
+  std::vector<double> t_kept_, q_cmd_kept_, q_actual_kept_;
+};
+
+// Whether the servo tells a load position apart from the motor's on some axis (backlash,
+// compliance, pitch error: its `.pos2`).
+bool servo_has_motor_side(const Context& context) {
+  const kinematics::MachineModel& machine = context.servo_machine ? *context.servo_machine : context.inputs.machine;
+  for (const auto& axis : machine.axes) {
+    const kinematics::DriveEffects& fx = axis.effects;
+    if (fx.backlash.enabled || fx.compliance.enabled || fx.pitch_error.enabled) return true;
+  }
+  return false;
+}
+
+// File units of a position (mm or deg) per joint unit, as servo::simulate_machine scales.
+double servo_trace_scale(const kinematics::Axis& axis) {
+  return axis.type == kinematics::AxisType::linear ? 1e3 : 180.0 / std::numbers::pi;
+}
+
+// The run's servo along its set points in windows of `window_s` of machine time, each window's
+// samples into `sink` as they come (issue 21: memory bounded by the window). The values take
+// the same round trip through the trace units (mm, deg) as a set-point trace through
+// servo::simulate_machine, so that the results are those of the whole-run trace, bit for bit.
+void stream_servo(const Context& context, Run& run, ChainSink& sink, double record_s, double window_s) {
+  const kinematics::MachineModel& machine = context.inputs.machine;
+  // FFWON / FFWOF: the servo runs the machine with its feedforward as the NC mode says.
+  const kinematics::MachineModel& servo_machine = context.servo_machine ? *context.servo_machine : machine;
+  const planner::SetPoints& setpoints = run.plan.setpoints;
+  const std::vector<double>& t = setpoints.t_s;
+  const std::size_t n = t.size();
+  if (n < 2) throw InputError(run.name + " set points: at least two set points are needed, got " + std::to_string(n));
+  const double period = (t.back() - t.front()) / static_cast<double>(n - 1);
+  const std::size_t axes = machine.axes.size();
+  std::vector<int> simulated(axes);
+  std::vector<double> reference(axes), to_servo(axes), scale(axes);
+  bool elastic = false;
+  for (std::size_t j = 0; j < axes; ++j) {
+    simulated[j] = static_cast<int>(j);
+    scale[j] = servo_trace_scale(servo_machine.axes[j]);
+    to_servo[j] = 1.0 / scale[j];
+    reference[j] = to_trace_unit(machine.axes[j], setpoints.q(static_cast<Eigen::Index>(j), 0)) / scale[j];
+    const kinematics::DriveEffects& fx = servo_machine.axes[j].effects;
+    elastic = elastic || fx.backlash.enabled || fx.compliance.enabled || fx.pitch_error.enabled;
+  }
+  servo::SimulationOptions servo_options;
+  servo_options.record_period_s = record_s;
+  servo::MachineSimulator simulator(servo_machine, simulated, reference, t.front(), period, servo_options);
+  double servo_seconds = 0.0, servo_cpu = 0.0, sink_seconds = 0.0, sink_cpu = 0.0;
+  Eigen::VectorXd q_cmd(static_cast<Eigen::Index>(axes)), q_actual(static_cast<Eigen::Index>(axes));
+  Eigen::VectorXd q_motor(elastic ? static_cast<Eigen::Index>(axes) : 0), current(static_cast<Eigen::Index>(axes));
+  const auto consume = [&](const std::vector<servo::AxisSignals>& records) {
+    const auto start = Clock::now();
+    const double cpu_start = cpu_seconds();
+    const std::size_t count = records.empty() ? 0 : records[0].t.size();
+    for (std::size_t k = 0; k < count; ++k) {
+      for (std::size_t j = 0; j < axes; ++j) {
+        const servo::AxisSignals& s = records[j];
+        const kinematics::Axis& axis = machine.axes[j];
+        const auto i = static_cast<Eigen::Index>(j);
+        // The load position where the servo distinguishes it (backlash, compliance, pitch error).
+        const kinematics::DriveEffects& fx = servo_machine.axes[j].effects;
+        const bool load = fx.backlash.enabled || fx.compliance.enabled || fx.pitch_error.enabled;
+        q_cmd[i] = from_trace_unit(axis, s.cmd[k] * scale[j]);
+        q_actual[i] = from_trace_unit(axis, (load ? s.load_pos[k] : s.pos[k]) * scale[j]);
+        // The motor side where the load is told apart; the load itself elsewhere.
+        if (elastic) q_motor[i] = load ? from_trace_unit(axis, s.pos[k] * scale[j]) : q_actual[i];
+        current[i] = s.current[k];
+      }
+      sink.add(records[0].t[k], q_cmd, q_actual, q_motor, current);
+    }
+    sink_seconds += seconds_since(start);
+    sink_cpu += cpu_seconds() - cpu_start;
+  };
+  const auto window = static_cast<std::size_t>(std::max(1.0, std::round(window_s / period)));
+  Eigen::MatrixXd q_window;
+  for (std::size_t first = 0; first < n; first += window) {
+    const auto start = Clock::now();
+    const double cpu_start = cpu_seconds();
+    const std::size_t count = std::min(window, n - first);
+    q_window.resize(static_cast<Eigen::Index>(axes), static_cast<Eigen::Index>(count));
+    for (std::size_t k = 0; k < count; ++k) {
+      for (std::size_t j = 0; j < axes; ++j) {
+        const double q = setpoints.q(static_cast<Eigen::Index>(j), static_cast<Eigen::Index>(first + k));
+        q_window(static_cast<Eigen::Index>(j), static_cast<Eigen::Index>(k)) = to_trace_unit(machine.axes[j], q) * to_servo[j];
+      }
+    }
+    std::vector<servo::AxisSignals> records = simulator.advance(q_window);
+    servo_seconds += seconds_since(start);
+    servo_cpu += cpu_seconds() - cpu_start;
+    consume(records);
+  }
+  {
+    const auto start = Clock::now();
+    const double cpu_start = cpu_seconds();
+    std::vector<servo::AxisSignals> records = simulator.finish();
+    servo_seconds += seconds_since(start);
+    servo_cpu += cpu_seconds() - cpu_start;
+    consume(records);
+  }
+  run.stage_seconds["servo"] += servo_seconds;
+  run.stage_cpu_seconds["servo"] += servo_cpu;
+  run.stage_peak_rss_mib["servo"] = peak_rss_mib();
+  run.stage_seconds["direct kinematics"] += sink_seconds;
+  run.stage_cpu_seconds["direct kinematics"] += sink_cpu;
+}
 
 Run simulate_run(const Context& context, const std::string& name, const FeedSetting& feed,
                  planner::FeedrateMethod method, bool keep_signals) {
@@ -348,68 +481,42 @@ Run simulate_run(const Context& context, const std::string& name, const FeedSett
   }
   const double record_s = record_period_s(machine, feed_m_per_s, context.options.max_sample_chord_m);
   if (context.options.perfect_drives) {
-    StageTimer timer(run, "perfect drives", context.progress);
-    const planner::PathSpline spline(run.plan.path);  // with the points the planner added
-    const double duration = run.plan.setpoints.t_s.back();
-    const auto n = static_cast<std::size_t>(std::ceil(duration / record_s)) + 1;
-    run.q_cmd.resize(static_cast<Eigen::Index>(machine.axes.size()), static_cast<Eigen::Index>(n));
-    for (std::size_t k = 0; k < n; ++k) {
-      run.t_s.push_back(std::min(duration, static_cast<double>(k) * record_s));
-      run.q_cmd.col(static_cast<Eigen::Index>(k)) = spline.position(plan_s_at(run.plan, run.t_s.back()));
-    }
-    run.q_actual = run.q_cmd;
-    run.samples = n;
-  } else {
-    StageTimer timer(run, "servo", context.progress);
-    servo::SimulationOptions servo_options;
-    servo_options.record_period_s = record_s;
-    Trace simulated;
+    ChainSink sink(context, run, keep_signals, false);
     {
-      const Trace setpoints = setpoint_trace(machine, run.plan.setpoints);
-      // The reference's axis set points live on in the trace only (its poses are timed by t and
-      // s alone); the production run keeps them for the places of its marks.
-      if (!keep_signals) run.plan.setpoints.q.resize(0, 0);
-      // FFWON / FFWOF: the servo runs the machine with its feedforward as the NC mode says.
-      simulated = servo::simulate_machine(context.servo_machine ? *context.servo_machine : machine, setpoints, name + " set points", servo_options);
-    }
-    read_servo_positions(machine, std::move(simulated), run);
-  }
-  {
-    StageTimer timer(run, "direct kinematics", context.progress);
-    if (name == "production" && context.options.production_disturbance) {
-      for (std::size_t k = 0; k < run.samples; ++k) {
-        Eigen::VectorXd q = run.q_actual.col(static_cast<Eigen::Index>(k));
-        context.options.production_disturbance(run.t_s[k], q);
-        run.q_actual.col(static_cast<Eigen::Index>(k)) = q;
+      StageTimer timer(run, "perfect drives", context.progress);
+      const planner::PathSpline spline(run.plan.path);  // with the points the planner added
+      const double duration = run.plan.setpoints.t_s.back();
+      const auto n = static_cast<std::size_t>(std::ceil(duration / record_s)) + 1;
+      run.q_cmd.resize(static_cast<Eigen::Index>(machine.axes.size()), static_cast<Eigen::Index>(n));
+      for (std::size_t k = 0; k < n; ++k) {
+        run.t_s.push_back(std::min(duration, static_cast<double>(k) * record_s));
+        run.q_cmd.col(static_cast<Eigen::Index>(k)) = spline.position(plan_s_at(run.plan, run.t_s.back()));
       }
     }
-    run.checks.push_back(check_actual_within_travel(machine, run.t_s, run.q_actual, name));
-    context.progress(check_line(run.checks.back()));
-    if (!context.options.perfect_drives) {
-      run.checks.push_back(
-          check_drives_not_saturated(machine, run.t_s, run.current_A, cutting_samples(context, run), name));
-      context.progress(check_line(run.checks.back()));
+    StageTimer timer(run, "direct kinematics", context.progress);
+    const std::vector<double> t_s = std::move(run.t_s);
+    const Eigen::MatrixXd q = std::move(run.q_cmd);
+    run.t_s.clear();
+    run.q_cmd.resize(0, 0);
+    for (std::size_t k = 0; k < t_s.size(); ++k) {
+      sink.add(t_s[k], q.col(static_cast<Eigen::Index>(k)), q.col(static_cast<Eigen::Index>(k)), Eigen::VectorXd(),
+               Eigen::VectorXd());
     }
-    // Sample by sample into the thinning (it holds a window of poses, never the whole run's).
-    removal::TrajectoryThinner thinner(context.tool.length_m, context.options.trajectory_tolerance_m,
-                                       [&](std::size_t k, const removal::Pose& pose) {
-                                         run.trajectory.push_back(pose);
-                                         run.trajectory_t_s.push_back(run.t_s[k]);
-                                       });
-    for (std::size_t k = 0; k < run.samples; ++k) {
-      const kinematics::ToolPose pose = kinematics::forward_kinematics(
-          machine, run.q_actual.col(static_cast<Eigen::Index>(k)), context.inputs.tool_length_m);
-      thinner.push({pose.tip_W_m, pose.axis_W});
-    }
-    thinner.finish();
-    run.summary = following_error_summary(context, run);
-    run.current_A.resize(0, 0);
-    run.q_motor.resize(0, 0);
-    if (!keep_signals) {
-      std::vector<double>().swap(run.t_s);
-      run.q_cmd.resize(0, 0);
-      run.q_actual.resize(0, 0);
-    }
+    sink.finish(false);
+  } else {
+    context.progress(name + ": servo and direct kinematics in windows of " +
+                     format_double(context.options.servo_window_s) + " s ...");
+    ChainSink sink(context, run, keep_signals, servo_has_motor_side(context));
+    stream_servo(context, run, sink, record_s, context.options.servo_window_s);
+    const auto start = Clock::now();
+    const double cpu_start = cpu_seconds();
+    sink.finish(true);
+    run.stage_seconds["direct kinematics"] += seconds_since(start);
+    run.stage_cpu_seconds["direct kinematics"] += cpu_seconds() - cpu_start;
+    run.stage_peak_rss_mib["direct kinematics"] = peak_rss_mib();
+    // The reference's axis set points served the servo (its poses are timed by t and s alone);
+    // the production run keeps them for the places of its marks.
+    if (!keep_signals) run.plan.setpoints.q.resize(0, 0);
   }
   {
     StageTimer timer(run, "removal", context.progress);
@@ -608,18 +715,6 @@ Json stage_times(const Run& run) {
 
 // For each servo sample: true while the plan is on a cutting (non-rapid) move, i.e. the path
 // segment that holds s(t) ends at a point that is not a rapid.
-std::vector<bool> cutting_samples(const Context& context, const Run& run) {
-  std::vector<bool> cutting(run.samples, false);
-  const auto& s_points = context.path.s_m;
-  for (std::size_t k = 0; k < run.samples; ++k) {
-    const double s = plan_s_at(run.plan, run.t_s[k]);
-    std::size_t i = static_cast<std::size_t>(std::upper_bound(s_points.begin(), s_points.end(), s) - s_points.begin());
-    i = std::min(std::max<std::size_t>(i, 1), s_points.size() - 1);
-    const auto& point = context.inputs.toolpath.points[context.inputs.toolpath_point[i]];
-    cutting[k] = point.kind != toolpath::MotionKind::rapid;
-  }
-  return cutting;
-}
 
 Json run_summary(const Run& run) {
   Json summary;
@@ -648,138 +743,6 @@ Json run_summary(const Run& run) {
   return summary;
 }
 
-Json following_error_summary(const Context& context, const Run& run) {
-  Json summary;
-  Json axes = Json::array();
-  const auto& machine = context.inputs.machine;
-  for (std::size_t j = 0; j < machine.axes.size(); ++j) {
-    const auto& axis = machine.axes[j];
-    const double peak = (run.q_cmd.row(static_cast<Eigen::Index>(j)) - run.q_actual.row(static_cast<Eigen::Index>(j)))
-                            .cwiseAbs()
-                            .maxCoeff();
-    Json entry{{"axis", axis.name}};
-    if (axis.type == kinematics::AxisType::linear) {
-      entry["following_error_peak_um"] = peak * 1e6;
-    } else {
-      entry["following_error_peak_mdeg"] = peak * 180.0 / std::numbers::pi * 1e3;
-    }
-    axes.push_back(entry);
-  }
-  summary["axes"] = axes;
-  // The same peaks over the cutting moves only (rapids run at the axes' limits, identically in
-  // both runs): what the feed does to the follow-up (second paper, part 3: rotary axes).
-  Json cutting = Json::array();
-  const std::vector<bool> cutting_sample = cutting_samples(context, run);
-  for (std::size_t j = 0; j < machine.axes.size(); ++j) {
-    double peak = 0.0, sum_squares = 0.0;
-    std::size_t at = 0, count = 0;
-    for (std::size_t k = 0; k < run.samples; ++k) {
-      if (!cutting_sample[k]) continue;
-      const double error = std::abs(run.q_cmd(static_cast<Eigen::Index>(j), static_cast<Eigen::Index>(k)) -
-                                    run.q_actual(static_cast<Eigen::Index>(j), static_cast<Eigen::Index>(k)));
-      if (error > peak) peak = error, at = k;
-      sum_squares += error * error;
-      ++count;
-    }
-    const double rms = count > 0 ? std::sqrt(sum_squares / static_cast<double>(count)) : 0.0;
-    const auto& axis = machine.axes[j];
-    Json entry{{"axis", axis.name}, {"at_time_s", run.t_s.empty() ? 0.0 : run.t_s[at]},
-               {"at_s_mm", run.t_s.empty() ? 0.0 : plan_s_at(run.plan, run.t_s[at]) * 1e3}};
-    if (axis.type == kinematics::AxisType::linear) {
-      entry["following_error_peak_um"] = peak * 1e6;
-      entry["following_error_rms_um"] = rms * 1e6;
-    } else {
-      entry["following_error_peak_deg"] = peak * 180.0 / std::numbers::pi;
-      entry["following_error_rms_deg"] = rms * 180.0 / std::numbers::pi;
-    }
-    cutting.push_back(entry);
-  }
-  summary["axes_while_cutting"] = cutting;
-  // The tool tip's Cartesian deviation while cutting: the direct kinematics of the actual (load)
-  // positions against that of the commanded ones, and the part of it that the joints' elastic
-  // deflection makes (load against motor side, where the servo tells them apart).
-  if (!context.options.perfect_drives) {
-    std::vector<bool> motor(machine.axes.size(), false);
-    // Where the controller compensates the static deflection under gravity, the motor stands
-    // ahead of the set point by it on purpose: the servo's own gravity model gives it.
-    std::vector<std::optional<servo::AxisServoModel>> compensated(machine.axes.size());
-    bool elastic = false;
-    std::vector<double> reference;
-    if (run.samples > 0) {
-      for (Eigen::Index j = 0; j < run.q_cmd.rows(); ++j) reference.push_back(run.q_cmd(j, 0));
-    }
-    for (std::size_t j = 0; j < machine.axes.size(); ++j) {
-      const auto& compliance = machine.axes[j].effects.compliance;
-      if (compliance.enabled && run.q_motor.rows() > 0) {
-        motor[j] = true;
-        elastic = true;
-        if (compliance.compensate_gravity_deflection && !reference.empty()) {
-          compensated[j] = servo::make_axis_servo_model(machine, static_cast<int>(j), reference, true);
-        }
-      }
-    }
-    double peak = 0.0, sum_squares = 0.0, deflection_peak = 0.0, lag_peak = 0.0;
-    std::size_t at = 0, deflection_at = 0, count = 0;
-    const double tool_length = context.inputs.tool_length_m;
-    std::vector<Eigen::Vector3d> commanded(run.samples);
-    for (std::size_t k = 0; k < run.samples; ++k) {
-      commanded[k] =
-          kinematics::forward_kinematics(machine, run.q_cmd.col(static_cast<Eigen::Index>(k)), tool_length).tip_W_m;
-    }
-    // The contour error: the distance from the actual tip to the commanded tip's path (its
-    // segments within 0.1 s either side), not to where the command is at that instant (the
-    // drives follow with a delay along the path, which leaves no mark).
-    const double dt = run.t_s.size() > 1 ? run.t_s[1] - run.t_s[0] : 1.0;
-    const auto window = static_cast<std::size_t>(std::ceil(0.1 / dt));
-    for (std::size_t k = 0; k < run.samples; ++k) {
-      if (!cutting_sample[k]) continue;
-      const Eigen::VectorXd q_actual = run.q_actual.col(static_cast<Eigen::Index>(k));
-      const Eigen::Vector3d tip = kinematics::forward_kinematics(machine, q_actual, tool_length).tip_W_m;
-      lag_peak = std::max(lag_peak, (tip - commanded[k]).norm());
-      double deviation = (tip - commanded[k]).norm();
-      for (std::size_t i = k > window ? k - window : 0; i + 1 < run.samples && i < k + window; ++i) {
-        const Eigen::Vector3d segment = commanded[i + 1] - commanded[i];
-        const double length2 = segment.squaredNorm();
-        const double f = length2 > 0.0 ? std::clamp((tip - commanded[i]).dot(segment) / length2, 0.0, 1.0) : 0.0;
-        deviation = std::min(deviation, (tip - commanded[i] - f * segment).norm());
-      }
-      if (deviation > peak) peak = deviation, at = k;
-      sum_squares += deviation * deviation;
-      ++count;
-      if (!elastic) continue;
-      Eigen::VectorXd q_motor = q_actual;
-      for (std::size_t j = 0; j < machine.axes.size(); ++j) {
-        if (!motor[j]) continue;
-        double q = run.q_motor(static_cast<Eigen::Index>(j), static_cast<Eigen::Index>(k));
-        if (compensated[j]) {
-          const servo::AxisServoModel& m = *compensated[j];
-          const double q_set = run.q_cmd(static_cast<Eigen::Index>(j), static_cast<Eigen::Index>(k));
-          double tau = m.gravity_constant_N_m;
-          if (machine.axes[j].type == kinematics::AxisType::rotary) {
-            tau += m.gravity_cos_N_m * std::cos(q_set) + m.gravity_sin_N_m * std::sin(q_set);
-          }
-          q -= tau / (m.axis.effects.compliance.stiffness * m.axis.drive.ratio);
-        }
-        q_motor[static_cast<Eigen::Index>(j)] = q;
-      }
-      const double deflection =
-          (tip - kinematics::forward_kinematics(machine, q_motor, tool_length).tip_W_m).norm();
-      if (deflection > deflection_peak) deflection_peak = deflection, deflection_at = k;
-    }
-    Json tip{{"contour_error_peak_um", peak * 1e6},
-             {"contour_error_rms_um", count > 0 ? std::sqrt(sum_squares / static_cast<double>(count)) * 1e6 : 0.0},
-             {"at_s_mm", run.t_s.empty() ? 0.0 : plan_s_at(run.plan, run.t_s[at]) * 1e3},
-             {"behind_the_command_peak_um", lag_peak * 1e6}};
-    if (elastic) {
-      // The tip moved by the joints' elastic deflection alone (load against motor side, less
-      // the static deflection the controller compensates).
-      tip["joint_deflection_peak_um"] = deflection_peak * 1e6;
-      tip["joint_deflection_at_s_mm"] = plan_s_at(run.plan, run.t_s[deflection_at]) * 1e3;
-    }
-    summary["tool_tip_while_cutting"] = tip;
-  }
-  return summary;
-}
 
 // The per-node mark outline mask of a (strided) view.
 std::vector<std::uint8_t> mark_mask(const ViewComparison& comparison, const removal::NBuffer& buffer,

@@ -76,6 +76,11 @@ struct SimulatePartOptions {
   /// 2^-24 of the depth below the tile's top); 0 = every Z-map. The default keeps plain doubles
   /// (exact) up to 32 M lines (sample part 1: 2 M at 20 um, 8 M at 10 um).
   std::size_t compact_zmap_above_lines = std::size_t{32} << 20;
+  /// The servo, the direct kinematics and the thinning run along the program in windows of
+  /// this much machine time [s] (set points of a window in, its samples out and consumed), so
+  /// that the reference run's memory is bounded by the window, not by its machine time. Any
+  /// value gives the same results (bit for bit); > 0.
+  double servo_window_s = 2.0;
   /// The deepest mark the part can take [m], for the report's verdict; 0 = the part file's
   /// `tolerance_um` (none there: the report gives no verdict).
   double tolerance_m = 0.0;

@@ -168,68 +168,104 @@ ValidityCheck check_setpoints_within_travel(const kinematics::MachineModel& mach
   return check;
 }
 
+ActualTravelCheck::ActualTravelCheck(const kinematics::MachineModel& machine, std::string run_name)
+    : machine_(&machine), run_name_(std::move(run_name)), worst_(machine.axes.size(), 0.0),
+      worst_t_s_(machine.axes.size(), 0.0) {}
+
+void ActualTravelCheck::add(double t_s, const Eigen::Ref<const Eigen::VectorXd>& q_actual) {
+  for (std::size_t j = 0; j < machine_->axes.size(); ++j) {
+    const kinematics::Axis& axis = machine_->axes[j];
+    if (!has_travel(axis)) continue;
+    const double q = q_actual[static_cast<Eigen::Index>(j)];
+    const double beyond = std::max(axis.travel_min - q, q - axis.travel_max);
+    // The first sample at the axis's largest overshoot.
+    if (beyond > 0.0 && user_value(axis, beyond) > worst_[j]) {
+      worst_[j] = user_value(axis, beyond);
+      worst_t_s_[j] = t_s;
+    }
+  }
+}
+
+ValidityCheck ActualTravelCheck::result() const {
+  ValidityCheck check{"actual_within_travel." + run_name_,
+                      run_name_ + " simulated axis positions within the axes' travel", 0.0, 0.0,
+                      "mm (deg for a rotary axis) beyond",
+                      CheckStatus::passed, ""};
+  // The largest overshoot; of equal ones, the first axis's.
+  for (std::size_t j = 0; j < machine_->axes.size(); ++j) {
+    if (!(worst_[j] > check.value)) continue;
+    const kinematics::Axis& axis = machine_->axes[j];
+    check.value = worst_[j];
+    check.status = CheckStatus::warning;
+    check.detail = "axis " + axis.name + " overshoots its travel by " + format_double(check.value) + " " +
+                   user_unit(axis) + " at t = " + rounded(worst_t_s_[j], 4) +
+                   " s (the set points are within it: the drive overshoots)";
+  }
+  return check;
+}
+
 ValidityCheck check_actual_within_travel(const kinematics::MachineModel& machine,
                                          const std::vector<double>& t_s, const Eigen::MatrixXd& q_actual,
                                          const std::string& run_name) {
-  ValidityCheck check{"actual_within_travel." + run_name,
-                      run_name + " simulated axis positions within the axes' travel", 0.0, 0.0,
-                      "mm (deg for a rotary axis) beyond",
-                      CheckStatus::passed, ""};
-  for (std::size_t j = 0; j < machine.axes.size(); ++j) {
-    const kinematics::Axis& axis = machine.axes[j];
-    if (!has_travel(axis)) continue;
-    const auto row = q_actual.row(static_cast<Eigen::Index>(j));
-    for (Eigen::Index k = 0; k < row.size(); ++k) {
-      const double beyond = std::max(axis.travel_min - row[k], row[k] - axis.travel_max);
-      if (beyond > 0.0 && user_value(axis, beyond) > check.value) {
-        check.value = user_value(axis, beyond);
-        check.status = CheckStatus::warning;
-        check.detail = "axis " + axis.name + " overshoots its travel by " + format_double(check.value) + " " +
-                       user_unit(axis) + " at t = " + rounded(t_s[static_cast<std::size_t>(k)], 4) +
-                       " s (the set points are within it: the drive overshoots)";
-      }
+  ActualTravelCheck check(machine, run_name);
+  for (Eigen::Index k = 0; k < q_actual.cols(); ++k) check.add(t_s[static_cast<std::size_t>(k)], q_actual.col(k));
+  return check.result();
+}
+
+DriveSaturationCheck::DriveSaturationCheck(const kinematics::MachineModel& machine, std::string run_name)
+    : machine_(&machine), run_name_(std::move(run_name)), axes_(machine.axes.size()) {}
+
+void DriveSaturationCheck::add(double t_s, const Eigen::Ref<const Eigen::VectorXd>& current_A, bool cutting) {
+  if (!cutting) return;
+  ++cutting_count_;
+  for (std::size_t j = 0; j < axes_.size() && j < static_cast<std::size_t>(current_A.size()); ++j) {
+    const double limit = machine_->axes[j].controller.current_max_A;
+    if (!(limit > 0.0)) continue;
+    Axis& axis = axes_[j];
+    const double i = std::abs(current_A[static_cast<Eigen::Index>(j)]);
+    axis.peak_A = std::max(axis.peak_A, i);
+    // The current loop's first-order lag reaches the clamp only asymptotically: within 0.5 %.
+    if (i >= 0.995 * limit) {
+      if (axis.at_limit == 0) axis.first_t_s = t_s;
+      ++axis.at_limit;
     }
   }
+}
+
+ValidityCheck DriveSaturationCheck::result() const {
+  ValidityCheck check{"drives_not_saturated." + run_name_,
+                      run_name_ + " drive currents below their saturation while cutting", 0.0, 0.0,
+                      "% of the cutting samples", CheckStatus::passed, ""};
+  std::string peaks;
+  for (std::size_t j = 0; j < axes_.size(); ++j) {
+    const double limit = machine_->axes[j].controller.current_max_A;
+    if (!(limit > 0.0)) continue;
+    const Axis& axis = axes_[j];
+    peaks += (peaks.empty() ? "" : ", ") + machine_->axes[j].name + " " + rounded(100.0 * axis.peak_A / limit, 3) + " %";
+    if (axis.at_limit == 0 || cutting_count_ == 0) continue;
+    const double share = 100.0 * static_cast<double>(axis.at_limit) / static_cast<double>(cutting_count_);
+    if (share > check.value) {
+      check.value = share;
+      check.status = CheckStatus::warning;
+      check.detail = "axis " + machine_->axes[j].name + " at its current limit " + rounded(limit, 4) + " A in " +
+                     rounded(share, 3) + " % of the cutting samples, first at t = " + rounded(axis.first_t_s, 4) +
+                     " s: the drive cannot give what the plan asks there";
+    }
+  }
+  if (check.status == CheckStatus::passed) check.detail = "peak current / saturation while cutting: " + peaks;
   return check;
 }
 
 ValidityCheck check_drives_not_saturated(const kinematics::MachineModel& machine,
                                          const std::vector<double>& t_s, const Eigen::MatrixXd& current,
                                          const std::vector<bool>& cutting, const std::string& run_name) {
-  ValidityCheck check{"drives_not_saturated." + run_name,
-                      run_name + " drive currents below their saturation while cutting", 0.0, 0.0,
-                      "% of the cutting samples", CheckStatus::passed, ""};
-  std::size_t cutting_count = 0;
-  for (bool c : cutting) cutting_count += c ? 1 : 0;
-  std::string peaks;
-  for (std::size_t j = 0; j < machine.axes.size() && j < static_cast<std::size_t>(current.rows()); ++j) {
-    const double limit = machine.axes[j].controller.current_max_A;
-    if (!(limit > 0.0)) continue;
-    std::size_t at_limit = 0, first = 0;
-    double peak = 0.0;
-    for (std::size_t k = 0; k < cutting.size() && k < static_cast<std::size_t>(current.cols()); ++k) {
-      if (!cutting[k]) continue;
-      const double i = std::abs(current(static_cast<Eigen::Index>(j), static_cast<Eigen::Index>(k)));
-      peak = std::max(peak, i);
-      // The current loop's first-order lag reaches the clamp only asymptotically: within 0.5 %.
-      if (i >= 0.995 * limit) {
-        if (at_limit == 0) first = k;
-        ++at_limit;
-      }
-    }
-    peaks += (peaks.empty() ? "" : ", ") + machine.axes[j].name + " " + rounded(100.0 * peak / limit, 3) + " %";
-    if (at_limit == 0 || cutting_count == 0) continue;
-    const double share = 100.0 * static_cast<double>(at_limit) / static_cast<double>(cutting_count);
-    if (share > check.value) {
-      check.value = share;
-      check.status = CheckStatus::warning;
-      check.detail = "axis " + machine.axes[j].name + " at its current limit " + rounded(limit, 4) + " A in " +
-                     rounded(share, 3) + " % of the cutting samples, first at t = " + rounded(t_s[first], 4) +
-                     " s: the drive cannot give what the plan asks there";
-    }
+  DriveSaturationCheck check(machine, run_name);
+  // Rows beyond the machine's axes are not read; an axis without a row is not checked.
+  const Eigen::Index rows = std::min<Eigen::Index>(current.rows(), static_cast<Eigen::Index>(machine.axes.size()));
+  for (std::size_t k = 0; k < cutting.size() && k < static_cast<std::size_t>(current.cols()); ++k) {
+    check.add(t_s[k], current.col(static_cast<Eigen::Index>(k)).head(rows), cutting[k]);
   }
-  if (check.status == CheckStatus::passed) check.detail = "peak current / saturation while cutting: " + peaks;
-  return check;
+  return check.result();
 }
 
 ValidityCheck check_reference_against_commanded(double worst_m, const Eigen::Vector3d& where_W_m,

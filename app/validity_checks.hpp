@@ -74,6 +74,43 @@ ValidityCheck check_drives_not_saturated(const kinematics::MachineModel& machine
                                          const std::vector<double>& t_s, const Eigen::MatrixXd& current,
                                          const std::vector<bool>& cutting, const std::string& run_name);
 
+/// check_actual_within_travel sample by sample, for a run streamed in windows (the same verdict,
+/// figure and place as on the whole run at once).
+class ActualTravelCheck {
+ public:
+  ActualTravelCheck(const kinematics::MachineModel& machine, std::string run_name);
+  /// One sample: its time [s] and the actual position of every axis (SI joint units).
+  void add(double t_s, const Eigen::Ref<const Eigen::VectorXd>& q_actual);
+  ValidityCheck result() const;
+
+ private:
+  const kinematics::MachineModel* machine_;
+  std::string run_name_;
+  std::vector<double> worst_;      ///< per axis, the largest overshoot [mm or deg]
+  std::vector<double> worst_t_s_;  ///< and the first time it was reached
+};
+
+/// check_drives_not_saturated sample by sample (the same verdict and figure as on the whole run).
+class DriveSaturationCheck {
+ public:
+  DriveSaturationCheck(const kinematics::MachineModel& machine, std::string run_name);
+  /// One sample: its time [s], the current of every axis [A] (the machine's axes, in order;
+  /// fewer rows: the rest not checked) and whether its motion is a cutting move.
+  void add(double t_s, const Eigen::Ref<const Eigen::VectorXd>& current_A, bool cutting);
+  ValidityCheck result() const;
+
+ private:
+  struct Axis {
+    std::size_t at_limit = 0;  ///< cutting samples at the limit
+    double first_t_s = 0.0;    ///< the first of them
+    double peak_A = 0.0;       ///< largest |current| while cutting
+  };
+  const kinematics::MachineModel* machine_;
+  std::string run_name_;
+  std::vector<Axis> axes_;
+  std::size_t cutting_count_ = 0;
+};
+
 /// The reference surface against the surface the planned tool path cuts: the reference must
 /// not differ from it by more than `limit_m` (the mark threshold), or marks could hide in it.
 ValidityCheck check_reference_against_commanded(double worst_m, const Eigen::Vector3d& where_W_m,
