@@ -80,9 +80,13 @@ void FollowingErrorSummary::process_ready(bool all) {
     pending_.pop_front();
     ++pending_first_;
     // The tips no later sample reads (it reads from k - window on).
-    while (window_first_ + window_ < pending_first_ && !commanded_.empty()) {
-      commanded_.pop_front();
+    while (window_first_ + window_ < pending_first_ && commanded_dropped_ < commanded_.size()) {
+      ++commanded_dropped_;
       ++window_first_;
+    }
+    if (commanded_dropped_ > 4096 && commanded_dropped_ > commanded_.size() / 2) {
+      commanded_.erase(commanded_.begin(), commanded_.begin() + static_cast<std::ptrdiff_t>(commanded_dropped_));
+      commanded_dropped_ = 0;
     }
   }
 }
@@ -90,7 +94,8 @@ void FollowingErrorSummary::process_ready(bool all) {
 void FollowingErrorSummary::tip_sample(std::size_t k) {
   const Pending& sample = pending_.front();
   if (!sample.cutting) return;
-  const auto commanded = [&](std::size_t i) -> const Eigen::Vector3d& { return commanded_[i - window_first_]; };
+  const Eigen::Vector3d* tips = commanded_.data() + commanded_dropped_;
+  const auto commanded = [&](std::size_t i) -> const Eigen::Vector3d& { return tips[i - window_first_]; };
   const Eigen::Vector3d tip = kinematics::forward_kinematics(machine_, sample.q_actual, tool_length_m_).tip_W_m;
   lag_peak_ = std::max(lag_peak_, (tip - commanded(k)).norm());
   // The contour error: the distance from the actual tip to the commanded tip's path (its

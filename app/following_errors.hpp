@@ -51,7 +51,10 @@ class FollowingErrorSummary {
   std::size_t cutting_count_ = 0;
   // The tool tip: commanded tips of the samples from `window_first_` on, the samples whose
   // contour error is still to be found (their commanded neighbours 0.1 s ahead not yet known).
-  std::deque<Eigen::Vector3d> commanded_;
+  // (A vector whose consumed front is dropped now and then: the contour error reads 2 x 0.1 s of
+  // tips per sample, contiguous access matters.)
+  std::vector<Eigen::Vector3d> commanded_;
+  std::size_t commanded_dropped_ = 0;  ///< entries of commanded_ before window_first_
   std::size_t window_first_ = 0;
   std::deque<Pending> pending_;
   std::size_t pending_first_ = 0;

@@ -236,7 +236,9 @@ std::vector<bool> cutting_samples(const Context& context, const Run& run) {
 // are related to them).
 class ChainSink {
  public:
-  ChainSink(const Context& context, Run& run, bool keep_signals, bool motor_side)
+  // `expected_samples`: about how many samples will come (with keep_signals, the kept ones are
+  // written in place: no copy of the whole run at the end).
+  ChainSink(const Context& context, Run& run, bool keep_signals, bool motor_side, std::size_t expected_samples)
       : context_(context),
         run_(run),
         keep_(keep_signals),
@@ -247,7 +249,13 @@ class ChainSink {
                  [this](std::size_t k, const removal::Pose& pose) {
                    run_.trajectory.push_back(pose);
                    run_.trajectory_t_s.push_back(sample_t_s_[k - sample_first_]);
-                 }) {}
+                 }) {
+    if (keep_) {
+      run_.t_s.reserve(expected_samples);
+      run_.q_cmd.resize(static_cast<Eigen::Index>(context.inputs.machine.axes.size()), static_cast<Eigen::Index>(expected_samples));
+      run_.q_actual.resize(run_.q_cmd.rows(), run_.q_cmd.cols());
+    }
+  }
 
   // One sample; `current_A` empty with perfect drives (no drive check).
   void add(double t_s, const Eigen::VectorXd& q_cmd, Eigen::VectorXd q_actual, const Eigen::VectorXd& q_motor,
@@ -260,9 +268,14 @@ class ChainSink {
     if (current_A.size() > 0) saturation_.add(t_s, current_A, cutting);
     errors_.add(t_s, q_cmd, q_actual, q_motor, cutting);
     if (keep_) {
-      t_kept_.push_back(t_s);
-      q_cmd_kept_.insert(q_cmd_kept_.end(), q_cmd.data(), q_cmd.data() + q_cmd.size());
-      q_actual_kept_.insert(q_actual_kept_.end(), q_actual.data(), q_actual.data() + q_actual.size());
+      const auto k = static_cast<Eigen::Index>(run_.t_s.size());
+      if (k == run_.q_cmd.cols()) {  // more than expected: grow
+        run_.q_cmd.conservativeResize(Eigen::NoChange, 2 * k + 1);
+        run_.q_actual.conservativeResize(Eigen::NoChange, 2 * k + 1);
+      }
+      run_.t_s.push_back(t_s);
+      run_.q_cmd.col(k) = q_cmd;
+      run_.q_actual.col(k) = q_actual;
     }
     // The thinning holds a window of poses: the times of the samples it may still keep.
     sample_t_s_.push_back(t_s);
@@ -290,13 +303,9 @@ class ChainSink {
     }
     run_.summary = errors_.finish([&](double t_s) { return plan_s_at(run_.plan, t_s); });
     if (keep_) {
-      const auto axes = static_cast<Eigen::Index>(context_.inputs.machine.axes.size());
-      const auto n = static_cast<Eigen::Index>(t_kept_.size());
-      run_.t_s = std::move(t_kept_);
-      run_.q_cmd = Eigen::Map<const Eigen::MatrixXd>(q_cmd_kept_.data(), axes, n);
-      std::vector<double>().swap(q_cmd_kept_);
-      run_.q_actual = Eigen::Map<const Eigen::MatrixXd>(q_actual_kept_.data(), axes, n);
-      std::vector<double>().swap(q_actual_kept_);
+      const auto n = static_cast<Eigen::Index>(run_.t_s.size());
+      run_.q_cmd.conservativeResize(Eigen::NoChange, n);
+      run_.q_actual.conservativeResize(Eigen::NoChange, n);
     }
   }
 
@@ -310,7 +319,6 @@ class ChainSink {
   std::vector<double> sample_t_s_;  ///< times of the samples from sample_first_ on
   std::size_t sample_first_ = 0;
   removal::TrajectoryThinner thinner_;
-  std::vector<double> t_kept_, q_cmd_kept_, q_actual_kept_;
 };
 
 // Whether the servo tells a load position apart from the motor's on some axis (backlash,
@@ -481,7 +489,7 @@ Run simulate_run(const Context& context, const std::string& name, const FeedSett
   }
   const double record_s = record_period_s(machine, feed_m_per_s, context.options.max_sample_chord_m);
   if (context.options.perfect_drives) {
-    ChainSink sink(context, run, keep_signals, false);
+    std::optional<ChainSink> sink;
     {
       StageTimer timer(run, "perfect drives", context.progress);
       const planner::PathSpline spline(run.plan.path);  // with the points the planner added
@@ -498,15 +506,20 @@ Run simulate_run(const Context& context, const std::string& name, const FeedSett
     const Eigen::MatrixXd q = std::move(run.q_cmd);
     run.t_s.clear();
     run.q_cmd.resize(0, 0);
+    sink.emplace(context, run, keep_signals, false, t_s.size());
     for (std::size_t k = 0; k < t_s.size(); ++k) {
-      sink.add(t_s[k], q.col(static_cast<Eigen::Index>(k)), q.col(static_cast<Eigen::Index>(k)), Eigen::VectorXd(),
-               Eigen::VectorXd());
+      sink->add(t_s[k], q.col(static_cast<Eigen::Index>(k)), q.col(static_cast<Eigen::Index>(k)), Eigen::VectorXd(),
+                Eigen::VectorXd());
     }
-    sink.finish(false);
+    sink->finish(false);
   } else {
     context.progress(name + ": servo and direct kinematics in windows of " +
                      format_double(context.options.servo_window_s) + " s ...");
-    ChainSink sink(context, run, keep_signals, servo_has_motor_side(context));
+    // The servo's records: one every record_s from the first set point to the last, and the one
+    // there (an upper bound: a record period is a whole number of ticks).
+    const auto& t = run.plan.setpoints.t_s;
+    const auto expected = static_cast<std::size_t>(std::ceil((t.back() - t.front()) / record_s)) + 2;
+    ChainSink sink(context, run, keep_signals, servo_has_motor_side(context), expected);
     stream_servo(context, run, sink, record_s, context.options.servo_window_s);
     const auto start = Clock::now();
     const double cpu_start = cpu_seconds();

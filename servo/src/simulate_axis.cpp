@@ -1210,10 +1210,27 @@ AxisSignals simulate_axis(const AxisServoModel& model, const AxisInput& input,
     throw InputError("axis " + model.axis.name +
                      ": the external force needs one value per set point");
   }
-  // The whole input as one window.
+  // The whole input in windows (the same records as in one, bit for bit; a window's set points
+  // stay in the cache while its ticks read them).
   AxisSimulator simulator(model, input.start_time_s, input.period_s, input.kind, options);
   AxisSignals out;
-  simulator.advance(input.values, out, input.external_force);
+  // The records, allocated once (growing them would hand memory back and forth with the system).
+  const double record_period = options.record_period_s > 0.0 ? options.record_period_s : input.period_s;
+  const double duration = static_cast<double>(input.values.size() - 1) * input.period_s + input.extra_time_s;
+  const auto records = static_cast<std::size_t>(std::max(0.0, duration / record_period)) + 2;
+  for (auto* v : {&out.t, &out.cmd, &out.pos, &out.load_pos, &out.motor_pos, &out.vel, &out.current}) v->reserve(records);
+  if (options.inner_signals) {
+    for (auto* v : {&out.following_error, &out.control_deviation, &out.velocity_setpoint, &out.velocity_feedforward,
+                    &out.torque_feedforward, &out.current_setpoint}) {
+      v->reserve(records);
+    }
+  }
+  constexpr std::size_t kWindow = 512;
+  const std::span<const double> values(input.values), force(input.external_force);
+  for (std::size_t first = 0; first < values.size(); first += kWindow) {
+    const std::size_t count = std::min(kWindow, values.size() - first);
+    simulator.advance(values.subspan(first, count), out, force.empty() ? force : force.subspan(first, count));
+  }
   simulator.finish(out, input.extra_time_s);
   return out;
 }
