@@ -64,6 +64,67 @@ std::size_t path_segment_at(const std::vector<double>& path_s_m, double s_m) {
   return std::min(after == 0 ? 0 : after - 1, path_s_m.size() - 2);
 }
 
+SetpointsOnPathCheck::SetpointsOnPathCheck(const kinematics::MachineModel& machine,
+                                           const std::vector<kinematics::PathPose>& path,
+                                           const std::vector<bool>& rapid_end, const std::vector<double>& path_s_m,
+                                           double tool_length_m, const std::vector<std::string>& block_names,
+                                           std::string run_name, double tolerance_m,
+                                           const std::vector<double>& contour_tolerance_m, double turning_tolerance_m)
+    : machine_(machine), path_(path), rapid_end_(rapid_end), path_s_m_(path_s_m), tool_length_m_(tool_length_m),
+      block_names_(block_names), run_name_(std::move(run_name)), tolerance_m_(tolerance_m),
+      contour_tolerance_m_(contour_tolerance_m), turning_tolerance_m_(turning_tolerance_m),
+      worst_limit_m_(tolerance_m) {}
+
+void SetpointsOnPathCheck::add(double s, const Eigen::Ref<const Eigen::VectorXd>& q) {
+  ++count_;
+  if (path_.size() < 2) return;
+  const Eigen::Vector3d tip = kinematics::forward_kinematics(machine_, q, tool_length_m_).tip_W_m;
+  const std::size_t i = path_segment_at(path_s_m_, s);
+  if (i + 1 < rapid_end_.size() && rapid_end_[i + 1]) return;
+  double distance = std::numeric_limits<double>::infinity();
+  // The neighbours too: the set point's s and the polyline's own arc length may differ a little.
+  for (std::size_t j = (i > 0 ? i - 1 : 0); j <= std::min(i + 1, path_.size() - 2); ++j) {
+    distance = std::min(distance, distance_to_segment(tip, path_[j].pose.tip_W_m, path_[j + 1].pose.tip_W_m));
+  }
+  const Eigen::Vector3d& axis_a = path_[i].pose.axis_W;
+  const Eigen::Vector3d& axis_b = path_[std::min(i + 1, path_.size() - 1)].pose.axis_W;
+  const bool turns = std::atan2(axis_a.cross(axis_b).norm(), axis_a.dot(axis_b)) > 1e-9;
+  const double base_m = turns ? std::max(tolerance_m_, turning_tolerance_m_) : tolerance_m_;
+  const double contour_m = i + 1 < contour_tolerance_m_.size() ? contour_tolerance_m_[i + 1] : 0.0;
+  const double limit_m = std::max(base_m, contour_m);
+  const double ratio = distance / limit_m;
+  if (!(ratio <= worst_ratio_)) {  // NaN counts as the worst
+    worst_ratio_ = std::isnan(ratio) ? std::numeric_limits<double>::infinity() : ratio;
+    worst_m_ = std::isnan(distance) ? std::numeric_limits<double>::infinity() : distance;
+    worst_s_m_ = s;
+    worst_limit_m_ = limit_m;
+    worst_turns_ = turns && base_m >= contour_m;
+  }
+  contour_limit_used_ = contour_limit_used_ || limit_m > tolerance_m_;
+}
+
+ValidityCheck SetpointsOnPathCheck::result() const {
+  ValidityCheck check{"setpoints_on_path." + run_name_,
+                      run_name_ + " set points on the programmed path (tool tip to the polyline through the "
+                                  "path points)",
+                      0.0, tolerance_m_ * 1e6, "um", CheckStatus::passed, ""};
+  if (path_.size() < 2 || count_ == 0) return check;
+  check.value = worst_m_ * 1e6;
+  check.limit = worst_limit_m_ * 1e6;
+  check.detail = (contour_limit_used_ ? "nearest its limit" : "largest") + std::string(" at ") +
+                 where_on_path(path_, path_s_m_, block_names_, worst_s_m_) +
+                 (worst_limit_m_ > tolerance_m_ && worst_turns_
+                      ? " (the limit there is that of a segment that turns the tool axis, "
+                        "--turning-path-tolerance-um; elsewhere " + rounded(tolerance_m_ * 1e6, 3) + " um)"
+                  : worst_limit_m_ > tolerance_m_ ? " (the limit there is the program's contour tolerance, G64 P / "
+                                                    "G5.1 / --corner-tolerance-mm; elsewhere " +
+                                                        rounded(tolerance_m_ * 1e6, 3) + " um)"
+                                                  : std::string()) +
+                 " (rapid moves not checked: the axes move on their own there)";
+  if (!(worst_m_ <= worst_limit_m_)) check.status = CheckStatus::failed;
+  return check;
+}
+
 ValidityCheck check_setpoints_on_path(const kinematics::MachineModel& machine,
                                       const std::vector<kinematics::PathPose>& path,
                                       const std::vector<bool>& rapid_end,
@@ -73,89 +134,63 @@ ValidityCheck check_setpoints_on_path(const kinematics::MachineModel& machine,
                                       const std::string& run_name, double tolerance_m,
                                       const std::vector<double>& contour_tolerance_m,
                                       double turning_tolerance_m) {
-  ValidityCheck check{"setpoints_on_path." + run_name,
-                      run_name + " set points on the programmed path (tool tip to the polyline through the "
-                                 "path points)",
-                      0.0, tolerance_m * 1e6, "um", CheckStatus::passed, ""};
-  if (path.size() < 2 || setpoints.q.cols() == 0) return check;
-  double worst_m = 0.0, worst_s_m = 0.0, worst_limit_m = tolerance_m;
-  double worst_ratio = 0.0;  // distance / limit: the place nearest its limit is the one reported
-  bool contour_limit_used = false;
-  bool worst_turns = false;  // the worst place's limit is the turning tolerance
-  for (Eigen::Index k = 0; k < setpoints.q.cols(); ++k) {
-    const double s = setpoints.s_m[static_cast<std::size_t>(k)];
-    const Eigen::Vector3d tip = kinematics::forward_kinematics(machine, setpoints.q.col(k), tool_length_m).tip_W_m;
-    const std::size_t i = path_segment_at(path_s_m, s);
-    if (i + 1 < rapid_end.size() && rapid_end[i + 1]) continue;
-    double distance = std::numeric_limits<double>::infinity();
-    // The neighbours too: the set point's s and the polyline's own arc length may differ a little.
-    for (std::size_t j = (i > 0 ? i - 1 : 0); j <= std::min(i + 1, path.size() - 2); ++j) {
-      distance = std::min(distance, distance_to_segment(tip, path[j].pose.tip_W_m, path[j + 1].pose.tip_W_m));
-    }
-    const Eigen::Vector3d& axis_a = path[i].pose.axis_W;
-    const Eigen::Vector3d& axis_b = path[std::min(i + 1, path.size() - 1)].pose.axis_W;
-    const bool turns = std::atan2(axis_a.cross(axis_b).norm(), axis_a.dot(axis_b)) > 1e-9;
-    const double base_m = turns ? std::max(tolerance_m, turning_tolerance_m) : tolerance_m;
-    const double contour_m = i + 1 < contour_tolerance_m.size() ? contour_tolerance_m[i + 1] : 0.0;
-    const double limit_m = std::max(base_m, contour_m);
-    const double ratio = distance / limit_m;
-    if (!(ratio <= worst_ratio)) {  // NaN counts as the worst
-      worst_ratio = std::isnan(ratio) ? std::numeric_limits<double>::infinity() : ratio;
-      worst_m = std::isnan(distance) ? std::numeric_limits<double>::infinity() : distance;
-      worst_s_m = s;
-      worst_limit_m = limit_m;
-      worst_turns = turns && base_m >= contour_m;
-    }
-    contour_limit_used = contour_limit_used || limit_m > tolerance_m;
-  }
-  check.value = worst_m * 1e6;
-  check.limit = worst_limit_m * 1e6;
-  check.detail = (contour_limit_used ? "nearest its limit" : "largest") + std::string(" at ") +
-                 where_on_path(path, path_s_m, block_names, worst_s_m) +
-                 (worst_limit_m > tolerance_m && worst_turns
-                      ? " (the limit there is that of a segment that turns the tool axis, "
-                        "--turning-path-tolerance-um; elsewhere " + rounded(tolerance_m * 1e6, 3) + " um)"
-                  : worst_limit_m > tolerance_m ? " (the limit there is the program's contour tolerance, G64 P / "
-                                                  "G5.1 / --corner-tolerance-mm; elsewhere " +
-                                                      rounded(tolerance_m * 1e6, 3) + " um)"
-                                                : std::string()) +
-                 " (rapid moves not checked: the axes move on their own there)";
-  if (!(worst_m <= worst_limit_m)) check.status = CheckStatus::failed;
-  return check;
+  SetpointsOnPathCheck check(machine, path, rapid_end, path_s_m, tool_length_m, block_names, run_name, tolerance_m,
+                             contour_tolerance_m, turning_tolerance_m);
+  for (Eigen::Index k = 0; k < setpoints.q.cols(); ++k) check.add(setpoints.s_m[static_cast<std::size_t>(k)], setpoints.q.col(k));
+  return check.result();
 }
 
-ValidityCheck check_setpoints_within_travel(const kinematics::MachineModel& machine,
-                                            const std::vector<kinematics::PathPose>& path,
-                                            const std::vector<double>& path_s_m,
-                                            const planner::SetPoints& setpoints,
-                                            const std::vector<std::string>& block_names,
-                                            const std::string& run_name) {
-  ValidityCheck check{"setpoints_within_travel." + run_name, run_name + " set points within the axes' travel",
+SetpointsWithinTravelCheck::SetpointsWithinTravelCheck(const kinematics::MachineModel& machine,
+                                                       const std::vector<kinematics::PathPose>& path,
+                                                       const std::vector<double>& path_s_m,
+                                                       const std::vector<std::string>& block_names,
+                                                       std::string run_name)
+    : machine_(machine), path_(path), path_s_m_(path_s_m), block_names_(block_names), run_name_(std::move(run_name)),
+      axes_(machine.axes.size()) {}
+
+void SetpointsWithinTravelCheck::add(double s, const Eigen::Ref<const Eigen::VectorXd>& q) {
+  ++count_;
+  for (std::size_t j = 0; j < axes_.size(); ++j) {
+    const kinematics::Axis& axis = machine_.axes[j];
+    if (!has_travel(axis)) continue;
+    Axis& a = axes_[j];
+    const double value = q[static_cast<Eigen::Index>(j)];
+    const double beyond = std::isnan(value) ? std::numeric_limits<double>::infinity()
+                                            : std::max(axis.travel_min - value, value - axis.travel_max);
+    // A nanometre (nanoradian) of floating-point rounding at an end of the travel is no excess:
+    // a G28 return to Z0 = the end of Z's travel lands there within 1e-13 m. The first set point
+    // at the axis's largest excess is named.
+    if (beyond > kTravelRoundingSi && user_value(axis, beyond) > a.worst_beyond) {
+      a.worst_beyond = user_value(axis, beyond);
+      a.worst_q = value;
+      a.worst_s_m = s;
+    }
+    a.min = std::min(a.min, value);
+    a.max = std::max(a.max, value);
+  }
+}
+
+ValidityCheck SetpointsWithinTravelCheck::result() const {
+  ValidityCheck check{"setpoints_within_travel." + run_name_, run_name_ + " set points within the axes' travel",
                       0.0, 0.0, "mm (deg for a rotary axis) beyond", CheckStatus::passed, ""};
   double worst_beyond = 0.0;  // user units
   std::string smallest_margin;
   double smallest_margin_fraction = std::numeric_limits<double>::infinity();
-  for (std::size_t j = 0; j < machine.axes.size(); ++j) {
-    const kinematics::Axis& axis = machine.axes[j];
+  for (std::size_t j = 0; j < axes_.size(); ++j) {
+    const kinematics::Axis& axis = machine_.axes[j];
     if (!has_travel(axis)) continue;
-    const auto row = setpoints.q.row(static_cast<Eigen::Index>(j));
-    for (Eigen::Index k = 0; k < row.size(); ++k) {
-      const double q = row[k];
-      const double beyond = std::isnan(q) ? std::numeric_limits<double>::infinity()
-                                          : std::max(axis.travel_min - q, q - axis.travel_max);
-      // A nanometre (nanoradian) of floating-point rounding at an end of the travel is no excess:
-      // a G28 return to Z0 = the end of Z's travel lands there within 1e-13 m.
-      if (beyond > kTravelRoundingSi && user_value(axis, beyond) > worst_beyond) {
-        worst_beyond = user_value(axis, beyond);
-        check.status = CheckStatus::failed;
-        check.detail = "axis " + axis.name + " at " + format_double(user_value(axis, q)) + " " + user_unit(axis) +
-                       ", outside its travel [" + format_double(user_value(axis, axis.travel_min)) + ", " +
-                       format_double(user_value(axis, axis.travel_max)) + "] " + user_unit(axis) + ", at " +
-                       where_on_path(path, path_s_m, block_names, setpoints.s_m[static_cast<std::size_t>(k)]);
-      }
+    const Axis& a = axes_[j];
+    // The largest excess over the axes; of equal ones, the first axis's.
+    if (a.worst_beyond > worst_beyond) {
+      worst_beyond = a.worst_beyond;
+      check.status = CheckStatus::failed;
+      check.detail = "axis " + axis.name + " at " + format_double(user_value(axis, a.worst_q)) + " " + user_unit(axis) +
+                     ", outside its travel [" + format_double(user_value(axis, axis.travel_min)) + ", " +
+                     format_double(user_value(axis, axis.travel_max)) + "] " + user_unit(axis) + ", at " +
+                     where_on_path(path_, path_s_m_, block_names_, a.worst_s_m);
     }
-    if (row.size() == 0) continue;
-    const double margin = std::min(row.minCoeff() - axis.travel_min, axis.travel_max - row.maxCoeff());
+    if (count_ == 0) continue;
+    const double margin = std::min(a.min - axis.travel_min, axis.travel_max - a.max);
     const double fraction = margin / (axis.travel_max - axis.travel_min);
     if (fraction < smallest_margin_fraction) {
       smallest_margin_fraction = fraction;
@@ -166,6 +201,17 @@ ValidityCheck check_setpoints_within_travel(const kinematics::MachineModel& mach
   check.value = worst_beyond;
   if (check.status == CheckStatus::passed) check.detail = smallest_margin;
   return check;
+}
+
+ValidityCheck check_setpoints_within_travel(const kinematics::MachineModel& machine,
+                                            const std::vector<kinematics::PathPose>& path,
+                                            const std::vector<double>& path_s_m,
+                                            const planner::SetPoints& setpoints,
+                                            const std::vector<std::string>& block_names,
+                                            const std::string& run_name) {
+  SetpointsWithinTravelCheck check(machine, path, path_s_m, block_names, run_name);
+  for (Eigen::Index k = 0; k < setpoints.q.cols(); ++k) check.add(setpoints.s_m[static_cast<std::size_t>(k)], setpoints.q.col(k));
+  return check.result();
 }
 
 ActualTravelCheck::ActualTravelCheck(const kinematics::MachineModel& machine, std::string run_name)

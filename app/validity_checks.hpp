@@ -9,6 +9,7 @@
 #include <nlohmann/json.hpp>
 
 #include <Eigen/Core>
+#include <limits>
 #include <string>
 #include <vector>
 
@@ -73,6 +74,64 @@ ValidityCheck check_actual_within_travel(const kinematics::MachineModel& machine
 ValidityCheck check_drives_not_saturated(const kinematics::MachineModel& machine,
                                          const std::vector<double>& t_s, const Eigen::MatrixXd& current,
                                          const std::vector<bool>& cutting, const std::string& run_name);
+
+/// check_setpoints_on_path set point by set point, for set points that come in windows (the
+/// same verdict, figure and place as on all of them at once). The vectors are referenced, not
+/// copied: they must outlive the check.
+class SetpointsOnPathCheck {
+ public:
+  SetpointsOnPathCheck(const kinematics::MachineModel& machine, const std::vector<kinematics::PathPose>& path,
+                       const std::vector<bool>& rapid_end, const std::vector<double>& path_s_m,
+                       double tool_length_m, const std::vector<std::string>& block_names, std::string run_name,
+                       double tolerance_m, const std::vector<double>& contour_tolerance_m,
+                       double turning_tolerance_m);
+  /// The next set point: its path length s [m] and axis positions (SI joint units).
+  void add(double s_m, const Eigen::Ref<const Eigen::VectorXd>& q);
+  ValidityCheck result() const;
+
+ private:
+  const kinematics::MachineModel& machine_;
+  const std::vector<kinematics::PathPose>& path_;
+  const std::vector<bool>& rapid_end_;
+  const std::vector<double>& path_s_m_;
+  double tool_length_m_;
+  const std::vector<std::string>& block_names_;
+  std::string run_name_;
+  double tolerance_m_;
+  const std::vector<double>& contour_tolerance_m_;
+  double turning_tolerance_m_;
+  std::size_t count_ = 0;
+  double worst_m_ = 0.0, worst_s_m_ = 0.0, worst_limit_m_;
+  double worst_ratio_ = 0.0;  ///< distance / limit: the place nearest its limit is the one reported
+  bool contour_limit_used_ = false;
+  bool worst_turns_ = false;  ///< the worst place's limit is the turning tolerance
+};
+
+/// check_setpoints_within_travel set point by set point (the same verdict, figure and place as
+/// on all of them at once). The vectors are referenced: they must outlive the check.
+class SetpointsWithinTravelCheck {
+ public:
+  SetpointsWithinTravelCheck(const kinematics::MachineModel& machine, const std::vector<kinematics::PathPose>& path,
+                             const std::vector<double>& path_s_m, const std::vector<std::string>& block_names,
+                             std::string run_name);
+  /// The next set point: its path length s [m] and axis positions (SI joint units).
+  void add(double s_m, const Eigen::Ref<const Eigen::VectorXd>& q);
+  ValidityCheck result() const;
+
+ private:
+  struct Axis {
+    double worst_beyond = 0.0;  ///< largest excess [mm or deg]
+    double worst_q = 0.0, worst_s_m = 0.0;  ///< the first set point with it
+    double min = std::numeric_limits<double>::infinity(), max = -std::numeric_limits<double>::infinity();
+  };
+  const kinematics::MachineModel& machine_;
+  const std::vector<kinematics::PathPose>& path_;
+  const std::vector<double>& path_s_m_;
+  const std::vector<std::string>& block_names_;
+  std::string run_name_;
+  std::vector<Axis> axes_;
+  std::size_t count_ = 0;
+};
 
 /// check_actual_within_travel sample by sample, for a run streamed in windows (the same verdict,
 /// figure and place as on the whole run at once).
