@@ -84,13 +84,19 @@ ValidityCheck check_setpoints_on_path(const kinematics::MachineModel& machine,
   bool worst_turns = false;  // the worst place's limit is the turning tolerance
   for (Eigen::Index k = 0; k < setpoints.q.cols(); ++k) {
     const double s = setpoints.s_m[static_cast<std::size_t>(k)];
-    const Eigen::Vector3d tip = kinematics::forward_kinematics(machine, setpoints.q.col(k), tool_length_m).tip_W_m;
+    const kinematics::ToolPose pose = kinematics::forward_kinematics(machine, setpoints.q.col(k), tool_length_m);
     const std::size_t i = path_segment_at(path_s_m, s);
     if (i + 1 < rapid_end.size() && rapid_end[i + 1]) continue;
     double distance = std::numeric_limits<double>::infinity();
     // The neighbours too: the set point's s and the polyline's own arc length may differ a little.
+    // Each segment with its own tool (PathPose::tool_length_m): after a tool change it starts at
+    // the new tool's tip at the old position.
     for (std::size_t j = (i > 0 ? i - 1 : 0); j <= std::min(i + 1, path.size() - 2); ++j) {
-      distance = std::min(distance, distance_to_segment(tip, path[j].pose.tip_W_m, path[j + 1].pose.tip_W_m));
+      const double length_m = kinematics::pose_tool_length_m(path[j + 1], tool_length_m);
+      const Eigen::Vector3d tip = kinematics::tip_with_tool_length(pose.tip_W_m, pose.axis_W, tool_length_m, length_m);
+      const Eigen::Vector3d start = kinematics::tip_with_tool_length(
+          path[j].pose.tip_W_m, path[j].pose.axis_W, kinematics::pose_tool_length_m(path[j], tool_length_m), length_m);
+      distance = std::min(distance, distance_to_segment(tip, start, path[j + 1].pose.tip_W_m));
     }
     const Eigen::Vector3d& axis_a = path[i].pose.axis_W;
     const Eigen::Vector3d& axis_b = path[std::min(i + 1, path.size() - 1)].pose.axis_W;

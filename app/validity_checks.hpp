@@ -39,6 +39,8 @@ struct ValidityCheck {
 /// there, ChainInputs::contour_tolerance_m; empty: none), the limit there is that tolerance: the
 /// place reported is the one nearest its limit. Where the programmed tool axis turns between two
 /// points the limit is at least turning_tolerance_m (FeedrateOptions::turning_path_tolerance_m).
+/// Tool lengths: each segment is measured with the tool of the pose it ends at
+/// (PathPose::tool_length_m, else tool_length_m), from that tool's tip at its start point.
 ValidityCheck check_setpoints_on_path(const kinematics::MachineModel& machine,
                                       const std::vector<kinematics::PathPose>& path,
                                       const std::vector<bool>& rapid_end,
