@@ -143,7 +143,8 @@ Eigen::VectorXd programmed_rotary_axes(const kinematics::MachineModel& machine,
 void apply_machine_setup(const kinematics::MachineModel& machine,
                          const std::optional<MachineSetup>& setup, double tool_length_m,
                          toolpath::ReaderOptions& reader, const std::string& part_path) {
-  // One tool per part file for now: every H is the part's tool.
+  // The part's tool for every H and T not in its tools: table (ReaderOptions::tool_length_mm),
+  // and the tool the callbacks place.
   reader.default_tool_length_mm = tool_length_m * 1e3;
   std::array<int, 3> linear{};
   bool has_linear_axes = true;
@@ -210,11 +211,14 @@ ChainInputs load_chain_inputs(const ChainInputOptions& options) {
   // for every D where it has no table.
   std::map<int, double> cutter_radius_mm;
   std::optional<double> default_cutter_radius_mm;
+  // Tool lengths by T (and H) number [mm]: the table's; the part's tool for any other.
+  std::map<int, double> tool_length_mm;
   if (!options.part_path.empty()) {
     const PartDescription part = load_part(options.part_path);
     setup = part.setup;
     for (const NumberedTool& numbered : part.tools) {
       cutter_radius_mm[numbered.number] = 0.5 * numbered.tool.diameter_m * 1e3;
+      tool_length_mm[numbered.number] = numbered.tool.length_m * 1e3;
     }
     if (part.tools.empty()) default_cutter_radius_mm = 0.5 * part.tool.diameter_m * 1e3;
     inputs.warnings.insert(inputs.warnings.end(), part.warnings.begin(), part.warnings.end());
@@ -276,6 +280,7 @@ ChainInputs load_chain_inputs(const ChainInputOptions& options) {
   };
   apply_machine_setup(machine, setup, tool_length_m, reader, options.part_path);
   reader.cutter_radius_mm = cutter_radius_mm;
+  reader.tool_length_mm = tool_length_mm;
   reader.default_cutter_radius_mm = default_cutter_radius_mm;
   inputs.toolpath = toolpath::read_toolpath(toolpath_path, reader);
   if (inputs.toolpath.points.empty()) {
@@ -319,7 +324,9 @@ ChainInputs load_chain_inputs(const ChainInputOptions& options) {
       const toolpath::PathPoint& last_point = inputs.toolpath.points[inputs.toolpath_point.back()];
       if ((last.tip_W_m - point.tip_W_m).norm() < 1e-12 &&
           (last.axis_W - point.axis_W).norm() < 1e-12 &&
-          same_rotary_words(last_point, point)) {
+          same_rotary_words(last_point, point) &&
+          kinematics::pose_tool_length_m(inputs.path.back(), inputs.tool_length_m) ==
+              (std::isnan(point.tool_length_m) ? inputs.tool_length_m : point.tool_length_m)) {
         const auto& block = inputs.toolpath.blocks[static_cast<std::size_t>(point.block)];
         inputs.warnings.push_back(located_message(block.file, block.line, 0,
                                                   "repeats the previous pose; merged with it"));
@@ -331,6 +338,11 @@ ChainInputs load_chain_inputs(const ChainInputOptions& options) {
     inputs.path.push_back({{point.tip_W_m, point.axis_W},
                            point.block,
                            programmed_rotary_axes(inputs.machine, point, inputs.tool_length_m)});
+    // The tool in the spindle on this motion (T / M6, TOOL CALL, T D), where it is not the
+    // run's own length.
+    if (!std::isnan(point.tool_length_m) && point.tool_length_m != inputs.tool_length_m) {
+      inputs.path.back().tool_length_m = point.tool_length_m;
+    }
     inputs.toolpath_point.push_back(i);
     const double programmed_m = point.corner_tolerance_m;
     double contour_m = options.corner_tolerance_override || std::isnan(programmed_m) ? options.corner_tolerance_m

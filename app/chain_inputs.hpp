@@ -40,8 +40,11 @@ struct ChainInputs {
   /// The tool path as executed: corners blended when ChainInputOptions::corner_tolerance_m > 0
   /// (blend points carry the block of the corner they replace), else as read.
   toolpath::Toolpath toolpath;
+  /// The run's tool length [m] (--tool-length-mm, else the part's `tool`): every H and T not in
+  /// the part's `tools:` table; the table's tools have their own (PathPose::tool_length_m).
   double tool_length_m = 0.0;
-  /// The tool path as poses for the kinematics; consecutive duplicate poses merged.
+  /// The tool path as poses for the kinematics; consecutive duplicate poses merged. Each pose
+  /// carries the length of the tool in the spindle where it is not tool_length_m.
   std::vector<kinematics::PathPose> path;
   /// For each point of `path`, the index of the tool path point it came from.
   std::vector<std::size_t> toolpath_point;

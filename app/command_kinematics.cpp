@@ -78,6 +78,12 @@ int run_kinematics(const KinematicsOptions& options, const CommandContext& conte
     line[i] = block >= 0 ? inputs.toolpath.blocks[static_cast<std::size_t>(block)].line : 0;
   }
   trace.add_column("s_mm", s_mm);
+  if (!result.point_tool_length_m.empty()) {
+    // Tools of different lengths: each point's (the metadata's tool_length_mm is the run's own).
+    std::vector<double> length_mm(result.point_tool_length_m.size());
+    for (std::size_t i = 0; i < length_mm.size(); ++i) length_mm[i] = result.point_tool_length_m[i] * 1e3;
+    trace.add_column("tool_length_mm", length_mm);
+  }
   trace.add_column("line", line);
   for (std::size_t j = 0; j < inputs.machine.axes.size(); ++j) {
     const kinematics::Axis& axis = inputs.machine.axes[j];

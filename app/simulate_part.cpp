@@ -153,6 +153,7 @@ struct Context {
   /// Set by a run whose third-order plan failed and fell back to second order (the context
   /// line then says so).
   mutable bool third_order_fell_back = false;
+  std::vector<double> point_length_m;  ///< per point of inputs.path, its tool's length (gauge to tip)
 };
 
 // s of the plan at time t (linear interpolation in the set points).
@@ -176,7 +177,6 @@ void commanded_poses(const Context& context, const kinematics::PathKinematics& p
                      std::vector<removal::Pose>& poses, std::vector<std::size_t>& pose_point) {
   const kinematics::MachineModel& machine = context.inputs.machine;
   const planner::PathSpline spline(planned);
-  const double tool_length_m = context.inputs.tool_length_m;
   const double chord_m = context.options.max_sample_chord_m;
   std::vector<double> sample_s;
   removal::TrajectoryThinner thinner(context.tool.length_m, context.options.trajectory_tolerance_m,
@@ -188,20 +188,21 @@ void commanded_poses(const Context& context, const kinematics::PathKinematics& p
                                            s_points.begin());
                                        pose_point.push_back(std::min(i, s_points.size() - 1));
                                      });
-  kinematics::ToolPose previous = kinematics::forward_kinematics(machine, spline.position(planned.s_m.front()), tool_length_m);
+  ToolPoseStream stream(machine, context.point_length_m, context.path.s_m, thinner);
+  const auto length_at = [&](double s) { return context.point_length_m[motion_point_at(context.path.s_m, s)]; };
+  kinematics::ToolPose previous = kinematics::forward_kinematics(machine, spline.position(planned.s_m.front()), length_at(planned.s_m.front()));
   sample_s.push_back(planned.s_m.front());
-  thinner.push({previous.tip_W_m, previous.axis_W});
+  stream.push(spline.position(planned.s_m.front()), planned.s_m.front());
   for (std::size_t i = 0; i + 1 < planned.s_m.size(); ++i) {
     const double s0 = planned.s_m[i], s1 = planned.s_m[i + 1];
-    const kinematics::ToolPose end = kinematics::forward_kinematics(machine, planned.q.col(static_cast<Eigen::Index>(i + 1)), tool_length_m);
+    const kinematics::ToolPose end = kinematics::forward_kinematics(machine, planned.q.col(static_cast<Eigen::Index>(i + 1)), length_at(s1));
     const double turn_rad = std::atan2(previous.axis_W.cross(end.axis_W).norm(), previous.axis_W.dot(end.axis_W));
     const double travel_m = std::max((end.tip_W_m - previous.tip_W_m).norm(), turn_rad * context.tool.length_m);
     const auto steps = static_cast<std::size_t>(std::max(1.0, std::ceil(travel_m / chord_m)));
     for (std::size_t k = 1; k <= steps; ++k) {
       const double s = k == steps ? s1 : s0 + (s1 - s0) * static_cast<double>(k) / static_cast<double>(steps);
-      const kinematics::ToolPose pose = kinematics::forward_kinematics(machine, spline.position(s), tool_length_m);
       sample_s.push_back(s);
-      thinner.push({pose.tip_W_m, pose.axis_W});
+      stream.push(spline.position(s), s);
     }
     previous = end;
   }
@@ -249,7 +250,8 @@ class ChainSink {
                  [this](std::size_t k, const removal::Pose& pose) {
                    run_.trajectory.push_back(pose);
                    run_.trajectory_t_s.push_back(sample_t_s_[k - sample_first_]);
-                 }) {
+                 }),
+        tool_poses_(context.inputs.machine, context.point_length_m, context.path.s_m, thinner_) {
     if (keep_) {
       run_.t_s.reserve(expected_samples);
       run_.q_cmd.resize(static_cast<Eigen::Index>(context.inputs.machine.axes.size()), static_cast<Eigen::Index>(expected_samples));
@@ -279,9 +281,8 @@ class ChainSink {
     }
     // The thinning holds a window of poses: the times of the samples it may still keep.
     sample_t_s_.push_back(t_s);
-    const kinematics::ToolPose pose =
-        kinematics::forward_kinematics(context_.inputs.machine, q_actual, context_.inputs.tool_length_m);
-    thinner_.push({pose.tip_W_m, pose.axis_W});
+    // The tool in the spindle at this sample (its length: the path point its motion runs to).
+    tool_poses_.push(q_actual, tool_poses_.one_length() ? 0.0 : plan_s_at(run_.plan, t_s));
     ++run_.samples;
     if (sample_t_s_.size() > 4096) {
       // Beyond the thinner's window (at most 257 poses) no sample is kept any more.
@@ -319,6 +320,7 @@ class ChainSink {
   std::vector<double> sample_t_s_;  ///< times of the samples from sample_first_ on
   std::size_t sample_first_ = 0;
   removal::TrajectoryThinner thinner_;
+  ToolPoseStream tool_poses_;  ///< after thinner_: it feeds it
 };
 
 // Whether the servo tells a load position apart from the motor's on some axis (backlash,
@@ -555,7 +557,7 @@ Run simulate_run(const Context& context, const std::string& name, const FeedSett
       };
       run.buffers.push_back(context.uncut[static_cast<std::size_t>(&view - context.views.data())]);
       run.cuts.push_back(cut_with_tools(run.buffers.back(), context.point_tools, run.trajectory,
-                                        trajectory_point, cut_options));
+                                        trajectory_point, cut_options, context.point_length_m));
     }
   }
   if (!keep_signals) {
@@ -646,13 +648,14 @@ Json relate_mark(const Context& context, const Run& production, const removal::M
       std::lower_bound(production.t_s.begin(), production.t_s.end(), t) - production.t_s.begin());
   const Eigen::VectorXd q_cmd = production.q_cmd.col(std::min<Eigen::Index>(k_servo, production.q_cmd.cols() - 1));
   const Eigen::VectorXd q_act = production.q_actual.col(std::min<Eigen::Index>(k_servo, production.q_actual.cols() - 1));
-  const kinematics::ToolPose commanded = kinematics::forward_kinematics(machine, q_cmd, context.inputs.tool_length_m);
+  const double tool_length_m = context.point_length_m[motion_point_at(context.path.s_m, s)];
+  const kinematics::ToolPose commanded = kinematics::forward_kinematics(machine, q_cmd, tool_length_m);
   Json axes = Json::array();
   std::vector<std::pair<double, std::string>> contributions;
   for (std::size_t j = 0; j < machine.axes.size(); ++j) {
     Eigen::VectorXd q = q_cmd;
     q[static_cast<Eigen::Index>(j)] = q_act[static_cast<Eigen::Index>(j)];
-    const kinematics::ToolPose moved = kinematics::forward_kinematics(machine, q, context.inputs.tool_length_m);
+    const kinematics::ToolPose moved = kinematics::forward_kinematics(machine, q, tool_length_m);
     const double tip_um = (moved.tip_W_m - commanded.tip_W_m).norm() * 1e6;
     const auto& axis = machine.axes[j];
     const double error = q_cmd[static_cast<Eigen::Index>(j)] - q_act[static_cast<Eigen::Index>(j)];
@@ -1275,6 +1278,7 @@ Json simulate_part(const SimulatePartOptions& options, const ProgressSink& progr
   }
   context.tool = removal_tool(context.part.tool);
   context.point_tools = point_tools(context.part, context.inputs);
+  context.point_length_m = point_tool_lengths_m(context.inputs);
   for (const std::string& warning : context.inputs.warnings) progress("warning: " + warning);
   const FeedSetting production_feed = options.production_feed_m_per_s > 0
                                           ? FeedSetting{options.production_feed_m_per_s, 0.0}
@@ -1360,7 +1364,7 @@ Json simulate_part(const SimulatePartOptions& options, const ProgressSink& progr
     Eigen::Vector3d worst_at = Eigen::Vector3d::Zero();
     for (std::size_t v = 0; v < context.views.size(); ++v) {
       removal::NBuffer commanded = context.uncut[v];
-      cut_with_tools(commanded, context.point_tools, poses, pose_point, cut_options);
+      cut_with_tools(commanded, context.point_tools, poses, pose_point, cut_options, context.point_length_m);
       std::vector<double> reference_vs_commanded = removal::difference(reference.buffers[v], commanded);
       // Steep in either surface: a line in the plane of a tool face (a wall view's row at the
       // floor's height) is cut whole or not at all by a rounding of the tool's height.

@@ -1,11 +1,15 @@
 #include "tool_table.hpp"
 
+#include <algorithm>
+#include <array>
 #include <cmath>
 #include <span>
 #include <string>
 
 #include "vmsim/common/errors.hpp"
 #include "vmsim/common/files.hpp"
+#include "vmsim/kinematics/kinematics.hpp"
+#include "vmsim/kinematics/path_kinematics.hpp"
 
 namespace vmsim::app {
 
@@ -33,8 +37,7 @@ removal::Tool removal_tool(const ToolDescription& description) {
 
 // The removal tool of each path point's motion: the part file's tool where the program selects
 // none, else its T number in the part file's `tools:` table. A T number missing from the table
-// is an error naming the block; so is a tool whose length differs from the one the kinematics
-// runs with (one tool length per run for now).
+// is an error naming the block. (Its length places the axes: PathPose::tool_length_m.)
 std::vector<removal::Tool> point_tools(const PartDescription& part, const ChainInputs& inputs) {
   std::vector<removal::Tool> tools;
   tools.reserve(inputs.path.size());
@@ -51,11 +54,6 @@ std::vector<removal::Tool> point_tools(const PartDescription& part, const ChainI
         throw InputError(where() + ": no tool " + std::to_string(point.tool_number) +
                          " in the part file's tools: table (" + part.file + ")");
       }
-      if (std::abs(description->length_m - inputs.tool_length_m) > 1e-9) {
-        throw InputError(where() + ": the tool is " + format_double(description->length_m * 1e3) +
-                         " mm long, the run's tool " + format_double(inputs.tool_length_m * 1e3) +
-                         " mm: tools of different lengths in one run are not supported yet");
-      }
       last_number = point.tool_number;
       tools.push_back(removal_tool(*description));
     } else {
@@ -65,27 +63,56 @@ std::vector<removal::Tool> point_tools(const PartDescription& part, const ChainI
   return tools;
 }
 
+std::vector<double> point_tool_lengths_m(const ChainInputs& inputs) {
+  std::vector<double> lengths;
+  lengths.reserve(inputs.path.size());
+  for (const auto& pose : inputs.path) lengths.push_back(kinematics::pose_tool_length_m(pose, inputs.tool_length_m));
+  return lengths;
+}
+
+std::size_t motion_point_at(const std::vector<double>& path_s_m, double s_m) {
+  const auto i = static_cast<std::size_t>(std::lower_bound(path_s_m.begin(), path_s_m.end(), s_m) - path_s_m.begin());
+  return std::min(i, path_s_m.size() - 1);
+}
+
+ToolPoseStream::ToolPoseStream(const kinematics::MachineModel& machine, std::vector<double> point_length_m,
+                               const std::vector<double>& path_s_m, removal::TrajectoryThinner& thinner)
+    : machine_(machine), point_length_m_(std::move(point_length_m)), path_s_m_(path_s_m), thinner_(thinner) {
+  for (const double length : point_length_m_) one_length_ = one_length_ && length == point_length_m_.front();
+}
+
+void ToolPoseStream::push(const Eigen::VectorXd& q, double s_m) {
+  const double length_m =
+      point_length_m_.empty() ? 0.0 : one_length_ ? point_length_m_.front() : point_length_m_[motion_point_at(path_s_m_, s_m)];
+  const kinematics::ToolPose pose = kinematics::forward_kinematics(machine_, q, length_m);
+  if (any_ && length_m != last_length_m_) {
+    // The tool changed at rest after the last sample: thin on from it with the new tool.
+    thinner_.restart_from({kinematics::tip_with_tool_length(last_pose_.tip_W_m, last_pose_.axis_W, last_length_m_, length_m),
+                           last_pose_.axis_W});
+  }
+  last_pose_ = {pose.tip_W_m, pose.axis_W};
+  last_length_m_ = length_m;
+  any_ = true;
+  thinner_.push(last_pose_);
+}
+
 // Cuts the trajectory into `buffer`, each stretch with the tool of the path point its poses
 // run towards (pose_point: per pose, the index in inputs.path); the pose where the tool changes
 // ends one stretch and starts the next.
 removal::CutStatistics cut_with_tools(removal::NBuffer& buffer, const std::vector<removal::Tool>& point_tools,
                                       const std::vector<removal::Pose>& poses,
                                       const std::vector<std::size_t>& pose_point,
-                                      const removal::CutOptions& options) {
+                                      const removal::CutOptions& options,
+                                      const std::vector<double>& point_length_m) {
   removal::CutStatistics total;
+  const auto length_of = [&](std::size_t pose) {
+    return point_length_m.empty() ? 0.0 : point_length_m[pose_point[pose]];
+  };
   const auto same = [](const removal::Tool& a, const removal::Tool& b) {
     return a.type == b.type && a.diameter_m == b.diameter_m && a.corner_radius_m == b.corner_radius_m &&
            a.length_m == b.length_m;
   };
-  std::size_t first = 0;
-  while (first < poses.size()) {
-    const removal::Tool& tool = point_tools[pose_point[first]];
-    std::size_t last = first;
-    while (last + 1 < poses.size() && same(point_tools[pose_point[last + 1]], tool)) ++last;
-    // The segment into the next stretch's first pose is cut with that stretch's tool.
-    const std::size_t begin = first == 0 ? 0 : first - 1;
-    const removal::CutStatistics part =
-        buffer.cut(tool, std::span<const removal::Pose>(poses.data() + begin, last - begin + 1), options);
+  const auto add = [&total](const removal::CutStatistics& part) {
     total.segments += part.segments;
     total.sub_segments += part.sub_segments;
     total.tiles_visited += part.tiles_visited;
@@ -93,6 +120,31 @@ removal::CutStatistics cut_with_tools(removal::NBuffer& buffer, const std::vecto
     total.chained_turning += part.chained_turning;
     total.junction_rows_covered += part.junction_rows_covered;
     total.interrupted = total.interrupted || part.interrupted;
+  };
+  std::size_t first = 0;
+  while (first < poses.size()) {
+    const removal::Tool& tool = point_tools[pose_point[first]];
+    const double length_m = length_of(first);
+    std::size_t last = first;
+    while (last + 1 < poses.size() && same(point_tools[pose_point[last + 1]], tool) && length_of(last + 1) == length_m) {
+      ++last;
+    }
+    // The segment into the next stretch's first pose is cut with that stretch's tool; after a
+    // change of length it starts where the new tool's tip was at the last pose (the axes there).
+    std::size_t begin = first == 0 ? 0 : first - 1;
+    if (first > 0 && length_of(first - 1) != length_m) {
+      const removal::Pose& before = poses[first - 1];
+      const std::array<removal::Pose, 2> junction = {
+          removal::Pose{kinematics::tip_with_tool_length(before.tip_W_m, before.axis_W, length_of(first - 1), length_m),
+                        before.axis_W},
+          poses[first]};
+      add(buffer.cut(tool, std::span<const removal::Pose>(junction.data(), junction.size()), options));
+      if (total.interrupted) break;
+      begin = first;
+    }
+    const removal::CutStatistics part =
+        buffer.cut(tool, std::span<const removal::Pose>(poses.data() + begin, last - begin + 1), options);
+    add(part);
     if (part.interrupted) break;
     first = last + 1;
   }

@@ -40,6 +40,8 @@ struct ValidityCheck {
 /// there, ChainInputs::contour_tolerance_m; empty: none), the limit there is that tolerance: the
 /// place reported is the one nearest its limit. Where the programmed tool axis turns between two
 /// points the limit is at least turning_tolerance_m (FeedrateOptions::turning_path_tolerance_m).
+/// Tool lengths: each segment is measured with the tool of the pose it ends at
+/// (PathPose::tool_length_m, else tool_length_m), from that tool's tip at its start point.
 ValidityCheck check_setpoints_on_path(const kinematics::MachineModel& machine,
                                       const std::vector<kinematics::PathPose>& path,
                                       const std::vector<bool>& rapid_end,
@@ -59,8 +61,20 @@ ValidityCheck check_setpoints_within_travel(const kinematics::MachineModel& mach
                                             const std::vector<std::string>& block_names,
                                             const std::string& run_name);
 
+/// How far the actual position of an axis may lie beyond its software limit without an alarm
+/// [m, rad]. A control monitors its software limits on the set points (the interpolator never
+/// commands beyond them: check_setpoints_within_travel) and the actual positions with a
+/// tolerance, so that a drive settling a little beyond a set point at the limit (a G28 return to
+/// a reference point at the travel's end, the usual Z home) raises no alarm; the hardware limit
+/// switch lies millimetres further. Beckhoff TwinCAT CNC documents it as P-AXIS-00179 "tolerance
+/// range for software limit switch", default 0.1 mm (0.1 deg on rotary axes): taken here, since
+/// machine files do not give it.
+inline constexpr double kActualTravelTolerance_m = 0.1e-3;
+inline constexpr double kActualTravelTolerance_rad = 0.1 * 3.14159265358979323846 / 180.0;
+
 /// The simulated (actual) axis positions against the travel: a warning when a drive overshoots
-/// an end stop (the set points are within it).
+/// an end stop (the set points are within it) by more than kActualTravelTolerance_m / _rad;
+/// within it the check passes and its detail gives the overshoot.
 ValidityCheck check_actual_within_travel(const kinematics::MachineModel& machine,
                                          const std::vector<double>& t_s, const Eigen::MatrixXd& q_actual,
                                          const std::string& run_name);
@@ -147,6 +161,7 @@ class ActualTravelCheck {
   std::string run_name_;
   std::vector<double> worst_;      ///< per axis, the largest overshoot [mm or deg]
   std::vector<double> worst_t_s_;  ///< and the first time it was reached
+  bool beyond_tolerance_ = false;  ///< some overshoot beyond kActualTravelTolerance_m / _rad
 };
 
 /// check_drives_not_saturated sample by sample (the same verdict and figure as on the whole run).

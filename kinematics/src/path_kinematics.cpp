@@ -130,12 +130,19 @@ PathKinematics solve_path_kinematics(const MachineModel& model, const std::vecto
 
   // Axis positions, each next to the previous one.
   std::vector<bool> singular(n, false);
+  std::vector<double> length_m(n);
+  bool lengths_differ = false;
+  for (std::size_t i = 0; i < n; ++i) {
+    length_m[i] = pose_tool_length_m(path[i], tool_length_m);
+    lengths_differ = lengths_differ || length_m[i] != tool_length_m;
+  }
   Eigen::VectorXd q_previous = q_start;
   for (std::size_t i = 0; i < n; ++i) {
+    const double pose_length_m = length_m[i];  // this pose's tool
     if (path[i].q_given.size() > 0) {
       std::string why;
       const auto given = inverse_kinematics_given_rotary(model, path[i].pose, path[i].q_given,
-                                                         q_previous, tool_length_m, 1e-6, &why);
+                                                         q_previous, pose_length_m, 1e-6, &why);
       if (!given) {
         throw InfeasibleError("tool path point " + std::to_string(i) + " (" +
                               block_label(path[i], block_names) +
@@ -148,7 +155,7 @@ PathKinematics solve_path_kinematics(const MachineModel& model, const std::vecto
     }
     if (!std::isnan(path[i].roll_rad)) {
       // The roll chosen along the path (redundancy.hpp): the full frame, next to the previous.
-      const auto rolled = inverse_kinematics_with_roll(model, path[i].pose, path[i].roll_rad, q_previous, tool_length_m);
+      const auto rolled = inverse_kinematics_with_roll(model, path[i].pose, path[i].roll_rad, q_previous, pose_length_m);
       if (!rolled || !within_travel(model, *rolled, 1e-9)) {
         throw InfeasibleError("tool path point " + std::to_string(i) + " (" + block_label(path[i], block_names) +
                               "): no inverse kinematic solution with the chosen tool roll " +
@@ -159,13 +166,13 @@ PathKinematics solve_path_kinematics(const MachineModel& model, const std::vecto
       q_previous = *rolled;
       continue;
     }
-    const auto result = inverse_kinematics(model, path[i].pose, q_previous, tool_length_m,
+    const auto result = inverse_kinematics(model, path[i].pose, q_previous, pose_length_m,
                                            options.inverse);
     if (!result) {
       throw InfeasibleError(
           "tool path point " + std::to_string(i) + " (" + block_label(path[i], block_names) +
           "): no inverse kinematic solution: " +
-          explain_unreachable(model, path[i].pose, q_previous, tool_length_m, options.inverse));
+          explain_unreachable(model, path[i].pose, q_previous, pose_length_m, options.inverse));
     }
     out.q.col(static_cast<Eigen::Index>(i)) = result->q;
     singular[i] = result->singular;
@@ -174,10 +181,14 @@ PathKinematics solve_path_kinematics(const MachineModel& model, const std::vecto
 
   // Arc length and chords. A motion that turns the tool about a fixed tip (a re-orientation)
   // has no tip arc length: it is parametrised by its rotary motion instead (see the header).
+  // After a tool change the motion starts where the new tool's tip is at the old position.
   std::vector<Eigen::Vector3d> chord(n, Eigen::Vector3d::Zero());  // chord[i]: point i-1 -> i
   std::vector<bool> turns_in_place(n, false);
+  std::vector<bool> tool_changes(n, false);  // per point: the next motion has another length
   for (std::size_t i = 1; i < n; ++i) {
-    chord[i] = path[i].pose.tip_W_m - path[i - 1].pose.tip_W_m;
+    tool_changes[i - 1] = length_m[i] != length_m[i - 1];
+    chord[i] = path[i].pose.tip_W_m - tip_with_tool_length(path[i - 1].pose.tip_W_m, path[i - 1].pose.axis_W,
+                                                           length_m[i - 1], length_m[i]);
     double ds = chord[i].norm();
     if (ds < kStationaryChord_m) {
       double rotary2 = 0.0;
@@ -236,6 +247,14 @@ PathKinematics solve_path_kinematics(const MachineModel& model, const std::vecto
       first = i;
       continue;
     }
+    if (tool_changes[i]) {
+      // A tool change ends a stretch: the new tool starts from rest.
+      const double angle = i + 1 < n && chord[i + 1].norm() >= kStationaryChord_m ? angle_between(chord[i], chord[i + 1]) : 0.0;
+      out.corners.push_back({i, out.s_m[i], angle});
+      stretches.push_back({first, i});
+      first = i;
+      continue;
+    }
     if (i + 1 < n && chord[i + 1].norm() >= kStationaryChord_m) {
       const double angle = angle_between(chord[i], chord[i + 1]);
       if (angle > options.corner_angle_rad &&
@@ -251,6 +270,7 @@ PathKinematics solve_path_kinematics(const MachineModel& model, const std::vecto
   for (const Stretch& stretch : stretches) fit_stretch(stretch, out.s_m, out.q, options, out);
   out.derivatives_fitted = true;
   out.tool_length_m = tool_length_m;
+  if (lengths_differ) out.point_tool_length_m = length_m;
   out.inverse = options.inverse;
   out.block_names = block_names;
   out.block.resize(n);

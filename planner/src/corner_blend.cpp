@@ -176,7 +176,9 @@ CornerBlendResult blend_corners(const Toolpath& path, const CornerBlendOptions& 
   // point on the incoming segment and its end one on the outgoing segment.
   auto push = [&out](const PathPoint& point) {
     if (!out.empty() && (out.back().tip_W_m - point.tip_W_m).norm() < kStationaryChord_m &&
-        (out.back().axis_W - point.axis_W).norm() < 1e-12) {
+        (out.back().axis_W - point.axis_W).norm() < 1e-12 &&
+        (out.back().tool_length_m == point.tool_length_m ||
+         (std::isnan(out.back().tool_length_m) && std::isnan(point.tool_length_m)))) {
       return;
     }
     out.push_back(point);
@@ -203,6 +205,14 @@ CornerBlendResult blend_corners(const Toolpath& path, const CornerBlendOptions& 
       continue;
     }
     const double theta = angle_between(chord_in, chord_out);
+    if (corner.tool_length_m != next.tool_length_m &&
+        !(std::isnan(corner.tool_length_m) && std::isnan(next.tool_length_m))) {
+      // The tool changes here (M6): the new tool's motion starts from rest.
+      result.exact_stops.push_back({i, corner.block, theta, "a tool change to a tool of another length"});
+      first = i;
+      push(corner);
+      continue;
+    }
     if (!(theta > options.corner_angle_rad &&
           secant_angle(points, i, first, options.corner_baseline_m) > options.corner_angle_rad)) {
       push(corner);

@@ -46,9 +46,11 @@ double distance_to_segment(const Vector3d& p, const Vector3d& a, const Vector3d&
 }
 
 /// The programmed polyline: tips and tool axes at the points (direct kinematics of q, which the
-/// IKT solved from the programmed poses).
+/// IKT solved from the programmed poses), each with the tool of the motion that ends there;
+/// start_tip[i]: where segment i (to point i + 1) starts, the tip of its own tool at q of point
+/// i (tip[i] unless the tool changes there: PathKinematics::point_tool_length_m).
 struct Polyline {
-  std::vector<Vector3d> tip, axis;
+  std::vector<Vector3d> tip, axis, start_tip;
 };
 
 Polyline programmed_polyline(const kinematics::MachineModel& machine, const kinematics::PathKinematics& path) {
@@ -56,10 +58,14 @@ Polyline programmed_polyline(const kinematics::MachineModel& machine, const kine
   const auto n = static_cast<std::size_t>(path.q.cols());
   out.tip.resize(n);
   out.axis.resize(n);
+  out.start_tip.resize(n);
   for (std::size_t i = 0; i < n; ++i) {
-    const kinematics::ToolPose pose = kinematics::forward_kinematics(machine, path.q.col(idx(i)), path.tool_length_m);
+    const kinematics::ToolPose pose = kinematics::forward_kinematics(machine, path.q.col(idx(i)), path.length_into(i));
     out.tip[i] = pose.tip_W_m;
     out.axis[i] = pose.axis_W.normalized();
+    out.start_tip[i] = i + 1 < n ? kinematics::tip_with_tool_length(out.tip[i], out.axis[i], path.length_into(i),
+                                                                     path.length_into(i + 1))
+                                 : out.tip[i];
   }
   return out;
 }
@@ -115,20 +121,21 @@ struct PoseOffset {
 Eigen::VectorXd programmed_q(const kinematics::MachineModel& machine, const Working& w, std::size_t i, double f,
                              const PoseOffset& offset = {}) {
   const kinematics::PathKinematics& path = w.path;
-  const Vector3d tip = (1.0 - f) * w.programmed.tip[i] + f * w.programmed.tip[i + 1] + offset.tip_m;
+  const Vector3d tip = (1.0 - f) * w.programmed.start_tip[i] + f * w.programmed.tip[i + 1] + offset.tip_m;
   const Vector3d programmed_axis = slerp(w.programmed.axis[i], w.programmed.axis[i + 1], f);
   const Vector3d axis = offset.axis_fraction > 0.0 ? slerp(programmed_axis, offset.towards_axis, offset.axis_fraction)
                                                    : programmed_axis;
   const Eigen::VectorXd seed = (1.0 - f) * path.q.col(idx(i)) + f * path.q.col(idx(i + 1));
-  const auto result = kinematics::inverse_kinematics(machine, kinematics::ToolPose{tip, axis}, seed, path.tool_length_m,
-                                                     path.inverse);
+  const auto result = kinematics::inverse_kinematics(machine, kinematics::ToolPose{tip, axis}, seed,
+                                                     path.length_into(i + 1), path.inverse);
   if (!result) {
     const double h = path.s_m[i + 1] - path.s_m[i];
     throw InfeasibleError("path fidelity: a point added on the programmed path between path points " +
                           std::to_string(i) + " and " + std::to_string(i + 1) + " (" + path_point_label(path, i + 1) +
                           ", s = " + format_double(path.s_m[i] * 1e3) + " mm + " + format_double(f * h * 1e3) +
                           " mm) has no inverse kinematic solution: " +
-                          kinematics::explain_unreachable(machine, {tip, axis}, seed, path.tool_length_m, path.inverse));
+                          kinematics::explain_unreachable(machine, {tip, axis}, seed, path.length_into(i + 1),
+                                                          path.inverse));
   }
   return result->q;
 }
@@ -193,6 +200,8 @@ std::vector<bool> insert_points(const kinematics::MachineModel& machine, Working
   out.q_sss.resize(axes, idx(m));
   out.derivatives_fitted = old.derivatives_fitted;
   out.tool_length_m = old.tool_length_m;
+  const bool has_lengths = old.point_tool_length_m.size() == n;
+  if (has_lengths) out.point_tool_length_m.resize(m);
   out.inverse = old.inverse;
   out.block_names = old.block_names;
   const bool has_blocks = old.block.size() == n;
@@ -203,6 +212,7 @@ std::vector<bool> insert_points(const kinematics::MachineModel& machine, Working
   next.input_tolerance_m = w.input_tolerance_m;  // per input point: unchanged by insertions
   next.programmed.tip.resize(m);
   next.programmed.axis.resize(m);
+  next.programmed.start_tip.resize(m);
   next.source_point.resize(m);
   next.singular.resize(m);
   const bool has_free = w.free_end.size() == n;
@@ -220,8 +230,10 @@ std::vector<bool> insert_points(const kinematics::MachineModel& machine, Working
     out.q_sss.col(idx(k)) = old.q_sss.col(idx(i));
     if (has_blocks) out.block[k] = old.block[i];
     if (has_turns) out.turns_in_place[k] = old.turns_in_place[i];
+    if (has_lengths) out.point_tool_length_m[k] = old.point_tool_length_m[i];
     next.programmed.tip[k] = w.programmed.tip[i];
     next.programmed.axis[k] = w.programmed.axis[i];
+    next.programmed.start_tip[k] = w.programmed.start_tip[i];
     next.source_point[k] = w.source_point[i];
     next.singular[k] = w.singular[i];
     if (has_free) next.free_end[k] = w.free_end[i];
@@ -233,7 +245,7 @@ std::vector<bool> insert_points(const kinematics::MachineModel& machine, Working
     const double h = old.s_m[i + 1] - old.s_m[i];
     for (std::size_t j = 0; j < cuts[c].second.size(); ++j) {
       const double f = cuts[c].second[j];
-      const Vector3d tip = (1.0 - f) * w.programmed.tip[i] + f * w.programmed.tip[i + 1];
+      const Vector3d tip = (1.0 - f) * w.programmed.start_tip[i] + f * w.programmed.tip[i + 1];
       const Vector3d axis = slerp(w.programmed.axis[i], w.programmed.axis[i + 1], f);
       out.s_m[k] = old.s_m[i] + f * h;
       out.q.col(idx(k)) = programmed_q(machine, w, i, f, offsets != nullptr ? (*offsets)[c][j] : PoseOffset{});
@@ -243,8 +255,10 @@ std::vector<bool> insert_points(const kinematics::MachineModel& machine, Working
       out.q_sss.col(idx(k)) = (1.0 - f) * old.q_sss.col(idx(i)) + f * old.q_sss.col(idx(i + 1));
       if (has_blocks) out.block[k] = old.block[i + 1];
       if (has_turns) out.turns_in_place[k] = old.turns_in_place[i + 1];
+      if (has_lengths) out.point_tool_length_m[k] = old.point_tool_length_m[i + 1];  // inside segment i
       next.programmed.tip[k] = tip;
       next.programmed.axis[k] = axis;
+      next.programmed.start_tip[k] = tip;
       next.source_point[k] = w.source_point[i + 1];
       next.singular[k] = w.singular[i] && w.singular[i + 1];
       inserted[k] = true;
@@ -307,8 +321,8 @@ SegmentDeviation segment_deviation(const kinematics::MachineModel& machine, cons
   for (int k = 1; k <= samples; ++k) {
     const double f = static_cast<double>(k) / static_cast<double>(samples + 1);
     spline.evaluate(i, f * h, &q, nullptr, nullptr, nullptr);
-    const kinematics::ToolPose pose = kinematics::forward_kinematics(machine, q, w.path.tool_length_m);
-    const double d = distance_to_segment(pose.tip_W_m, w.programmed.tip[i], w.programmed.tip[i + 1]);
+    const kinematics::ToolPose pose = kinematics::forward_kinematics(machine, q, w.path.length_into(i + 1));
+    const double d = distance_to_segment(pose.tip_W_m, w.programmed.start_tip[i], w.programmed.tip[i + 1]);
     if (d > out.tip_m) out.tip_m = d, out.tip_sigma_m = f * h;
     const Vector3d programmed_axis =
         rotary_turns ? slerp(w.programmed.axis[i], w.programmed.axis[i + 1], f) : w.programmed.axis[i];
@@ -316,11 +330,11 @@ SegmentDeviation segment_deviation(const kinematics::MachineModel& machine, cons
     if (a > out.axis_rad) out.axis_rad = a, out.axis_sigma_m = f * h;
   }
   spline.evaluate(i, 0.5 * h, &q, nullptr, nullptr, nullptr);
-  const kinematics::ToolPose middle = kinematics::forward_kinematics(machine, q, w.path.tool_length_m);
+  const kinematics::ToolPose middle = kinematics::forward_kinematics(machine, q, w.path.length_into(i + 1));
   const Vector3d middle_tip = middle.tip_W_m;
   out.middle_axis = middle.axis_W.normalized();
-  const Vector3d chord = w.programmed.tip[i + 1] - w.programmed.tip[i];
-  Vector3d offset = middle_tip - 0.5 * (w.programmed.tip[i] + w.programmed.tip[i + 1]);
+  const Vector3d chord = w.programmed.tip[i + 1] - w.programmed.start_tip[i];
+  Vector3d offset = middle_tip - 0.5 * (w.programmed.start_tip[i] + w.programmed.tip[i + 1]);
   if (chord.squaredNorm() > 0.0) offset -= offset.dot(chord) / chord.squaredNorm() * chord;
   out.middle_offset_m = offset;
   return out;
@@ -546,8 +560,8 @@ PathDeviation pose_deviation(const kinematics::MachineModel& machine, const kine
     i = std::min(i, path.s_m.size() - 2);
     const bool turns_in_place = i + 1 < path.turns_in_place.size() && path.turns_in_place[i + 1];
     if (i + 1 < free_end.size() && free_end[i + 1] && !turns_in_place) continue;
-    const kinematics::ToolPose pose = kinematics::forward_kinematics(machine, q.col(idx(k)), path.tool_length_m);
-    const double d = distance_to_segment(pose.tip_W_m, programmed.tip[i], programmed.tip[i + 1]);
+    const kinematics::ToolPose pose = kinematics::forward_kinematics(machine, q.col(idx(k)), path.length_into(i + 1));
+    const double d = distance_to_segment(pose.tip_W_m, programmed.start_tip[i], programmed.tip[i + 1]);
     if (d > out.tip_m) out.tip_m = d, out.tip_s_m = s_m[k], out.tip_point = i + 1;
     const double h = path.s_m[i + 1] - path.s_m[i];
     const double f = h > 0.0 ? std::clamp((s_m[k] - path.s_m[i]) / h, 0.0, 1.0) : 0.0;

@@ -61,6 +61,12 @@ void TrajectoryThinner::finish() {
   anchor_ = next_ - 1;
 }
 
+void TrajectoryThinner::restart_from(const Pose& anchor) {
+  if (next_ == 0) return;
+  finish();  // the last sample is kept; the window holds it alone
+  window_.front() = anchor;
+}
+
 std::vector<std::size_t> thin_trajectory(const std::vector<Pose>& poses, double tool_length_m,
                                          double tolerance_m) {
   std::vector<std::size_t> kept;

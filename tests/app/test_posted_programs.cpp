@@ -87,6 +87,7 @@ int column_of(const TraceRows& trace, const std::string& name) {
 struct KnownPosition {
   int line = 0;
   double x_mm = 0, y_mm = 0, z_mm = 0;
+  int h = 1;  ///< the G43 H number in force (the tool length the machine Z carries)
 };
 
 /// Reads the program's plain absolute blocks (see the file comment) and gives every motion block
@@ -100,6 +101,7 @@ std::vector<KnownPosition> known_positions(const std::string& program) {
   bool motion_modal = false;
   bool tcp = false;      // G43.4 / G43.5: X Y Z are the tip under TCP, checked elsewhere
   bool shifted = false;  // a G52 / G92 / G10 / G68 seen
+  int h = 1;
   std::istringstream lines(program);
   std::string text;
   int line = 0;
@@ -156,7 +158,8 @@ std::vector<KnownPosition> known_positions(const std::string& program) {
     if (words.count('X')) x = words['X'] * unit_mm;
     if (words.count('Y')) y = words['Y'] * unit_mm;
     if (words.count('Z')) z = words['Z'] * unit_mm;
-    if (moves && motion_modal && x && y && z) known.push_back({line, *x, *y, *z});
+    if (words.count('H')) h = static_cast<int>(words['H']);
+    if (moves && motion_modal && x && y && z) known.push_back({line, *x, *y, *z, h});
   }
   return known;
 }
@@ -170,12 +173,14 @@ struct Case {
   /// 10 um, G187 E0.05) the blend passes the corner at up to tolerance / sin(half the corner's
   /// angle): 1.5 tolerance for the 90 deg corners these programs have.
   double pass_within_mm;
+  /// The length of tool 2 (H2) in the part's table, where it is not the others' kToolLengthMm.
+  double h2_length_mm = kToolLengthMm;
 };
 
 const Case kCases[] = {
     {"fusion360_mm", "program.nc", 30, 1e-3},        {"fusion360_inch", "program.nc", 30, 1e-3},
     {"mastercam", "program.nc", 30, 1e-3},           {"powermill", "program.tap", 30, 1e-3},
-    {"fusion360_engrave", "program.nc", 30, 1e-3},
+    {"fusion360_engrave", "program.nc", 30, 1e-3, 95.0},
     {"nx", "program.ptp", 30, 0.015},                {"freecad_linuxcnc", "program.ngc", 30, 0.015},
     {"haas", "program.nc", 30, 0.075},               {"linuxcnc_macros", "program.ngc", 30, 0.015},
     {"fanuc_macro_b", "program.nc", 30, 1e-3},       {"five_axis_tcp", "program.nc", 0, 1e-3},
@@ -210,7 +215,10 @@ TEST_P(PostedProgram, RunsUnmodifiedAndTheAxesGoWhereTheProgramPutsThem) {
     if (rows == trace.rows_of_line.end()) continue;  // a block that adds no point (no motion)
     // The machine axes of the programmed point, and the closest the path comes to it: over the
     // block's rows and the next row (a blend may hand the corner to the next block).
-    const Eigen::Vector3d expected(known.x_mm, known.y_mm, known.z_mm + c.work_zero_z_mm - kTipAboveWAtZ0Mm);
+    // Machine Z carries the length of the tool whose H is in force (T2 is longer in one part).
+    const double length_mm = known.h == 2 ? c.h2_length_mm : kToolLengthMm;
+    const Eigen::Vector3d expected(known.x_mm, known.y_mm,
+                                   known.z_mm + c.work_zero_z_mm - (kTipAboveWAtZ0Mm + kToolLengthMm) + length_mm);
     double closest = std::numeric_limits<double>::infinity();
     std::vector<std::size_t> candidates = rows->second;
     if (rows->second.back() + 1 < trace.rows.size()) candidates.push_back(rows->second.back() + 1);
@@ -251,14 +259,9 @@ TEST_P(PostedProgramSimulated, SimulatePartRunsThroughWithEveryCheckPassed) {
   ASSERT_TRUE(report.contains("validity_checks"));
   std::size_t checks = 0;
   for (const auto& check : report["validity_checks"]) {
-    const std::string id = check["id"].get<std::string>();
-    // An axis overshooting an end of its travel where a set point sits exactly at it (a G28
-    // return to the Z home) is a warning, not a failure; every other check must pass.
-    if (id.rfind("actual_within_travel", 0) == 0) {
-      EXPECT_NE(check["status"], "FAILED") << folder << ": " << check.dump();
-    } else {
-      EXPECT_EQ(check["status"], "ok") << folder << ": " << check.dump();
-    }
+    // Every check passes: also the actual positions at a G28 return to the Z home, the end of
+    // Z's travel, where the drive settles a few um beyond (within a control's tolerance there).
+    EXPECT_EQ(check["status"], "ok") << folder << ": " << check.dump();
     ++checks;
   }
   EXPECT_GE(checks, 7u) << report["validity_checks"].dump();

@@ -114,5 +114,32 @@ TEST(ToolTable, TheRemovalCutsEachStretchWithItsOwnTool) {
   }
 }
 
+// A tool change to a tool 5 mm longer after the pose at x = 12 mm (a flat D6 from there): the
+// new tool's first segment starts where its own tip was at that pose, 5 mm lower (z = 3 mm), and
+// rises to (22, 0, 8). By hand: at x = 12 the D6 at its start leaves z = 3; at x = 17 the lowest
+// the rising D6 reaches is at its position x = 14 (17 - 3): z = 3 + 5 x 2 / 10 = 4.
+TEST(ToolTable, AChangeOfLengthStartsTheNewToolAtItsOwnTip) {
+  removal::Tool flat;
+  flat.type = removal::ToolType::flat;
+  flat.diameter_m = 10e-3;
+  flat.corner_radius_m = 0.0;
+  flat.length_m = 20e-3;
+  removal::Tool small = flat;
+  small.diameter_m = 6e-3;
+  const double spacing = 0.1e-3;
+  removal::NBuffer buffer = removal::NBuffer::zmap(
+      removal::Box{Eigen::Vector3d(0, -10e-3, 0), Eigen::Vector3d(30e-3, 10e-3, 10e-3)}, spacing);
+  const std::vector<removal::Pose> poses{{Eigen::Vector3d(2e-3, 0, 8e-3), Eigen::Vector3d::UnitZ()},
+                                         {Eigen::Vector3d(12e-3, 0, 8e-3), Eigen::Vector3d::UnitZ()},
+                                         {Eigen::Vector3d(22e-3, 0, 8e-3), Eigen::Vector3d::UnitZ()}};
+  app::cut_with_tools(buffer, {flat, flat, small}, poses, {0, 1, 2}, {}, {0.060, 0.060, 0.065});
+  const double z0 = buffer.zmap_origin_m().z();
+  const int j0 = static_cast<int>(std::lround((0.0 - buffer.origin(0, 0).y()) / spacing));
+  const auto height = [&](double x) { return buffer.length(static_cast<int>(std::lround(x / spacing)), j0) + z0; };
+  EXPECT_NEAR(height(12e-3), 3e-3, 1e-9);
+  EXPECT_NEAR(height(17e-3), 4e-3, 1e-9);
+  EXPECT_NEAR(height(5e-3), 8e-3, 1e-9);  // the first tool's slot
+}
+
 }  // namespace
 }  // namespace vmsim

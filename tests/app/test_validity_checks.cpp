@@ -2,6 +2,9 @@
 // on the path, a known distance off it, beyond the travel.
 #include <gtest/gtest.h>
 
+#include <cmath>
+#include <limits>
+
 #include "validity_checks.hpp"
 #include "vmsim/kinematics/kinematics.hpp"
 #include "vmsim/kinematics/sample_models.hpp"
@@ -140,6 +143,58 @@ TEST(ValidityChecks, AnOvershootingDriveIsAWarning) {
   EXPECT_EQ(check.status, app::CheckStatus::warning);
   EXPECT_NEAR(check.value, 0.2, 1e-9);
   EXPECT_NE(check.detail.find("axis Z"), std::string::npos);
+}
+
+TEST(ValidityChecks, ASettlingOvershootAtAnEndOfTheTravelIsNoAlarm) {
+  // A G28 return to the Z home at the end of Z's travel, the drive settling 15 um beyond it: a
+  // control's actual-position monitoring allows 0.1 mm there (no alarm); 0.1 mm + 1 um does not.
+  const StraightMove move;
+  Eigen::MatrixXd actual = move.setpoints.q;
+  actual(2, 10) = 15e-6;
+  app::ValidityCheck check = app::check_actual_within_travel(move.machine, move.setpoints.t_s, actual, "production");
+  EXPECT_EQ(check.status, app::CheckStatus::passed);
+  EXPECT_NEAR(check.value, 0.015, 1e-9);
+  EXPECT_NE(check.detail.find("axis Z overshoots its travel by 0.015"), std::string::npos) << check.detail;
+  EXPECT_NE(check.detail.find("no alarm"), std::string::npos) << check.detail;
+  actual(2, 10) = 0.101e-3;
+  check = app::check_actual_within_travel(move.machine, move.setpoints.t_s, actual, "production");
+  EXPECT_EQ(check.status, app::CheckStatus::warning);
+}
+
+TEST(ValidityChecks, EachSegmentIsMeasuredWithTheToolOfItsMotion) {
+  // The same axis motion with a tool 30 mm longer on the second segment: the programmed poses of
+  // that tool are 30 mm lower (tip = gauge point - length x axis). Measured with each segment's
+  // tool the set points lie on the path; with one length for both, the last set point (10 mm
+  // along x, 30 mm above the short tool's programmed end) is 30 x 10 / sqrt(10^2 + 30^2) mm from
+  // the segment.
+  StraightMove move;
+  Eigen::VectorXd q_mid = Eigen::VectorXd::Zero(5), q_end = Eigen::VectorXd::Zero(5);
+  q_mid << 0.01, 0.001, -0.1, 0.0, 0.0;
+  q_end << 0.02, 0.001, -0.1, 0.0, 0.0;
+  const double longer = kToolLength + 0.03;
+  kinematics::PathPose end{kinematics::forward_kinematics(move.machine, q_end, longer), 1};
+  end.tool_length_m = longer;
+  move.path.push_back(end);
+  const double length = move.path_s_m.back();
+  move.path_s_m.push_back(2.0 * length);  // the new tool starts at its own tip over q_mid
+  move.rapid_end.push_back(false);
+  move.setpoints.q.conservativeResize(5, 201);
+  for (int k = 101; k <= 200; ++k) {
+    const double f = (k - 100) / 100.0;
+    move.setpoints.t_s.push_back(0.01 * k);
+    move.setpoints.s_m.push_back(length + f * length);
+    move.setpoints.q.col(k) = (1 - f) * q_mid + f * q_end;
+  }
+  app::ValidityCheck check = app::check_setpoints_on_path(move.machine, move.path, move.rapid_end, move.path_s_m,
+                                                          kToolLength, move.setpoints, move.block_names,
+                                                          "production", 0.5e-6);
+  EXPECT_EQ(check.status, app::CheckStatus::passed) << check.detail;
+  EXPECT_LT(check.value, 1e-3);
+  move.path.back().tool_length_m = std::numeric_limits<double>::quiet_NaN();  // one length for all
+  check = app::check_setpoints_on_path(move.machine, move.path, move.rapid_end, move.path_s_m, kToolLength,
+                                       move.setpoints, move.block_names, "production", 0.5e-6);
+  EXPECT_EQ(check.status, app::CheckStatus::failed);
+  EXPECT_NEAR(check.value, 30e3 * 10.0 / std::sqrt(1000.0), 1e-3);
 }
 
 TEST(ValidityChecks, AReferenceFarFromTheCommandedSurfaceFails) {

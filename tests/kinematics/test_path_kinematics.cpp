@@ -7,6 +7,7 @@
 #include <cmath>
 #include <array>
 #include <functional>
+#include <limits>
 #include <numbers>
 
 #include "vmsim/common/errors.hpp"
@@ -427,4 +428,47 @@ TEST(PathKinematics, RobotPathFromHomeToAFarFirstPose) {
   for (Eigen::Index i = 1; i < pk.q.cols(); ++i) {
     EXPECT_LT((pk.q.col(i) - pk.q.col(i - 1)).cwiseAbs().maxCoeff(), 0.02) << "point " << i;
   }
+}
+
+// A tool change to a tool 35 mm longer (PathPose::tool_length_m) at the same programmed tip: the
+// axes lift the spindle by 35 mm (a real motion of 35 mm of s, from the new tool's tip at the old
+// axes), each pose's direct kinematics with its own tool gives its tip, and the point before the
+// change is a corner (the change is at rest).
+TEST(PathKinematics, EachPoseIsSolvedWithItsOwnToolAndTheChangeIsACorner) {
+  const vk::MachineModel m = vk::make_table_table_sample();
+  const double short_m = 0.06, long_m = 0.095;
+  Eigen::VectorXd q_ref = m.home_positions();
+  q_ref[2] = -0.2;  // Z well inside its travel
+  const vk::ToolPose start = vk::forward_kinematics(m, q_ref, short_m);
+  const Eigen::Vector3d x(0.01, 0.0, 0.0);
+  std::vector<vk::PathPose> path(4);
+  path[0].pose = start;
+  path[1].pose = {start.tip_W_m + x, start.axis_W};
+  path[2].pose = {start.tip_W_m + x, start.axis_W};
+  path[2].tool_length_m = long_m;
+  path[3].pose = {start.tip_W_m + 2.0 * x, start.axis_W};
+  path[3].tool_length_m = long_m;
+  const vk::PathKinematics pk = vk::solve_path_kinematics(m, path, q_ref, short_m, {});
+  const double lengths[] = {short_m, short_m, long_m, long_m};
+  for (std::size_t i = 0; i < 4; ++i) {
+    const Eigen::Vector3d tip = vk::forward_kinematics(m, pk.q.col(static_cast<Eigen::Index>(i)), lengths[i]).tip_W_m;
+    EXPECT_LT((tip - path[i].pose.tip_W_m).norm(), 1e-9) << i;
+    EXPECT_DOUBLE_EQ(pk.length_into(i), lengths[i]);
+  }
+  // The spindle 35 mm higher: the short tool's tip at the new axes is 35 mm above the program.
+  const Eigen::Vector3d lifted = vk::forward_kinematics(m, pk.q.col(2), short_m).tip_W_m;
+  EXPECT_LT((lifted - (path[2].pose.tip_W_m + 0.035 * start.axis_W)).norm(), 1e-9);
+  EXPECT_NEAR(pk.s_m[1], 0.01, 1e-12);
+  EXPECT_NEAR(pk.s_m[2] - pk.s_m[1], 0.035, 1e-12);
+  EXPECT_NEAR(pk.s_m[3] - pk.s_m[2], 0.01, 1e-12);
+  bool corner_at_change = false;
+  for (const auto& corner : pk.corners) corner_at_change = corner_at_change || corner.point == 1;
+  EXPECT_TRUE(corner_at_change);
+  // One length everywhere: no per-point lengths.
+  for (auto& pose : path) pose.tool_length_m = std::numeric_limits<double>::quiet_NaN();
+  path[2].pose.tip_W_m += 0.035 * start.axis_W;  // the same axes with the short tool
+  path[3].pose.tip_W_m += 0.035 * start.axis_W;
+  const vk::PathKinematics one = vk::solve_path_kinematics(m, path, q_ref, short_m, {});
+  EXPECT_TRUE(one.point_tool_length_m.empty());
+  EXPECT_LT((one.q - pk.q).cwiseAbs().maxCoeff(), 1e-9);
 }

@@ -139,3 +139,38 @@ TEST(TrajectoryThinner, SingleAndTwoSamples) {
 
 }  // namespace
 }  // namespace vmsim::removal
+
+namespace vmsim::removal {
+namespace {
+
+// A tool change to a tool 35 mm longer after sample 9 of a straight line (samples 10..19 have
+// their tips 35 mm lower, the axes moving on): the thinner keeps sample 9 and thins on from it
+// seen with the new tool, so the second stretch is one segment from that anchor to sample 19.
+// Thinned across the change, samples 10..18 would lie up to 35 mm off the interpolation.
+TEST(TrajectoryThinnerToolChange, KeepsTheSampleBeforeTheChangeAndThinsOnFromItWithTheNewTool) {
+  const Eigen::Vector3d z = Eigen::Vector3d::UnitZ();
+  const double drop = 35e-3;
+  std::vector<std::size_t> kept;
+  std::vector<Pose> kept_poses;
+  TrajectoryThinner thinner(20e-3, 0.05e-6, [&](std::size_t k, const Pose& pose) {
+    kept.push_back(k);
+    kept_poses.push_back(pose);
+  });
+  for (int k = 0; k < 20; ++k) {
+    const Eigen::Vector3d tip(k * 1e-3, 0.0, k < 10 ? 0.0 : -drop);
+    if (k == 10) thinner.restart_from({Eigen::Vector3d(9e-3, 0.0, -drop), z});
+    thinner.push({tip, z});
+  }
+  thinner.finish();
+  EXPECT_EQ(kept, (std::vector<std::size_t>{0, 9, 19}));
+  EXPECT_NEAR(kept_poses[1].tip_W_m.z(), 0.0, 1e-15);  // reported with the old tool
+  // Without the restart, the samples after the change are kept one by one near the jump.
+  std::vector<std::size_t> plain;
+  TrajectoryThinner across(20e-3, 0.05e-6, [&](std::size_t k, const Pose&) { plain.push_back(k); });
+  for (int k = 0; k < 20; ++k) across.push({Eigen::Vector3d(k * 1e-3, 0.0, k < 10 ? 0.0 : -drop), z});
+  across.finish();
+  EXPECT_EQ(plain, (std::vector<std::size_t>{0, 9, 10, 19}));
+}
+
+}  // namespace
+}  // namespace vmsim::removal

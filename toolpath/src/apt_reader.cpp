@@ -468,6 +468,8 @@ class AptReader {
       point.kind = rapid ? MotionKind::rapid : MotionKind::linear;
       point.feed_m_per_s = rapid ? 0.0 : *feed_m_per_s_;
       point.tool_number = tool_number_;
+      // CL points are tips: the length only places the axes (LOADTL's tool from the table).
+      if (const auto mm = detail::spindle_tool_length_mm(options_, tool_number_)) point.tool_length_m = *mm * 1e-3;
       point.block = block_index;
       detail::append_point(path_, point, options_, file_, record.name_at.line);
     }

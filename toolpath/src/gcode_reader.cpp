@@ -1249,6 +1249,7 @@ class GcodeReader {
     PathPoint point;
     point.kind = kind;
     point.tool_number = tool_number_;
+    point.tool_length_m = spindle_length_m();
     point.corner_tolerance_m = corner_tolerance_m_;
     return point;
   }
@@ -1520,6 +1521,12 @@ class GcodeReader {
     return first;
   }
 
+  /// The length of the tool in the spindle [m] (PathPoint::tool_length_m), NaN when unknown.
+  double spindle_length_m() const {
+    const std::optional<double> mm = detail::spindle_tool_length_mm(options_, tool_number_);
+    return mm ? *mm * kMetresPerMillimetre : PathPoint::kNotProgrammed;
+  }
+
   void check_rotary_words(const Word& word) const {
     switch (tcp_) {
       case Tcp::g43_5:
@@ -1607,7 +1614,13 @@ class GcodeReader {
   /// (ReaderOptions::tip_to_axis_words), nullopt without the callback or an answer.
   std::optional<Eigen::Vector3d> machine_axes_at_tip() const {
     if (!options_.tip_to_axis_words || !position_[0] || !position_[1] || !position_[2]) return std::nullopt;
-    const Eigen::Vector3d tip_W_m = Eigen::Vector3d(*position_[0], *position_[1], *position_[2]) * kMetresPerMillimetre;
+    const Eigen::Vector3d spindle_tip_W_m =
+        Eigen::Vector3d(*position_[0], *position_[1], *position_[2]) * kMetresPerMillimetre;
+    // The callback places the caller's tool: its tip where the gauge point of the tool in the
+    // spindle puts it.
+    const Eigen::Vector3d tip_W_m =
+        spindle_tip_W_m + (spindle_tip_W_m - detail::spindle_tip_W_m(options_, {spindle_tip_W_m, axis_W_},
+                                                                     detail::spindle_tool_length_mm(options_, tool_number_)));
     const std::vector<std::pair<char, double>> words = rotary_words(rotary_deg_);
     const std::optional<Eigen::Vector3d> machine_mm =
         located_call("tip_to_axis_words", [&] { return options_.tip_to_axis_words(tip_W_m, axis_W_, words); });
@@ -1630,9 +1643,10 @@ class GcodeReader {
       if (!pose.tip_W_m.allFinite()) {
         fail(0, "axis_words_to_pose gave a tool tip that is not finite for '" + line_text_ + "'");
       }
-      point.tip_W_m = pose.tip_W_m;
       point.axis_W = detail::unit_tool_axis(pose.axis_W, file_, line_, 0,
                                             line_text_ + " (through axis_words_to_pose)");
+      point.tip_W_m = detail::spindle_tip_W_m(options_, {pose.tip_W_m, point.axis_W},
+                                              detail::spindle_tool_length_mm(options_, tool_number_));
       return;
     }
     if (tcp_ == Tcp::off) {

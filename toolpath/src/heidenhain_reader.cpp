@@ -1818,6 +1818,7 @@ class HeidenhainReader {
     point.kind = kind;
     point.block = block;
     point.tool_number = tool_number_;
+    if (const auto mm = detail::spindle_tool_length_mm(options_, tool_number_)) point.tool_length_m = *mm * 1e-3;
     point.corner_tolerance_m = corner_tolerance_m_;
     return point;
   }
@@ -1885,7 +1886,9 @@ class HeidenhainReader {
         }
         point.axis_W = detail::unit_tool_axis(pose.axis_W, file_, line_, 0,
                                               line_text_ + " (through axis_words_to_pose)");
-        point.tip_W_m = pose.tip_W_m + shift_W_mm * kMetresPerMillimetre;
+        point.tip_W_m = detail::spindle_tip_W_m(options_, {pose.tip_W_m, point.axis_W},
+                                                detail::spindle_tool_length_mm(options_, tool_number_)) +
+                        shift_W_mm * kMetresPerMillimetre;
         return;
       }
       const Vec3 gauge_mm = m - Vec3(0.0, 0.0, tool_length_mm_);

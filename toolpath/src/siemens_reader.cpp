@@ -1772,6 +1772,7 @@ class SiemensReader {
     PathPoint point;
     point.kind = kind;
     point.tool_number = tool_number_;
+    if (const auto mm = detail::spindle_tool_length_mm(options_, tool_number_)) point.tool_length_m = *mm * 1e-3;
     point.corner_tolerance_m = corner_tolerance_m_;
     point.jerk_mode = jerk_mode_;
     point.feedforward = feedforward_;
@@ -1826,8 +1827,10 @@ class SiemensReader {
       for (const auto& w : rotary_words(rotary_deg)) words.push_back(w);
       const AxisWordPose pose = located_call("axis_words_to_pose", [&] { return options_.axis_words_to_pose(words); });
       if (!pose.tip_W_m.allFinite()) fail(0, "axis_words_to_pose gave a tool tip that is not finite for '" + line_text_ + "'");
-      point.tip_W_m = pose.tip_W_m;
       point.axis_W = detail::unit_tool_axis(pose.axis_W, current_file(), line_, 0, line_text_ + " (through axis_words_to_pose)");
+      // The tool in the spindle (T), whatever D compensates.
+      point.tip_W_m = detail::spindle_tip_W_m(options_, {pose.tip_W_m, point.axis_W},
+                                              detail::spindle_tool_length_mm(options_, tool_number_));
       return;
     }
     if (!tip_mode()) {

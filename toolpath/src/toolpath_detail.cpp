@@ -161,6 +161,22 @@ std::string trim(std::string_view text) {
   return std::string(text.substr(begin, end - begin));
 }
 
+std::optional<double> spindle_tool_length_mm(const ReaderOptions& options, int tool_number) {
+  if (tool_number >= 0) {
+    if (const auto it = options.tool_length_mm.find(tool_number); it != options.tool_length_mm.end()) return it->second;
+  }
+  return options.default_tool_length_mm;
+}
+
+Eigen::Vector3d spindle_tip_W_m(const ReaderOptions& options, const AxisWordPose& pose,
+                                const std::optional<double>& spindle_mm) {
+  if (!spindle_mm || !options.default_tool_length_mm || *spindle_mm == *options.default_tool_length_mm) {
+    return pose.tip_W_m;
+  }
+  const double longer_by_m = (*spindle_mm - *options.default_tool_length_mm) * 1e-3;
+  return pose.tip_W_m - longer_by_m * pose.axis_W.normalized();
+}
+
 Eigen::Vector3d unit_tool_axis(const Eigen::Vector3d& v, const std::string& file, int line,
                                int column, const std::string& word) {
   // Scaled by the largest component first, so that huge or tiny components neither overflow
@@ -190,8 +206,12 @@ void append_point(Toolpath& path, const PathPoint& point, const ReaderOptions& o
                   const std::string& file, int line) {
   if (!path.points.empty()) {
     const PathPoint& last = path.points.back();
+    // The same tip with a tool of another length is another machine position (G43 H2 Z50
+    // after T2 M6 lifts the spindle by the difference).
+    const bool same_length = last.tool_length_m == point.tool_length_m ||
+                             (std::isnan(last.tool_length_m) && std::isnan(point.tool_length_m));
     if (last.tip_W_m == point.tip_W_m && last.axis_W == point.axis_W &&
-        same_rotary_words(last, point)) {
+        same_rotary_words(last, point) && same_length) {
       return;
     }
   }

@@ -75,6 +75,19 @@ std::string trim(std::string_view text);
 Eigen::Vector3d unit_tool_axis(const Eigen::Vector3d& v, const std::string& file, int line,
                                int column, const std::string& word);
 
+/// The length [mm] of the tool with T number `tool_number` (-1: none selected) from the spindle
+/// gauge point to its tip: options.tool_length_mm[tool_number], else default_tool_length_mm;
+/// nullopt when neither is given (a reading without tool data).
+std::optional<double> spindle_tool_length_mm(const ReaderOptions& options, int tool_number);
+
+/// The tip in W [m] of the tool in the spindle (`spindle_mm` long) at the machine position whose
+/// pose ReaderOptions::axis_words_to_pose gave as `pose`. The callback places the caller's tool,
+/// default_tool_length_mm long; the tool in the spindle has its tip (default - spindle) further
+/// along the tool axis (tip = gauge point - length x axis). Unchanged where either length is
+/// unknown or they are equal.
+Eigen::Vector3d spindle_tip_W_m(const ReaderOptions& options, const AxisWordPose& pose,
+                                const std::optional<double>& spindle_mm);
+
 /// True when two points hold the same programmed rotary words (both unprogrammed counts as
 /// the same).
 bool same_rotary_words(const PathPoint& a, const PathPoint& b);

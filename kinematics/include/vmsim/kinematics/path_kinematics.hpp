@@ -24,7 +24,22 @@ struct PathPose {
   /// least joint motion). Where given, solve_path_kinematics solves the full 6-dof frame
   /// (inverse_kinematics_with_roll) from the previous point.
   double roll_rad = std::numeric_limits<double>::quiet_NaN();
+  /// The length of the tool in the spindle on the motion that ends here, gauge point to tip [m]
+  /// (a T / M6 tool change switches it); NaN = the length solve_path_kinematics is given.
+  double tool_length_m = std::numeric_limits<double>::quiet_NaN();
 };
+
+/// The tool length of a path pose [m]: its own where given, else `default_m`.
+inline double pose_tool_length_m(const PathPose& pose, double default_m) {
+  return pose.tool_length_m == pose.tool_length_m ? pose.tool_length_m : default_m;
+}
+
+/// Where the tip of a tool `to_length_m` long is at the machine position that puts the tip of a
+/// tool `from_length_m` long at `tip_W_m` with unit axis `axis_W` (tip = gauge - length x axis).
+inline Eigen::Vector3d tip_with_tool_length(const Eigen::Vector3d& tip_W_m, const Eigen::Vector3d& axis_W,
+                                            double from_length_m, double to_length_m) {
+  return from_length_m == to_length_m ? tip_W_m : Eigen::Vector3d(tip_W_m + (from_length_m - to_length_m) * axis_W);
+}
 
 /// How the derivatives are estimated (see solve_path_kinematics).
 struct PathKinematicsOptions {
@@ -85,6 +100,14 @@ struct PathKinematics {
   /// programmed tips), the IKT options, and per point the tool path block (PathPose::block,
   /// -1 unknown) with the block names (for messages; may be empty).
   double tool_length_m = 0.0;
+  /// Per point, the tool length of the motion that ends there [m] (PathPose::tool_length_m),
+  /// where the path changes tools of different lengths; empty: tool_length_m everywhere. The
+  /// segment from point i to i + 1 runs with length_into(i + 1): its start tip is that tool's
+  /// at q of point i (tip_with_tool_length), and point i is a corner (the change is at rest).
+  std::vector<double> point_tool_length_m;
+  double length_into(std::size_t i) const {
+    return point_tool_length_m.empty() ? tool_length_m : point_tool_length_m[i];
+  }
   InverseOptions inverse;
   std::vector<int> block;
   std::vector<std::string> block_names;
@@ -99,6 +122,9 @@ struct PathKinematics {
 ///
 /// q: inverse_kinematics of pose i with q_previous = q of pose i-1 (q_start for the first), so
 /// rotary axes are unwrapped and a table-table C axis holds still through a singular zone.
+/// Tool lengths: each pose is solved with its own (PathPose::tool_length_m, else
+/// tool_length_m). Where the length changes from point i to i + 1 (a tool change), the chord of
+/// that motion starts at the new tool's tip at q of point i, and point i is a corner.
 /// s: cumulative chord length of the programmed tips (s_m[0] = 0); a motion where the tip stays
 /// (chord < 1e-12 m) but the rotary axes turn counts kReorientationLever_m times their motion
 /// (rad) and is a stretch of its own (corners at both ends, angle 0).

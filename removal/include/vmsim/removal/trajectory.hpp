@@ -34,6 +34,11 @@ class TrajectoryThinner {
   void push(const Pose& pose);
   /// After the last sample: keeps it (when more than one sample was pushed).
   void finish();
+  /// The tool changes after the last sample pushed (another tool length: the same axis
+  /// positions put another tip): keeps that sample, and thins the samples that follow from
+  /// `anchor`, the same sample with the new tool (not reported again: on_kept gave its index).
+  /// No sample is ever interpolated across the change.
+  void restart_from(const Pose& anchor);
   std::size_t samples() const { return next_; }
 
  private:

@@ -157,7 +157,11 @@
 //    alone: NaN. Points inside a block (arc chords, rotary steps) carry NaN where the mode is an
 //    exact stop (they are no corners of the program).
 //  - Tools: T<n> preselects, M6 puts it in the spindle (in either order in one block; M6 with
-//    no T before is an error); PathPoint::tool_number from then on (-1 before).
+//    no T before is an error); PathPoint::tool_number from then on (-1 before), and its length
+//    (PathPoint::tool_length_m) is the tool whose tip the machine axes place: after `T2 M6 G43
+//    H2` machine Z = offset + H2 + Z, and the tip of T2 (as long as H2 says) is at Z; under
+//    G43.4 the programmed tip is the new tool's. An H that is not the tool's own length leaves
+//    the tip off by the difference, as on the machine.
 //  - Tool-centre-point programming (X Y Z are the tool tip in the work system): Fanuc G43.4
 //    (tool axis from rotary words A B C through ReaderOptions::rotary_words_to_tool_axis),
 //    G43.5 (tool vector I J K on G0/G1 blocks), G49 cancels; Siemens TRAORI (tool vector A3= B3=
@@ -443,6 +447,10 @@ struct PathPoint {
   /// The tool (T number, made active by M6) in the spindle for this motion; -1 where the program
   /// selects none (the part file's tool is meant).
   int tool_number = -1;
+  /// The length of that tool from the spindle gauge point to its tip [m]
+  /// (ReaderOptions::tool_length_mm by T number, else default_tool_length_mm; NaN where the
+  /// reader has neither): the direct kinematics of the motion that ends here take it.
+  double tool_length_m = kNotProgrammed;
   /// What the program asks at the corner where this motion ends [m]: 0 = exact stop (G61, G9),
   /// > 0 = blending within this tolerance (G64 P, high-precision contouring G5.1 / G05 P10000 /
   /// G187 with its tolerance); NaN where the program says nothing (the part file or the command
@@ -537,7 +545,11 @@ struct ReaderOptions {
   /// Mastercam's `G28 X0. Y0. A0.` on a 4- and 5-axis machine).
   std::array<double, 3> rotary_reference_deg = {0.0, 0.0, 0.0};
   /// Tool lengths by H (and T) number [mm], for G43 H<n>; a number not in the table takes
-  /// default_tool_length_mm where given, else is an error.
+  /// default_tool_length_mm where given, else is an error. By T number it is also the length of
+  /// the tool in the spindle (PathPoint::tool_length_m). axis_words_to_pose and
+  /// tip_to_axis_words place a tool default_tool_length_mm long (the caller's); where the tool
+  /// in the spindle is longer or shorter, the readers move the tip along the tool axis by the
+  /// difference (the same machine axes, another tool: tip = gauge point - length x axis).
   std::map<int, double> tool_length_mm;
   std::optional<double> default_tool_length_mm;
   /// Cutter radii by D number [mm] (the tool table's diameter / 2), for G41 / G42 D<n>; a
