@@ -8,6 +8,7 @@
 #include <cmath>
 #include <filesystem>
 #include <fstream>
+#include <numbers>
 #include <string>
 #include <vector>
 
@@ -259,7 +260,7 @@ TEST(HeidenhainApproach, PolarFormsEqualTheCartesianOnes) {
     return "BEGIN PGM P MM\nTOOL CALL 1 Z S1000\nL X-30 Y-30 Z-2 R0 FMAX\nCC X+10 Y+0\n" + appr +
            "\nL Y+40\nL X+40\nL Y+0\nL X+0\nCC X+0 Y+0\n" + dep + "\nL Z+5 FMAX\nEND PGM P MM\n";
   };
-  const double pn_angle_deg = 180.0 + std::atan2(10.0, 20.0) * 180.0 / M_PI;
+  const double pn_angle_deg = 180.0 + std::atan2(10.0, 20.0) * 180.0 / std::numbers::pi;
   char dep_polar[128];
   std::snprintf(dep_polar, sizeof dep_polar, "DEP PLCT PR+%.12f PA+%.12f R+10 F400", std::sqrt(500.0), pn_angle_deg);
   const std::vector<std::pair<std::string, std::string>> pairs = {
