@@ -246,15 +246,19 @@ TEST(HeidenhainLabels, LocatedErrors) {
   EXPECT_NE(upward.find("t.h:4:10: cycle 201: Q201 (depth) = 5: only a negative depth"), std::string::npos) << upward;
   const std::string tiny = error("CYCL DEF 200 DRILLING Q200=2 Q201=-500 Q206=80 Q202=0.00001 Q210=0 Q203=0 Q204=10\nCYCL CALL\n");
   EXPECT_NE(tiny.find("t.h:5:1: 'CYCL': cycle 200 expands to more than"), std::string::npos) << tiny;
+  // A formula's error names its column in the line, on a parameter line and on the CYCL DEF line.
+  EXPECT_NE(error("CYCL DEF 200 DRILLING\n  Q200=+2 * ;SET-UP CLEARANCE\n").find("t.h:5:13: in the formula"), std::string::npos)
+      << error("CYCL DEF 200 DRILLING\n  Q200=+2 * ;SET-UP CLEARANCE\n");
+  EXPECT_NE(error("CYCL DEF 200 DRILLING Q200=2/0\n").find("t.h:4:30: in the formula"), std::string::npos)
+      << error("CYCL DEF 200 DRILLING Q200=2/0\n");
   EXPECT_NE(error("CYCL DEF 201 REAMING Q200=2 Q201=-5 Q206=FMAX Q211=0 Q208=0 Q203=0 Q204=10\nCYCL CALL\n")
                 .find("Q206 (feed rate for plunging) FMAX"),
             std::string::npos);
 }
 
-// Polar APPR / DEP: the same motion as the Cartesian form at the point PR PA about CC.
-// PA = (0, 0) is PR 10, PA 180 about CC (10, 0); DEP LCT's PN (-20, -10) is PR sqrt(500),
-// PA 180 + atan(1/3) about CC (10, 0)... written here as PR/PA about CC (0, 0): sqrt(500) at
-// 180 + atan2(10, 20) deg.
+// Polar APPR / DEP: the same motion as the Cartesian form at the point PR PA about CC. With
+// CC (10, 0), PA = (0, 0) is PR 10 at PA 180 (or -180); with CC (0, 0), DEP LCT's PN (-20, -10)
+// is PR sqrt(500) at PA 180 + atan2(10, 20) deg.
 TEST(HeidenhainApproach, PolarFormsEqualTheCartesianOnes) {
   const auto square = [](const std::string& appr, const std::string& dep) {
     return "BEGIN PGM P MM\nTOOL CALL 1 Z S1000\nL X-30 Y-30 Z-2 R0 FMAX\nCC X+10 Y+0\n" + appr +

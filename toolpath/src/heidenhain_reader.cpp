@@ -829,7 +829,7 @@ class HeidenhainReader {
         if (const std::size_t semicolon = value_token.text.find(';'); semicolon != std::string::npos) value_token.text.resize(semicolon);
         value_token.text = detail::trim(value_token.text);
         value_token.upper = detail::to_upper(value_token.text);
-        cycle_parameter(q->first, value_token.text, value_token, target);
+        cycle_parameter(q->first, value_token.text, line, equals + 1, value_token, target);
         return;
       }
       q_assignment(line, target, equals, std::nullopt);
@@ -1099,7 +1099,9 @@ class HeidenhainReader {
         value_token.text = t.text.substr(equals + 1);
         value_token.upper = t.upper.substr(equals + 1);
         value_token.column = t.column + static_cast<int>(equals) + 1;
-        cycle_parameter(q->first, value_token.text, value_token, t);
+        // The token where it stands in the line, for the formula's columns.
+        const std::string placed = std::string(static_cast<std::size_t>(t.column - 1), ' ') + t.text;
+        cycle_parameter(q->first, value_token.text, placed, static_cast<std::size_t>(t.column) + equals, value_token, t);
       }
       return;
     }
@@ -1141,7 +1143,10 @@ class HeidenhainReader {
   };
 
   /// One "Qnnn=value" of the cycle being defined (value: a number, a formula, FAUTO, FMAX).
-  void cycle_parameter(const std::string& name, std::string value, const Token& value_token, const Token& name_token) {
+  /// `value` is the text after '='; the formula is read from `source` at `value_start` (its line,
+  /// for the columns of messages).
+  void cycle_parameter(const std::string& name, std::string value, std::string_view source, std::size_t value_start,
+                       const Token& value_token, const Token& name_token) {
     if (const std::size_t semicolon = value.find(';'); semicolon != std::string::npos) value.resize(semicolon);
     value = detail::trim(value);
     const auto [prefix, number] = split_q(name);
@@ -1156,7 +1161,7 @@ class HeidenhainReader {
       v = 0.0;
     } else {
       if (value.empty()) fail(value_token, name + " has no value");
-      v = Formula(*this, value, 0).evaluate();
+      v = Formula(*this, source, value_start).evaluate();
     }
     q_[name] = v;
     cycle_definition_->q[static_cast<int>(number)] = v;
