@@ -104,6 +104,11 @@ TEST(SiemensCycles, LocatedErrors) {
   EXPECT_NE(error("CYCLE83(20,0,2,-25)\n").find("needs the first drilling depth FDEP or FDPR"), std::string::npos);
   EXPECT_NE(error("CYCLE83(20,0,2,-500,,,0.000001)\n").find("expands to more than"), std::string::npos);
   EXPECT_NE(error("CYCLE84(20,0,2,-5)\n").find("'CYCLE84"), std::string::npos);
+  // A modal call's error names the block it runs in, and the MCALL's line.
+  const std::string modal = error("MCALL CYCLE81(10, 0, 1, -5)\nG93\nX20 F5\n");
+  EXPECT_NE(modal.find("part.mpf:6: CYCLE81 (MCALL at line 4) under G93"), std::string::npos) << modal;
+  EXPECT_NE(error("MCALL L100\n").find("part.mpf:4:1: 'MCALL': MCALL of a subprogram is not read"), std::string::npos)
+      << error("MCALL L100\n");
 }
 
 }  // namespace

@@ -1024,6 +1024,9 @@ class SiemensReader {
       }
     }
 
+    if (mcall_word && !drill_word && (subprogram_word || l_word)) {
+      fail(*mcall_word, "MCALL of a subprogram is not read (MCALL CYCLE81 / 82 / 83 are)");
+    }
     // Tool: T selects, M6 loads (D1 active unless the block says otherwise), D the cutting edge.
     if (t_word) {
       if (t_word->value.text) {
@@ -1717,7 +1720,10 @@ class SiemensReader {
   }
 
   void run_drill_cycle(const DrillCycle& c, long block_number) {
-    const std::string name = "CYCLE" + std::to_string(c.number);
+    // A modal call runs in a later block: its errors name that block (and the MCALL's line).
+    const bool here = c.line == line_;
+    const std::string name = "CYCLE" + std::to_string(c.number) + (here ? "" : " (MCALL at line " + std::to_string(c.line) + ")");
+    const auto fail = [&](int column, const std::string& message) { this->fail(here ? column : 0, message); };
     if (compensating()) fail(c.column, name + " under cutter compensation: cancel it (G40) first");
     if (!feed_m_per_s_) fail(c.column, name + " before any F word: the drilling feed is unknown");
     if (inverse_time_) fail(c.column, name + " under G93 (inverse time) is not read");
