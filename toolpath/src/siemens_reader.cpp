@@ -1730,7 +1730,8 @@ class SiemensReader {
     if (!position_[0] || !position_[1] || !position_[2]) {
       fail(c.column, name + " before the tool's position is known: position it first");
     }
-    const auto [u, v, w] = plane_axes(plane_);
+    const std::array<int, 3> axes = plane_axes(plane_);  // (no structured binding: the lambda below uses w)
+    const int u = axes[0], v = axes[1], w = axes[2];
     const Vec3 start = from_frame(Vec3(*position_[0], *position_[1], *position_[2]));
     std::vector<detail::CycleMove> moves;
     if (c.number != 83) {
