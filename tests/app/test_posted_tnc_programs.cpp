@@ -46,6 +46,9 @@ const Case kCases[] = {
     {"hypermill_3axis", 2e-3, true, {-50, -40, 0}, {50, 40, 30}},  // BLK FORM Z-30 .. Z+0, preset at W z 30
     {"nx_3plus2", 2e-3, true, {-50, -40, 0}, {50, 40, 30}},
     {"powermill_5axis", 2e-3, true, {-30, -30, 0}, {30, 30, 26}},  // BLK FORM Z+0 .. Z+26, preset at W 0
+    // APPR PLT / DEP LT under RL, LBL section repeats and subprograms, cycles 200 / 203: the ISO
+    // twin gives the tool centre and each cycle's moves computed by generate.py.
+    {"hypermill_contour_holes", 2e-3, true, {-50, -40, 0}, {50, 40, 30}},
 };
 
 class PostedTncProgram : public ::testing::TestWithParam<Case> {};

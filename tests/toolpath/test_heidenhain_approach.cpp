@@ -212,7 +212,9 @@ TEST(HeidenhainApproach, ErrorsAreLocated) {
   e = error(head + "APPR LT X+0 Y+0 LEN10 RL F300\n" + contour + "DEP LCT R+10 F300\n");
   EXPECT_NE(e.find("t.h:9:5: 'LCT': DEP LCT needs the end point PN's X and Y"), std::string::npos) << e;
   e = error(head + "APPR PLT X+0 Y+0 RL F300\n" + contour);
-  EXPECT_NE(e.find("t.h:4:6: 'PLT': APPR PLT is not read"), std::string::npos) << e;
+  EXPECT_NE(e.find("t.h:4:10: 'X+0': APPR PLT takes PR PA, not X Y"), std::string::npos) << e;
+  e = error(head + "APPR PXY X+0 Y+0 RL F300\n" + contour);
+  EXPECT_NE(e.find("t.h:4:6: 'PXY': APPR PXY is not read"), std::string::npos) << e;
   e = error(head + "APPR LT X+0 Y+0 LEN10 RL F300\nEND PGM P MM\n");
   EXPECT_NE(e.find("t.h:4:1: "), std::string::npos) << e;
   EXPECT_NE(e.find("no contour element follows it"), std::string::npos) << e;

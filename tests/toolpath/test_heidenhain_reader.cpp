@@ -474,7 +474,8 @@ TEST(HeidenhainReader, BadInputNamesFileLineColumnAndWord) {
   EXPECT_NE(input_error_of([] { parse(std::string(kHead) + "CYCL DEF 200 DRILLING\n"); }).find("cycle 200"), std::string::npos);
   EXPECT_NE(input_error_of([] { parse(std::string(kHead) + "L X+1 Y+1 Z+1 FMAX\nL X+2\n"); }).find("before any F"),
             std::string::npos);
-  EXPECT_NE(input_error_of([] { parse(std::string(kHead) + "LBL 1\n"); }).find("labels"), std::string::npos);
+  EXPECT_NE(input_error_of([] { parse(std::string(kHead) + "CALL LBL 1\n"); }).find("label 1 is not defined"),
+            std::string::npos);
   EXPECT_NE(input_error_of([] { parse(std::string(kHead) + "SOMETHING\n"); }).find("t.h:3:1: 'SOMETHING'"),
             std::string::npos);
   EXPECT_NE(input_error_of([] { parse(std::string(kHead)); }).find("no motion"), std::string::npos);

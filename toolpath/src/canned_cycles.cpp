@@ -5,6 +5,56 @@
 
 namespace vmsim::toolpath::detail {
 
+namespace {
+double next_stroke(const PeckDrilling& peck, double stroke) {
+  if (peck.stroke_decrement_mm == 0.0) return stroke;
+  const double shorter = std::max(stroke - peck.stroke_decrement_mm, peck.minimum_stroke_mm);
+  return shorter > 0.0 ? shorter : stroke;
+}
+}  // namespace
+
+std::vector<CycleMove> peck_moves(const Eigen::Vector3d& start_mm, const PeckDrilling& peck) {
+  std::vector<CycleMove> moves;
+  Eigen::Vector3d p = start_mm;
+  const auto move = [&](bool rapid, double w_mm, CycleFeed feed) {
+    p[peck.w] = w_mm;
+    moves.push_back({rapid, p, feed});
+  };
+  double level = peck.reference_mm;
+  double stroke = peck.first_stroke_mm;
+  int breaks = 0;
+  bool first = true;
+  while (level > peck.bottom_mm) {
+    level = std::max(level - stroke, peck.bottom_mm);
+    move(false, level, first ? peck.first_stroke_feed : CycleFeed::cutting);
+    first = false;
+    if (level <= peck.bottom_mm) break;
+    if (peck.chip_breaks_per_retract < 0 || breaks < peck.chip_breaks_per_retract) {
+      ++breaks;
+      move(peck.chip_break_rapid, level + peck.chip_break_mm, peck.chip_break_feed);
+    } else {
+      breaks = 0;
+      move(peck.retract_rapid, peck.retract_to_mm, CycleFeed::retract);
+      move(true, level + peck.reapproach_clearance_mm, CycleFeed::cutting);
+    }
+    stroke = next_stroke(peck, stroke);
+  }
+  return moves;
+}
+
+std::size_t peck_stroke_count(const PeckDrilling& peck, std::size_t cap) {
+  std::size_t count = 0;
+  double level = peck.reference_mm;
+  double stroke = peck.first_stroke_mm;
+  if (!(stroke > 0.0)) return cap;
+  while (level > peck.bottom_mm && count < cap) {
+    ++count;
+    level = std::max(level - stroke, peck.bottom_mm);
+    stroke = next_stroke(peck, stroke);
+  }
+  return count;
+}
+
 std::vector<CycleMove> expand_cycle(const Eigen::Vector3d& start_mm, const CycleHole& hole) {
   std::vector<CycleMove> moves;
   Eigen::Vector3d p = start_mm;
@@ -48,26 +98,21 @@ std::vector<CycleMove> expand_cycle(const Eigen::Vector3d& start_mm, const Cycle
   }
   if (p[hole.w] != hole.r_mm) move(true, hole.r_mm);
 
-  // The peck cycles: depths from R down, each at most Q deeper than the last.
-  const auto next_depth = [&](double depth) { return std::max(depth - hole.peck_mm, hole.bottom_mm); };
+  // The peck cycles: strokes of Q from R down (peck_moves).
   switch (hole.code) {
-    case 83: {
-      double depth = hole.r_mm;
-      while (depth > hole.bottom_mm) {
-        if (depth < hole.r_mm) move(true, depth + hole.peck_clearance_mm);
-        depth = next_depth(depth);
-        move(false, depth);
-        if (depth > hole.bottom_mm) move(true, hole.r_mm);
-      }
-      break;
-    }
+    case 83:
     case 73: {
-      double depth = hole.r_mm;
-      while (depth > hole.bottom_mm) {
-        depth = next_depth(depth);
-        move(false, depth);
-        if (depth > hole.bottom_mm) move(true, depth + hole.peck_retract_mm);
-      }
+      PeckDrilling peck;
+      peck.w = hole.w;
+      peck.reference_mm = hole.r_mm;
+      peck.bottom_mm = hole.bottom_mm;
+      peck.first_stroke_mm = hole.peck_mm;
+      peck.chip_breaks_per_retract = hole.code == 73 ? -1 : 0;
+      peck.chip_break_mm = hole.peck_retract_mm;
+      peck.retract_to_mm = hole.r_mm;
+      peck.reapproach_clearance_mm = hole.peck_clearance_mm;
+      for (const CycleMove& m : peck_moves(p, peck)) moves.push_back(m);
+      p = moves.back().p_mm;
       break;
     }
     case 85: case 89: case 84: case 74:

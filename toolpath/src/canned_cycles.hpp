@@ -1,16 +1,63 @@
 #pragma once
 // Canned drilling cycles (G73 G74 G76 G81-G89) expanded into rapid and feed moves, as the Fanuc
-// and LinuxCNC manuals describe their motion. Program coordinates [mm]; the G-code reader
-// checks the words and turns the moves into path points.
+// and LinuxCNC manuals describe their motion, and the peck drilling they share with the TNC's
+// cycles 200 / 203 and the 840D's CYCLE83. Program coordinates [mm]; the readers check the
+// words and turn the moves into path points.
 #include <Eigen/Core>
+#include <cstddef>
 #include <vector>
 
 namespace vmsim::toolpath::detail {
 
+/// Which feed a cycle's feed move runs at (the reader knows the values).
+enum class CycleFeed {
+  cutting,       ///< the cycle's drilling feed (G-code F, TNC Q206, 840D F)
+  retract,       ///< the retraction feed (TNC Q208)
+  first_stroke,  ///< the first stroke's (840D CYCLE83: F * FRF)
+};
+
 struct CycleMove {
   bool rapid = true;
   Eigen::Vector3d p_mm = Eigen::Vector3d::Zero();
+  CycleFeed feed = CycleFeed::cutting;  ///< for a feed move
 };
+
+/// Peck drilling along the axis w, downwards (bottom_mm below reference_mm): strokes cut from
+/// the level reached, each ended by a chip break (a short retract) or a full retract to
+/// retract_to_mm and a rapid back to reapproach_clearance_mm above the depth reached.
+///  G83: strokes Q from R, a full rapid retract after each; G73: chip breaks only (rapid);
+///  TNC 200: Q202 from the surface, full rapid retracts; TNC 203: Q202 decreasing by Q212 down
+///  to Q205, Q213 chip breaks (Q256 at Q208) between full retracts (at Q208); 840D CYCLE83:
+///  VARI=1 full rapid retracts, VARI=0 chip breaks at F, DAM the decrement.
+struct PeckDrilling {
+  int w = 2;                  ///< the drilling axis (X Y Z index)
+  double reference_mm = 0.0;  ///< the level the strokes are counted from (R, the surface)
+  double bottom_mm = 0.0;     ///< the hole bottom, below reference_mm
+  double first_stroke_mm = 1.0;       ///< the first stroke's depth below reference_mm (> 0)
+  double stroke_decrement_mm = 0.0;   ///< each stroke this much shorter than the one before
+  /// Strokes are not made shorter than this; a decrement that would make a stroke shorter
+  /// than this (or not positive where this is 0) leaves it as it was.
+  double minimum_stroke_mm = 0.0;
+  /// Chip breaks between two full retracts: 0 a full retract after every stroke; < 0 never a
+  /// full retract (chip breaks only).
+  int chip_breaks_per_retract = 0;
+  double chip_break_mm = 0.1;  ///< the chip break's retract [mm]
+  bool chip_break_rapid = true;  ///< else at CycleFeed::chip_break_feed
+  CycleFeed chip_break_feed = CycleFeed::retract;
+  double retract_to_mm = 0.0;    ///< where a full retract goes (R, set-up clearance)
+  bool retract_rapid = true;     ///< else at CycleFeed::retract
+  double reapproach_clearance_mm = 0.1;  ///< the rapid back stops this far above the depth reached
+  CycleFeed first_stroke_feed = CycleFeed::cutting;
+};
+
+/// The moves of peck drilling from `start_mm` (on the hole's axis, w at or above the reference
+/// level): the strokes and their retracts, ending at the bottom (the retract out of the hole
+/// is the caller's). Requires first_stroke_mm > 0 and bottom_mm < reference_mm.
+std::vector<CycleMove> peck_moves(const Eigen::Vector3d& start_mm, const PeckDrilling& peck);
+
+/// The number of strokes peck_moves makes, counted up to `cap` (for the size checks before the
+/// moves are made: a tiny stroke would make millions).
+std::size_t peck_stroke_count(const PeckDrilling& peck, std::size_t cap);
 
 struct CycleHole {
   int code = 81;           ///< 73 74 76 81 82 83 84 85 86 87 88 89

@@ -7,6 +7,8 @@
 #include <array>
 #include <cctype>
 #include <cmath>
+#include <filesystem>
+#include <memory>
 #include <map>
 #include <numbers>
 #include <optional>
@@ -15,6 +17,7 @@
 #include <utility>
 #include <vector>
 
+#include "canned_cycles.hpp"
 #include "toolpath_detail.hpp"
 #include "vmsim/common/errors.hpp"
 #include "vmsim/toolpath/cutter_compensation.hpp"
@@ -91,16 +94,14 @@ class HeidenhainReader {
     }
     text = detail::without_byte_order_mark(text);
     detail::require_utf8_text(text, file_);
-    std::size_t start = 0;
-    while (start <= text.size() && !ended_) {
-      std::size_t end = text.find('\n', start);
-      if (end == std::string_view::npos) end = text.size();
-      std::string_view line = text.substr(start, end - start);
-      if (!line.empty() && line.back() == '\r') line.remove_suffix(1);
-      ++line_;
-      block(line);
-      start = end + 1;
-    }
+    auto main_program = std::make_unique<Program>();
+    main_program->file = file_;
+    split_lines(*main_program, text);
+    programs_.push_back(std::move(main_program));
+    index_labels(*programs_.back());
+    frames_.push_back(Frame{});
+    run();
+    close_cycle_definition();
     if (pending_approach_) {
       line_ = pending_approach_->line;
       fail(pending_approach_->column, "APPR at the end of the program: no contour element follows it");
@@ -472,6 +473,274 @@ class HeidenhainReader {
     }
   }
 
+  // --- Programs, labels and calls ------------------------------------------------------------
+  //
+  // The program runs as the TNC runs it: block after block from a program counter, LBL n marks
+  // a place, CALL LBL n jumps there. CALL LBL n REP k with the label before it and no LBL 0
+  // between them is a program section repeat (the section runs k more times, its counter kept
+  // by the CALL block); else the label starts a subprogram that runs to LBL 0 and returns (REP
+  // k: k more runs; a subprogram calling itself nests until ReaderOptions::max_call_depth).
+  // CALL PGM runs another file to its END PGM. Q parameters are shared (QL too: not local here).
+
+  struct Program {
+    std::string file;
+    std::string storage;  ///< a called program's text (the main program's is the caller's)
+    std::vector<std::string_view> lines;
+    std::map<std::string, std::size_t> labels;  ///< label -> its line index
+    std::vector<std::size_t> subprogram_ends;   ///< the lines of LBL 0
+  };
+
+  struct Frame {
+    enum class Kind { main, label, program } kind = Kind::main;
+    std::size_t program = 0;
+    std::size_t pc = 0;
+    std::size_t label_pc = 0;  ///< a subprogram's first line (LBL n)
+    long repeats_left = 0;
+    std::string label;
+    int call_line = 0;         ///< for messages
+    double mm_per_unit = 1.0;  ///< the caller's unit (CALL PGM restores it)
+  };
+
+  static void split_lines(Program& program, std::string_view text) {
+    std::size_t start = 0;
+    while (start <= text.size()) {
+      std::size_t end = text.find('\n', start);
+      if (end == std::string_view::npos) end = text.size();
+      std::string_view line = text.substr(start, end - start);
+      if (!line.empty() && line.back() == '\r') line.remove_suffix(1);
+      program.lines.push_back(line);
+      start = end + 1;
+    }
+    if (!program.lines.empty() && program.lines.back().empty()) program.lines.pop_back();
+  }
+
+  /// "LBL 5", "LBL "NAME"": the label's key (numbers without leading zeros, names upper case).
+  std::string label_key(const Token& token) const {
+    std::string text = token.upper;
+    if (text.size() >= 2 && text.front() == '"' && text.back() == '"') text = text.substr(1, text.size() - 2);
+    if (text.empty()) fail(token, "expected the label's number or name");
+    if (std::all_of(text.begin(), text.end(), [](char c) { return std::isdigit(static_cast<unsigned char>(c)); })) {
+      if (text.size() > 6) fail(token, "the label number is beyond 999999");
+      return std::to_string(std::stol(text));
+    }
+    return text;
+  }
+
+  /// The LBL blocks of a program (before it runs: a CALL LBL may jump forward).
+  void index_labels(Program& program) {
+    const int saved_line = line_;
+    const std::string saved_file = file_;
+    file_ = program.file;
+    for (std::size_t i = 0; i < program.lines.size(); ++i) {
+      const std::string_view line = program.lines[i];
+      // Cheap test first: most lines have no LBL.
+      bool maybe = false;
+      for (std::size_t k = 0; k + 2 < line.size() && !maybe; ++k) {
+        maybe = std::toupper(static_cast<unsigned char>(line[k])) == 'L' &&
+                std::toupper(static_cast<unsigned char>(line[k + 1])) == 'B' &&
+                std::toupper(static_cast<unsigned char>(line[k + 2])) == 'L';
+      }
+      if (!maybe) continue;
+      line_ = static_cast<int>(i) + 1;
+      const std::vector<Token> tokens = tokens_of(line);
+      std::size_t first = 0;
+      if (!tokens.empty() && std::all_of(tokens[0].text.begin(), tokens[0].text.end(),
+                                         [](char c) { return std::isdigit(static_cast<unsigned char>(c)); })) {
+        first = 1;
+      }
+      if (first >= tokens.size() || tokens[first].upper != "LBL") continue;
+      if (first + 1 >= tokens.size()) fail(tokens[first], "LBL needs its number or name");
+      const std::string key = label_key(tokens[first + 1]);
+      if (key == "0") {
+        program.subprogram_ends.push_back(i);
+        continue;
+      }
+      if (!program.labels.emplace(key, i).second) {
+        fail(tokens[first + 1], "label " + key + " is defined twice (first at line " +
+                                    std::to_string(program.labels.at(key) + 1) + ")");
+      }
+    }
+    line_ = saved_line;
+    file_ = saved_file;
+  }
+
+  void run() {
+    while (!frames_.empty() && !ended_) {
+      const Frame& frame = frames_.back();
+      const Program& program = *programs_[frame.program];
+      if (frame.pc >= program.lines.size()) {
+        if (frame.kind == Frame::Kind::main) break;
+        if (frame.kind == Frame::Kind::label) {
+          fail(0, "the subprogram LBL " + frame.label + " (called at line " + std::to_string(frame.call_line) +
+                      ") runs to the end of the file without LBL 0");
+        }
+        return_from_program();  // a called program without END PGM
+        continue;
+      }
+      const std::size_t pc = frame.pc;
+      frames_.back().pc = pc + 1;
+      file_ = program.file;
+      line_ = static_cast<int>(pc) + 1;
+      if (jumped_ && ++executed_blocks_ > options_.max_executed_blocks) {
+        fail(0, "more than " + std::to_string(options_.max_executed_blocks) +
+                    " blocks run (ReaderOptions::max_executed_blocks): a repeat or call that never ends?");
+      }
+      block(program.lines[pc]);
+    }
+  }
+
+  /// END PGM: the end of the program, or of a program called by CALL PGM.
+  void end_of_program() {
+    std::size_t k = frames_.size();
+    while (k > 0 && frames_[k - 1].kind == Frame::Kind::label) --k;
+    if (k == 0 || frames_[k - 1].kind == Frame::Kind::main) {
+      ended_ = true;
+      return;
+    }
+    frames_.resize(k);
+    return_from_program();
+  }
+
+  void return_from_program() {
+    mm_per_unit_ = frames_.back().mm_per_unit;
+    frames_.pop_back();
+    if (!frames_.empty()) file_ = programs_[frames_.back().program]->file;
+  }
+
+  void require_call_depth(const Token& token) const {
+    if (frames_.size() > options_.max_call_depth) {
+      fail(token, "calls nested more than " + std::to_string(options_.max_call_depth) +
+                      " deep (ReaderOptions::max_call_depth): a subprogram that calls itself?");
+    }
+  }
+
+  /// LBL n (a place; LBL 0 ends a subprogram), CALL LBL n [REP k], CALL PGM name.
+  void label_block(const std::vector<Token>& tokens, std::size_t first) {
+    const Token& head = tokens[first];
+    if (head.upper == "LBL") {
+      if (first + 1 >= tokens.size()) fail(head, "LBL needs its number or name");
+      if (label_key(tokens[first + 1]) != "0") return;
+      // LBL 0: the end of a subprogram; reached without a call it is passed.
+      if (frames_.back().kind != Frame::Kind::label) return;
+      Frame& frame = frames_.back();
+      if (frame.repeats_left > 0) {
+        --frame.repeats_left;
+        frame.pc = frame.label_pc + 1;
+        return;
+      }
+      frames_.pop_back();
+      return;
+    }
+    // CALL
+    if (first + 2 >= tokens.size()) fail(head, "expected CALL LBL <label> or CALL PGM <name>");
+    const Token& what = tokens[first + 1];
+    if (what.upper == "PGM") {
+      call_program(tokens[first + 2]);
+      return;
+    }
+    if (what.upper != "LBL") fail(what, "expected CALL LBL <label> or CALL PGM <name>");
+    const Token& label_token = tokens[first + 2];
+    const std::string key = label_key(label_token);
+    if (key == "0") fail(label_token, "LBL 0 ends a subprogram: it cannot be called");
+    long repeats = 0;
+    const bool has_rep = first + 3 < tokens.size();
+    for (std::size_t k = first + 3; k < tokens.size(); ++k) {
+      const std::string& u = tokens[k].upper;
+      if (u.rfind("REP", 0) != 0) fail(tokens[k], "expected REP <count> after CALL LBL");
+      std::string count = u.substr(3);
+      if (count.empty() && k + 1 < tokens.size()) count = tokens[++k].upper;
+      if (const std::size_t slash = count.find('/'); slash != std::string::npos) count = count.substr(0, slash);
+      if (count.empty() || count.size() > 5 ||
+          !std::all_of(count.begin(), count.end(), [](char c) { return std::isdigit(static_cast<unsigned char>(c)); })) {
+        fail(tokens[k], "REP needs a whole number of repeats (0 .. 65534)");
+      }
+      repeats = std::stol(count);
+      if (repeats > 65534) fail(tokens[k], "REP " + count + " is beyond 65534 repeats");
+    }
+    Frame& caller = frames_.back();
+    const Program& program = *programs_[caller.program];
+    const auto it = program.labels.find(key);
+    if (it == program.labels.end()) fail(label_token, "label " + key + " is not defined in " + program.file);
+    const std::size_t label_pc = it->second;
+    const std::size_t call_pc = caller.pc - 1;
+    jumped_ = true;
+    const bool section = has_rep && label_pc < call_pc &&
+                         std::none_of(program.subprogram_ends.begin(), program.subprogram_ends.end(),
+                                      [&](std::size_t end) { return end > label_pc && end < call_pc; });
+    if (section) {
+      // The repeat counter belongs to the CALL block: set when it is first reached.
+      const auto counter_key = std::make_pair(caller.program, call_pc);
+      auto counter = section_repeats_.find(counter_key);
+      if (counter == section_repeats_.end()) counter = section_repeats_.emplace(counter_key, repeats).first;
+      if (counter->second > 0) {
+        --counter->second;
+        caller.pc = label_pc + 1;
+      } else {
+        section_repeats_.erase(counter);
+      }
+      return;
+    }
+    Frame frame;
+    frame.kind = Frame::Kind::label;
+    frame.program = caller.program;
+    frame.pc = label_pc + 1;
+    frame.label_pc = label_pc;
+    frame.repeats_left = repeats;
+    frame.label = key;
+    frame.call_line = line_;
+    frame.mm_per_unit = mm_per_unit_;
+    frames_.push_back(frame);
+    require_call_depth(label_token);
+  }
+
+  /// CALL PGM name: the file `name` (with .h where it has no extension) in
+  /// ReaderOptions::subprogram_folder (read_heidenhain: the program's folder).
+  void call_program(const Token& name_token) {
+    std::string name = name_token.text;
+    if (name.size() >= 2 && name.front() == '"' && name.back() == '"') name = name.substr(1, name.size() - 2);
+    if (const std::size_t cut = name.find_last_of("\\/:"); cut != std::string::npos) name = name.substr(cut + 1);
+    if (name.empty()) fail(name_token, "CALL PGM needs the program's name");
+    if (name.find('.') == std::string::npos) name += ".h";
+    if (options_.subprogram_folder.empty()) {
+      fail(name_token, "CALL PGM " + name + ": no folder to look for it in (ReaderOptions::subprogram_folder)");
+    }
+    std::optional<std::string> path;
+    std::string lower = name, upper = detail::to_upper(name);
+    std::transform(lower.begin(), lower.end(), lower.begin(), [](unsigned char c) { return static_cast<char>(std::tolower(c)); });
+    for (const std::string& candidate : {name, lower, upper}) {
+      const std::string p = (std::filesystem::path(options_.subprogram_folder) / candidate).string();
+      std::error_code error;
+      if (std::filesystem::is_regular_file(p, error)) {
+        path = p;
+        break;
+      }
+    }
+    if (!path) fail(name_token, "CALL PGM: " + name + " is not in " + options_.subprogram_folder);
+    std::size_t index = 0;
+    if (const auto it = program_index_.find(*path); it != program_index_.end()) {
+      index = it->second;
+    } else {
+      auto program = std::make_unique<Program>();
+      program->file = *path;
+      program->storage = detail::read_text_file(*path);
+      const std::string_view text = detail::without_byte_order_mark(program->storage);
+      detail::require_utf8_text(text, *path);
+      split_lines(*program, text);
+      index_labels(*program);
+      programs_.push_back(std::move(program));
+      index = programs_.size() - 1;
+      program_index_.emplace(*path, index);
+    }
+    jumped_ = true;
+    Frame frame;
+    frame.kind = Frame::Kind::program;
+    frame.program = index;
+    frame.call_line = line_;
+    frame.mm_per_unit = mm_per_unit_;
+    frames_.push_back(frame);
+    require_call_depth(name_token);
+  }
+
   // --- Blocks ---------------------------------------------------------------------------------
 
   void block(std::string_view line) {
@@ -495,6 +764,7 @@ class HeidenhainReader {
       return;
     }
     const std::string& k = head.upper;
+    if (defining_cycle_ && !q_name(k)) close_cycle_definition();
     const auto next_is = [&](std::size_t at, const char* word) {
       return at < tokens.size() && tokens[at].upper == word;
     };
@@ -505,7 +775,7 @@ class HeidenhainReader {
         if (tokens[t].upper == "MM") mm_per_unit_ = 1.0;
         if (tokens[t].upper == "INCH") mm_per_unit_ = detail::kMillimetresPerInch;
       }
-      if (k == "END") ended_ = true;
+      if (k == "END") end_of_program();
       return;
     }
     if (k == "BLK") {
@@ -552,6 +822,16 @@ class HeidenhainReader {
       Token target = head;
       target.upper = q->first;
       target.text = head.text.substr(0, q->second);
+      if (defining_cycle_) {  // a parameter of the cycle just defined
+        Token value_token = head;
+        value_token.column = static_cast<int>(equals) + 2;
+        value_token.text = std::string(line.substr(equals + 1));
+        if (const std::size_t semicolon = value_token.text.find(';'); semicolon != std::string::npos) value_token.text.resize(semicolon);
+        value_token.text = detail::trim(value_token.text);
+        value_token.upper = detail::to_upper(value_token.text);
+        cycle_parameter(q->first, value_token.text, line, equals + 1, value_token, target);
+        return;
+      }
       q_assignment(line, target, equals, std::nullopt);
       return;
     }
@@ -573,7 +853,8 @@ class HeidenhainReader {
       fail(head, "FK free contour programming is not supported");
     }
     if (k == "LBL" || k == "CALL") {
-      fail(head, "labels, subprograms and program calls are not supported");
+      label_block(tokens, first);
+      return;
     }
     fail(head, "unsupported block (it may change the geometry)");
   }
@@ -760,7 +1041,10 @@ class HeidenhainReader {
   void cycle(const std::vector<Token>& tokens, std::size_t first) {
     const Token& head = tokens[first];
     const auto is = [&](std::size_t i, const char* w) { return i < tokens.size() && tokens[i].upper == w; };
-    if (is(first + 1, "CALL")) fail(head, "CYCL CALL: machining cycles are not supported (output them as L blocks)");
+    if (is(first + 1, "CALL")) {
+      cycle_call(tokens, first + 2, head);
+      return;
+    }
     if (!is(first + 1, "DEF") || first + 2 >= tokens.size()) fail(head, "expected CYCL DEF <number>");
     const Token& number_token = tokens[first + 2];
     const std::string& number = number_token.upper;
@@ -795,10 +1079,299 @@ class HeidenhainReader {
       return;  // 32.2 HSC-MODE / TA: accepted, not emulated
     }
     if (cycle_number == "9") return;  // dwell: no geometry
+    if (cycle_number == "200" || cycle_number == "201" || cycle_number == "203") {
+      if (!sub.empty()) fail(number_token, "cycle " + cycle_number + " has no sub-blocks");
+      MachiningCycle definition;
+      definition.number = std::stoi(cycle_number);
+      definition.line = line_;
+      definition.column = number_token.column;
+      definition.file = file_;
+      definition.text = line_text_;
+      cycle_definition_ = definition;
+      defining_cycle_ = true;
+      // Parameters on the CYCL DEF line itself ("CYCL DEF 200 DRILLING Q200=2 Q201=-10 ...").
+      for (std::size_t k = first + 3; k < tokens.size(); ++k) {
+        const Token& t = tokens[k];
+        const std::size_t equals = t.upper.find('=');
+        const auto q = q_name(t.upper);
+        if (!q || equals != q->second) continue;  // the cycle's name, "~"
+        Token value_token = t;
+        value_token.text = t.text.substr(equals + 1);
+        value_token.upper = t.upper.substr(equals + 1);
+        value_token.column = t.column + static_cast<int>(equals) + 1;
+        // The token where it stands in the line, for the formula's columns.
+        const std::string placed = std::string(static_cast<std::size_t>(t.column - 1), ' ') + t.text;
+        cycle_parameter(q->first, value_token.text, placed, static_cast<std::size_t>(t.column) + equals, value_token, t);
+      }
+      return;
+    }
     if (cycle_number == "19") {
       fail(number_token, "cycle 19 (working plane by axis angles) is not supported: use PLANE SPATIAL");
     }
-    fail(number_token, "cycle " + cycle_number + " is not supported (output it as L blocks)");
+    if (cycle_number == "205" || cycle_number == "204" || cycle_number == "202" || cycle_number == "207" ||
+        cycle_number == "208" || cycle_number == "220" || cycle_number == "221") {
+      fail(number_token, "cycle " + cycle_number + " is not read (read: 200 DRILLING, 201 REAMING, 203 "
+                         "UNIVERSAL DRILLING; output the others as L blocks)");
+    }
+    fail(number_token, "cycle " + cycle_number + " is not supported (read: 7, 9, 32, 200, 201, 203; output it as L blocks)");
+  }
+
+  // --- Machining cycles 200, 201, 203 ---------------------------------------------------------
+  //
+  // CYCL DEF 2xx defines the cycle; its parameters follow as "Q200=+2 ;SET-UP CLEARANCE" lines
+  // (the TNC 640 writes "~" at the ends: inside the comment) and are also set as Q parameters,
+  // as on the control. CYCL CALL, CYCL CALL POS, M99 (this block) and M89 (every following
+  // positioning block, until M99) run it at the tool's X Y. Moves in the program's coordinates
+  // with the tool axis Z (in a tilted plane: its Z), as the TNC 640 manual describes them:
+  //  200 DRILLING: FMAX to the set-up clearance Q200 above the surface Q203; strokes of Q202 at
+  //      Q206, after each FMAX out to the set-up clearance and FMAX back to Q200 above the depth
+  //      reached; at the depth Q201, FMAX out to the set-up clearance;
+  //  201 REAMING: Q206 to the depth, out at Q208 (0: at Q206);
+  //  203 UNIVERSAL DRILLING: strokes of Q202, each Q212 shorter than the last but not shorter
+  //      than Q205; after each Q213 chip breaks (a retract of Q256 at Q208) one retract at Q208 to
+  //      the set-up clearance and FMAX back to Q200 above the depth reached; out at Q208;
+  //  all: then FMAX to the 2nd set-up clearance Q204 above the surface where it is higher.
+  // Dwells (Q210, Q211) are not motions: read, not timed.
+
+  struct MachiningCycle {
+    int number = 0;
+    std::map<int, double> q;  ///< parameter number -> value (feeds in mm/min as written, lengths in program units)
+    std::map<int, bool> rapid_feed;  ///< a feed given as FMAX
+    int line = 0, column = 0;
+    std::string file, text;
+    bool checked = false;
+  };
+
+  /// One "Qnnn=value" of the cycle being defined (value: a number, a formula, FAUTO, FMAX).
+  /// `value` is the text after '='; the formula is read from `source` at `value_start` (its line,
+  /// for the columns of messages).
+  void cycle_parameter(const std::string& name, std::string value, std::string_view source, std::size_t value_start,
+                       const Token& value_token, const Token& name_token) {
+    if (const std::size_t semicolon = value.find(';'); semicolon != std::string::npos) value.resize(semicolon);
+    value = detail::trim(value);
+    const auto [prefix, number] = split_q(name);
+    if (prefix != "Q") fail(name_token, "a cycle parameter is a Q parameter (not QL / QR)");
+    const std::string upper = detail::to_upper(value);
+    double v = 0.0;
+    if (upper == "FAUTO") {
+      if (!auto_feed_m_per_s_) fail(value_token, "FAUTO without a feed in TOOL CALL");
+      v = *auto_feed_m_per_s_ / kMetresPerMillimetre * kSecondsPerMinute / (mm_per_unit_ == 1.0 ? 1.0 : mm_per_unit_ / 10.0);
+    } else if (upper == "FMAX") {
+      cycle_definition_->rapid_feed[static_cast<int>(number)] = true;
+      v = 0.0;
+    } else {
+      if (value.empty()) fail(value_token, name + " has no value");
+      v = Formula(*this, source, value_start).evaluate();
+    }
+    q_[name] = v;
+    cycle_definition_->q[static_cast<int>(number)] = v;
+  }
+
+  /// The end of a cycle definition (the first block that is not one of its parameters): its
+  /// parameters checked, errors at the CYCL DEF block.
+  void close_cycle_definition() {
+    if (!defining_cycle_) return;
+    defining_cycle_ = false;
+    MachiningCycle& c = *cycle_definition_;
+    const int saved_line = line_;
+    const std::string saved_file = file_;
+    line_ = c.line;
+    file_ = c.file;
+    const auto where = [&](const std::string& message) { fail(c.column, "cycle " + std::to_string(c.number) + ": " + message); };
+    std::vector<int> required = {200, 201, 206, 203, 204};
+    if (c.number == 200) required.push_back(202);
+    if (c.number == 201) required.push_back(208);
+    if (c.number == 203) {
+      for (int n : {202, 212, 213, 205, 208}) required.push_back(n);
+      if (c.q.count(213) && c.q.at(213) > 0.0) required.push_back(256);
+    }
+    for (int n : required) {
+      if (!c.q.count(n)) where("Q" + std::to_string(n) + " is missing (" + cycle_parameter_name(n) + ")");
+    }
+    const auto length = [&](int n) { return c.q.at(n) * mm_per_unit_; };
+    for (int n : {200, 201, 202, 203, 204, 205, 212, 256}) {
+      if (c.q.count(n) && !(std::abs(length(n)) <= detail::kMaxCoordinateMm)) {
+        where("Q" + std::to_string(n) + " = " + detail::format_number(c.q.at(n)) + " is outside +-1e6 mm");
+      }
+    }
+    if (!(length(201) < 0.0)) {
+      where("Q201 (depth) = " + detail::format_number(c.q.at(201)) +
+            ": only a negative depth (drilling towards -Z) is read");
+    }
+    if (length(200) < 0.0) where("Q200 (set-up clearance) must not be negative");
+    if (c.q.count(202) && !(length(202) > 0.0)) where("Q202 (plunging depth) must be positive");
+    if (c.rapid_feed.count(206)) where("Q206 (feed rate for plunging) FMAX: give a feed");
+    for (int n : {206, 208}) {
+      if (!c.q.count(n) || c.rapid_feed.count(n)) continue;
+      const double v = c.q.at(n);
+      if (n == 208 && v == 0.0) continue;  // retract at Q206
+      const double mm_per_min = v * (mm_per_unit_ == 1.0 ? 1.0 : mm_per_unit_ / 10.0);
+      if (!(mm_per_min >= detail::kMinFeedMmPerMin && mm_per_min <= detail::kMaxFeedMmPerMin)) {
+        where("Q" + std::to_string(n) + " (" + cycle_parameter_name(n) + ") " + detail::format_number(mm_per_min) +
+              " mm/min is outside [" + detail::format_number(detail::kMinFeedMmPerMin) + ", " +
+              detail::format_number(detail::kMaxFeedMmPerMin) + "] mm/min");
+      }
+    }
+    if (c.q.count(213) && !(c.q.at(213) >= 0.0 && c.q.at(213) <= 99999.0 && c.q.at(213) == std::trunc(c.q.at(213)))) {
+      where("Q213 (number of chip breaks) must be a whole number 0 .. 99999");
+    }
+    if (c.q.count(256) && !(length(256) > 0.0)) where("Q256 (retraction for chip breaking) must be positive");
+    if (c.q.count(395) && c.q.at(395) != 0.0) {
+      where("Q395 = 1 (depth to the full diameter) needs the tool's point angle: not read (Q395 = 0, depth to the tip)");
+    }
+    c.checked = true;
+    line_ = saved_line;
+    file_ = saved_file;
+  }
+
+  static std::string cycle_parameter_name(int n) {
+    switch (n) {
+      case 200: return "set-up clearance";
+      case 201: return "depth";
+      case 202: return "plunging depth";
+      case 203: return "surface coordinate";
+      case 204: return "2nd set-up clearance";
+      case 205: return "minimum plunging depth";
+      case 206: return "feed rate for plunging";
+      case 208: return "retraction feed rate";
+      case 212: return "decrement";
+      case 213: return "number of chip breaks before retracting";
+      case 256: return "retraction for chip breaking";
+      default: return "parameter";
+    }
+  }
+
+  double cycle_feed_m_per_s(const MachiningCycle& c, int n) const {
+    return c.q.at(n) * (mm_per_unit_ == 1.0 ? 1.0 : mm_per_unit_ / 10.0) * kMetresPerMillimetre / kSecondsPerMinute;
+  }
+
+  /// CYCL CALL [POS X Y Z [FMAX | F]] [M..]
+  void cycle_call(const std::vector<Token>& tokens, std::size_t at, const Token& head) {
+    std::optional<Vec3> position;
+    bool rapid = true;
+    std::optional<double> feed;
+    if (at < tokens.size() && tokens[at].upper == "PAT") fail(tokens[at], "CYCL CALL PAT (PATTERN DEF) is not read: call the cycle at each point (CYCL CALL POS)");
+    if (at < tokens.size() && tokens[at].upper == "POS") {
+      std::array<const Word*, 3> xyz{};
+      const std::vector<Word> words = words_of(tokens, at + 1);
+      for (const Word& word : words) {
+        if (const int k = linear_axis(word.address); k >= 0) {
+          if (!word.value) fail(word, "expected a value");
+          if (xyz[static_cast<std::size_t>(k)]) fail(word, "the address appears twice in one block");
+          xyz[static_cast<std::size_t>(k)] = &word;
+        } else if (word.address == "FMAX") {
+          rapid = true;
+        } else if (word.address == "F") {
+          feed = feed_from(word);
+          rapid = false;
+        } else if (word.address == "M" || word.address == "R") {
+          // R0 (no compensation, as the TNC moves there), M functions: nothing.
+        } else {
+          fail(word, "unsupported word in CYCL CALL POS");
+        }
+      }
+      if (!xyz[0] || !xyz[1] || !xyz[2]) fail(head, "CYCL CALL POS needs X, Y and Z");
+      if (!pos_[0] || !pos_[1] || !pos_[2]) fail(head, "CYCL CALL POS before the tool's position is known: position it first");
+      Vec3 p;
+      for (int k = 0; k < 3; ++k) {
+        const Word* w = xyz[static_cast<std::size_t>(k)];
+        const double v = *w->value * mm_per_unit_;
+        require_within(*w->token, v, -detail::kMaxCoordinateMm, detail::kMaxCoordinateMm, "position", "mm");
+        p[k] = w->incremental ? *pos_[static_cast<std::size_t>(k)] + v : v;
+      }
+      position = p;
+    } else {
+      for (std::size_t k = at; k < tokens.size(); ++k) {
+        if (tokens[k].upper.rfind("M", 0) != 0 && tokens[k].upper != "~") fail(tokens[k], "unsupported word in CYCL CALL");
+      }
+    }
+    run_cycle(head, position, rapid, feed);
+  }
+
+  /// Runs the cycle defined last at the tool's X Y (or CYCL CALL POS's X Y, its Z shifting the
+  /// surface: the TNC's positioning logic, in the plane first where the tool is above the
+  /// surface, else up to the 2nd set-up clearance first).
+  void run_cycle(const Token& head, std::optional<Vec3> call_position, bool position_rapid,
+                 std::optional<double> position_feed) {
+    if (!cycle_definition_) fail(head, "cycle call without a machining cycle defined (CYCL DEF 200, 201, 203)");
+    close_cycle_definition();
+    require_no_pending_corner(head);
+    require_no_compensation(head, "a cycle call");
+    if (pending_approach_) fail(head, "a cycle call right after APPR");
+    if (!pos_[0] || !pos_[1] || !pos_[2] || !started_) {
+      fail(head, "cycle call before the tool's position is known: position it first (L X.. Y.. Z..)");
+    }
+    const MachiningCycle& c = *cycle_definition_;
+    const double unit = mm_per_unit_;
+    const double shift_mm = call_position ? call_position->z() : 0.0;
+    const double surface = c.q.at(203) * unit + shift_mm;
+    const double clearance = surface + c.q.at(200) * unit;
+    const double second = surface + std::max(c.q.at(204), c.q.at(200)) * unit;
+    const double bottom = surface + c.q.at(201) * unit;
+    const double cutting = cycle_feed_m_per_s(c, 206);
+    const double retract = c.q.count(208) && c.q.at(208) != 0.0 && !c.rapid_feed.count(208) ? cycle_feed_m_per_s(c, 208) : cutting;
+    const bool retract_rapid = c.rapid_feed.count(208) > 0;
+
+    struct Step {
+      bool rapid;
+      Vec3 p_mm;
+      double feed_m_per_s;
+    };
+    std::vector<Step> steps;
+    Vec3 p(*pos_[0], *pos_[1], *pos_[2]);
+    const auto add = [&](bool rapid, const Vec3& to, double feed_m_per_s) {
+      if ((to - p).norm() <= kTinyMm) return;
+      steps.push_back({rapid, to, feed_m_per_s});
+      p = to;
+    };
+    const auto at_level = [&](double z) { return Vec3(p.x(), p.y(), z); };
+    if (call_position) {
+      if (p.z() < surface) add(true, at_level(second), 0.0);  // below the surface: up first
+      add(position_rapid, Vec3(call_position->x(), call_position->y(), p.z()), position_feed.value_or(cutting));
+    }
+    add(true, at_level(clearance), 0.0);
+    detail::PeckDrilling peck;
+    peck.reference_mm = surface;
+    peck.bottom_mm = bottom;
+    peck.retract_to_mm = clearance;
+    peck.reapproach_clearance_mm = c.q.at(200) * unit;
+    peck.first_stroke_mm = c.number == 201 ? surface - bottom : c.q.at(202) * unit;
+    if (c.number == 203) {
+      peck.stroke_decrement_mm = c.q.at(212) * unit;
+      peck.minimum_stroke_mm = c.q.at(205) * unit;
+      peck.chip_breaks_per_retract = static_cast<int>(c.q.at(213));
+      if (c.q.count(256)) peck.chip_break_mm = c.q.at(256) * unit;
+      peck.chip_break_rapid = retract_rapid;
+      peck.retract_rapid = retract_rapid;
+    }
+    // Points before they are made: a tiny plunging depth would make millions.
+    const std::size_t cap = options_.max_points_per_block + 1;
+    const std::size_t strokes = detail::peck_stroke_count(peck, cap);
+    const double estimate = 3.0 * static_cast<double>(strokes) + 6.0;
+    if (strokes >= cap || !(estimate <= static_cast<double>(options_.max_points_per_block))) {
+      fail(head, "cycle " + std::to_string(c.number) + " expands to more than " +
+                     std::to_string(options_.max_points_per_block) +
+                     " points (ReaderOptions::max_points_per_block): the plunging depth is too small");
+    }
+    detail::require_room_for_points(path_, static_cast<std::size_t>(estimate), options_, file_, line_, head.column,
+                                    "cycle " + std::to_string(c.number));
+    for (const detail::CycleMove& m : detail::peck_moves(p, peck)) {
+      add(m.rapid, m.p_mm, m.feed == detail::CycleFeed::retract ? retract : cutting);
+    }
+    // Out of the hole: 200 in rapid, 201 / 203 at the retraction feed; then the 2nd set-up clearance.
+    add(c.number == 200 || retract_rapid, at_level(clearance), retract);
+    add(true, at_level(second), 0.0);
+
+    const int block = add_source_block();
+    for (const Step& step : steps) {
+      PathPoint point = new_point(step.rapid ? MotionKind::rapid : MotionKind::linear, block);
+      if (!step.rapid) point.feed_m_per_s = step.feed_m_per_s;
+      point.corner_tolerance_m = 0.0;  // the control stops at each level of a cycle
+      set_pose(point, step.p_mm, rotary_deg_, axis_W_);
+      detail::append_point(path_, point, options_, file_, line_);
+    }
+    for (int k = 0; k < 3; ++k) pos_[static_cast<std::size_t>(k)] = p[k];
+    last_.reset();
   }
 
   // --- Frames ---------------------------------------------------------------------------------
@@ -1076,6 +1649,7 @@ class HeidenhainReader {
     const Word* size_word = nullptr;  // CHF's length (a bare number)
     const Word* compensation_word = nullptr;  // RL, RR or R0
     bool m91 = false, m92 = false, m128 = false, m129 = false, end_program = false;
+    bool cycle_call_here = false, modal_cycle_on = false;  // M99, M89
     const auto once = [&](const Word*& slot, const Word& word) {
       if (slot) fail(word, "the address appears twice in one block");
       slot = &word;
@@ -1151,7 +1725,9 @@ class HeidenhainReader {
         if (m == 129) m129 = true;
         if (m == 2 || m == 30) end_program = true;
         if (m == 140) fail(word, "M140 (retract along the tool axis) is not supported: program the retract");
-        if (m == 98 || m == 99) fail(word, "subprogram calls are not supported");
+        if (m == 98) fail(word, "M98 is not a TNC function (CALL LBL / CALL PGM call subprograms)");
+        if (m == 99) cycle_call_here = true;
+        if (m == 89) modal_cycle_on = true;
         continue;
       }
       fail(word, "unsupported word in " + kind);
@@ -1208,6 +1784,12 @@ class HeidenhainReader {
       }
     }
     if (m129) tcpm_ = false;
+    // Cycle calls at the block's end: M99 once (and ends M89), M89 from here on after every
+    // positioning block.
+    const bool positioned = (kind == "L" || kind == "LN") && (xyz[0] || xyz[1] || xyz[2]);
+    if (modal_cycle_on) modal_cycle_call_ = true;
+    if (cycle_call_here || (modal_cycle_call_ && positioned)) run_cycle(head, std::nullopt, true, std::nullopt);
+    if (cycle_call_here) modal_cycle_call_ = false;
     if (end_program) ended_ = true;
   }
 
@@ -1501,13 +2083,17 @@ class HeidenhainReader {
     const std::string what = approach ? "APPR" : "DEP";
     if (first >= tokens.size()) fail(head, what + " needs its form: LT, LN, CT or LCT");
     const Token& form_token = tokens[first];
-    const std::string form = form_token.upper;
+    // PLT, PLN, PCT, PLCT: the same forms with the point in polar coordinates PR PA about CC.
+    const bool polar = form_token.upper.size() > 2 && form_token.upper[0] == 'P';
+    const std::string form = polar ? form_token.upper.substr(1) : form_token.upper;
     if (form != "LT" && form != "LN" && form != "CT" && form != "LCT") {
-      fail(form_token, what + " " + form + " is not read: the forms read are LT, LN, CT and LCT (Cartesian)");
+      fail(form_token, what + " " + form_token.upper + " is not read: the forms read are LT, LN, CT and LCT "
+                       "(Cartesian) and PLT, PLN, PCT and PLCT (polar)");
     }
     const std::vector<Word> words = words_of(tokens, first + 1);
     std::array<const Word*, 3> xyz{};
     const Word *len = nullptr, *cca = nullptr, *radius = nullptr, *side = nullptr, *f_word = nullptr;
+    const Word *polar_radius = nullptr, *polar_angle = nullptr;
     const auto once = [&](const Word*& slot, const Word& word) {
       if (slot) fail(word, "the address appears twice in one block");
       if (!word.value && &slot != &side) fail(word, "expected a value");
@@ -1517,6 +2103,10 @@ class HeidenhainReader {
       const std::string& a = word.address;
       if (const int k = linear_axis(a); k >= 0) {
         once(xyz[static_cast<std::size_t>(k)], word);
+      } else if (polar && (a == "PR" || a == "PA")) {
+        once(a == "PR" ? polar_radius : polar_angle, word);
+      } else if (polar && (a == "IPR" || a == "IPA")) {
+        fail(word, "incremental polar coordinates are not read: PR PA about CC");
       } else if (a == "LEN") {
         once(len, word);
       } else if (a == "CCA") {
@@ -1536,6 +2126,28 @@ class HeidenhainReader {
     }
     for (const Word* w : {xyz[0], xyz[1], xyz[2]}) {
       if (w) require_within(*w->token, *w->value * mm_per_unit_, -detail::kMaxCoordinateMm, detail::kMaxCoordinateMm, "length", "mm");
+    }
+    // Polar: the point PR PA about the pole CC becomes X Y.
+    Word polar_x, polar_y;
+    if (polar) {
+      if (xyz[0] || xyz[1]) fail(*(xyz[0] ? xyz[0] : xyz[1]), what + " " + form_token.upper + " takes PR PA, not X Y");
+      const bool needs_point = approach || form == "LCT";
+      if (needs_point || polar_radius || polar_angle) {
+        if (!polar_radius || !polar_angle) fail(form_token, what + " " + form_token.upper + " needs the polar radius PR and angle PA");
+        if (!pole_mm_ || pole_plane_ != kPlaneXY) fail(form_token, "polar coordinates without a pole CC in the plane X/Y before them");
+        const double pr_mm = *polar_radius->value * mm_per_unit_;
+        require_within(*polar_radius->token, pr_mm, 0.0, detail::kMaxCoordinateMm, "polar radius", "mm");
+        require_within(*polar_angle->token, *polar_angle->value, -detail::kMaxRotaryDeg, detail::kMaxRotaryDeg, "polar angle", "deg");
+        const double angle = *polar_angle->value / kDegPerRad;
+        polar_x.address = "X";
+        polar_x.value = (pole_mm_->x() + pr_mm * std::cos(angle)) / mm_per_unit_;
+        polar_x.token = polar_radius->token;
+        polar_y = polar_x;
+        polar_y.address = "Y";
+        polar_y.value = (pole_mm_->y() + pr_mm * std::sin(angle)) / mm_per_unit_;
+        xyz[0] = &polar_x;
+        xyz[1] = &polar_y;
+      }
     }
     const bool arc_form = form == "CT";
     if (form == "LCT") {
@@ -2364,7 +2976,7 @@ class HeidenhainReader {
     }
   }
 
-  const std::string& file_;
+  std::string file_;  // the file running (CALL PGM: the called one)
   const ReaderOptions& options_;
   Toolpath path_;
   int line_ = 0;
@@ -2431,6 +3043,17 @@ class HeidenhainReader {
     std::string text;
   };
   std::optional<PendingApproach> pending_approach_;
+  // Machining cycles.
+  std::optional<MachiningCycle> cycle_definition_;
+  bool defining_cycle_ = false;  ///< its parameter lines may follow
+  bool modal_cycle_call_ = false;  ///< M89
+  // Programs and calls.
+  std::vector<std::unique_ptr<Program>> programs_;
+  std::map<std::string, std::size_t> program_index_;  ///< CALL PGM's files by path
+  std::vector<Frame> frames_;
+  std::map<std::pair<std::size_t, std::size_t>, long> section_repeats_;  ///< (program, CALL line) -> repeats left
+  bool jumped_ = false;  ///< blocks are counted from the first jump on
+  std::size_t executed_blocks_ = 0;
 };
 
 }  // namespace
@@ -2442,7 +3065,12 @@ Toolpath parse_heidenhain(const std::string& text, const std::string& file_name_
 }
 
 Toolpath read_heidenhain(const std::string& path, const ReaderOptions& options) {
-  return parse_heidenhain(detail::read_text_file(path), path, options);
+  if (!options.subprogram_folder.empty()) return parse_heidenhain(detail::read_text_file(path), path, options);
+  // CALL PGM looks for its file beside the program.
+  ReaderOptions with_folder = options;
+  const std::filesystem::path folder = std::filesystem::path(path).parent_path();
+  with_folder.subprogram_folder = folder.empty() ? "." : folder.string();
+  return parse_heidenhain(detail::read_text_file(path), path, with_folder);
 }
 
 }  // namespace vmsim::toolpath

@@ -18,6 +18,7 @@
 
 #include <Eigen/Geometry>
 
+#include "canned_cycles.hpp"
 #include "toolpath_detail.hpp"
 #include "vmsim/common/errors.hpp"
 #include "vmsim/toolpath/cutter_compensation.hpp"
@@ -939,6 +940,8 @@ class SiemensReader {
     long block_number = -1;
     bool end_subprogram = false;
     std::vector<const Word*> cycles;
+    const Word* drill_word = nullptr;  // CYCLE81 / 82 / 83
+    const Word* mcall_word = nullptr;
 
     for (const Word& word : words) {
       const std::string& a = word.address;
@@ -946,6 +949,9 @@ class SiemensReader {
       if (word.has_arguments) {
         if (a == "CYCLE832" || a == "CYCLE800") {
           cycles.push_back(&word);
+        } else if (a == "CYCLE81" || a == "CYCLE82" || a == "CYCLE83") {
+          if (drill_word) fail(word, "two drilling cycles in one block");
+          drill_word = &word;
         } else if (a == "MSG" || a == "WORKPIECE" || a == "FGROUP" || a == "TRAORI" || a == "SETMS" ||
                    a == "G_SET" || a == "ORIRESET") {
           if (a == "TRAORI") set_tcp(true);
@@ -953,6 +959,10 @@ class SiemensReader {
         } else {
           fail(word, "unsupported cycle or procedure call (output the cycle as G0/G1/G2/G3 moves)");
         }
+        continue;
+      }
+      if (!word.has_value && a == "MCALL") {
+        mcall_word = &word;
         continue;
       }
       if (!word.has_value) {
@@ -1014,6 +1024,9 @@ class SiemensReader {
       }
     }
 
+    if (mcall_word && !drill_word && (subprogram_word || l_word)) {
+      fail(*mcall_word, "MCALL of a subprogram is not read (MCALL CYCLE81 / 82 / 83 are)");
+    }
     // Tool: T selects, M6 loads (D1 active unless the block says otherwise), D the cutting edge.
     if (t_word) {
       if (t_word->value.text) {
@@ -1082,8 +1095,21 @@ class SiemensReader {
       }
       return;
     }
+    if (mcall_word && !drill_word) modal_drill_.reset();  // MCALL alone ends the modal call
     motion_block(xyz, abc, ijk, vec, mid, cr_word, motion_word, block_number, exact_stop_here,
                  machine_coordinates);
+    // Drilling cycles: called here (CYCLE8x in a block), or made modal by MCALL and called after
+    // every following block that moves the axes, until MCALL alone.
+    if (drill_word) {
+      const DrillCycle cycle = drill_cycle_of(*drill_word);
+      if (mcall_word) {
+        modal_drill_ = cycle;
+      } else {
+        run_drill_cycle(cycle, block_number);
+      }
+    } else if (modal_drill_ && first_of({xyz[0], xyz[1], xyz[2]})) {
+      run_drill_cycle(*modal_drill_, block_number);
+    }
     if (end_subprogram) {
       if (!return_from_call()) ended_ = true;
     }
@@ -1591,6 +1617,183 @@ class SiemensReader {
     }
     if (exact_stop_here && first_point < path_.points.size()) path_.points.back().corner_tolerance_m = 0.0;
     for (std::size_t k = 0; k < 3; ++k) position_[k] = target_f[static_cast<Eigen::Index>(k)];
+  }
+
+  // --- Drilling cycles CYCLE81 / CYCLE82 / CYCLE83 ----------------------------------------------
+  //
+  // As the 840D's cycle manual describes them, along the plane's drilling axis (G17: Z) at the
+  // tool's position, in program coordinates (the frames map the points):
+  //  CYCLE81(RTP, RFP, SDIS, DP, DPR), CYCLE82(..., DTB): G0 to RFP + SDIS, G1 to the depth
+  //  (DPR > 0: RFP - DPR, it wins over DP, as on the control; else DP), G0 to RTP (the G-code
+  //  G81 motion: canned_cycles.hpp). DTB (dwell) is not a motion.
+  //  CYCLE83(RTP, RFP, SDIS, DP, DPR, FDEP, FDPR, DAM, DTB, DTS, FRF, VARI, _AXN, _MDEP, _VRT,
+  //  _DTD, _DIS1): the first stroke to FDPR below RFP (else to FDEP) at F * FRF, each next one
+  //  DAM shorter but not shorter than DAM or _MDEP; VARI = 0 chip breaking: back _VRT (0: 1 mm)
+  //  at F after each stroke; VARI = 1 swarf removal: G0 out to RFP + SDIS and G0 back to the
+  //  anticipation distance above the depth reached (_DIS1, else 0.6 mm up to 30 mm deep holes,
+  //  depth / 50 up to 7 mm beyond). G0 to RTP at the end. DAM < 0 (a degression factor) is not
+  //  read.
+
+  struct DrillCycle {
+    int number = 81;
+    double rtp_mm = 0.0, rfp_mm = 0.0, sdis_mm = 0.0, depth_mm = 0.0;  ///< along the drilling axis
+    double first_depth_mm = 0.0;  ///< CYCLE83: the first stroke's end
+    double decrement_mm = 0.0, minimum_stroke_mm = 0.0, feed_factor = 1.0;
+    bool chip_breaking = false;
+    double chip_break_mm = 1.0, anticipation_mm = 0.6;
+    int line = 0, column = 0;  ///< where it was programmed
+  };
+
+  DrillCycle drill_cycle_of(const Word& word) const {
+    const std::string& name = word.address;
+    const auto arg = [&](std::size_t k) -> std::optional<double> {
+      if (k >= word.arguments.size() || !word.arguments[k]) return std::nullopt;
+      if (word.arguments[k]->text) fail(word, name + " argument " + std::to_string(k + 1) + " must be a number");
+      return word.arguments[k]->number;
+    };
+    const std::size_t max_arguments = name == "CYCLE81" ? 5 : name == "CYCLE82" ? 6 : 17;
+    if (word.arguments.size() > max_arguments) {
+      fail(word, name + " takes at most " + std::to_string(max_arguments) + " arguments");
+    }
+    for (std::size_t k = 0; k < word.arguments.size(); ++k) {
+      if (const auto v = arg(k); v && !(std::abs(*v * mm_per_unit_) <= detail::kMaxCoordinateMm)) {
+        fail(word, name + " argument " + std::to_string(k + 1) + " = " + detail::format_number(*v) + " is outside +-1e6");
+      }
+    }
+    DrillCycle c;
+    c.number = std::stoi(name.substr(5));
+    c.line = line_;
+    c.column = word.column;
+    const auto length = [&](std::size_t k, const char* what) {
+      const auto v = arg(k);
+      if (!v) fail(word, name + " needs " + what + " (argument " + std::to_string(k + 1) + ")");
+      return *v * mm_per_unit_;
+    };
+    c.rtp_mm = length(0, "the retraction plane RTP");
+    c.rfp_mm = length(1, "the reference plane RFP");
+    c.sdis_mm = std::abs(arg(2).value_or(0.0)) * mm_per_unit_;
+    const std::optional<double> dpr = arg(4);
+    if (dpr && *dpr != 0.0) {
+      c.depth_mm = c.rfp_mm - std::abs(*dpr) * mm_per_unit_;
+    } else if (const auto dp = arg(3)) {
+      c.depth_mm = *dp * mm_per_unit_;
+    } else {
+      fail(word, name + " needs the final drilling depth DP or DPR (arguments 4, 5)");
+    }
+    if (!(c.depth_mm < c.rfp_mm)) {
+      fail(word, name + ": the drilling depth " + detail::format_number(c.depth_mm) +
+                     " mm is not below the reference plane RFP " + detail::format_number(c.rfp_mm) + " mm");
+    }
+    if (!(c.rtp_mm >= c.rfp_mm)) {
+      fail(word, name + ": the retraction plane RTP " + detail::format_number(c.rtp_mm) +
+                     " mm is below the reference plane RFP " + detail::format_number(c.rfp_mm) + " mm");
+    }
+    if (c.number != 83) return c;
+    const std::optional<double> fdpr = arg(6);
+    if (fdpr && *fdpr != 0.0) {
+      c.first_depth_mm = c.rfp_mm - std::abs(*fdpr) * mm_per_unit_;
+    } else if (const auto fdep = arg(5)) {
+      c.first_depth_mm = *fdep * mm_per_unit_;
+    } else {
+      fail(word, "CYCLE83 needs the first drilling depth FDEP or FDPR (arguments 6, 7)");
+    }
+    if (!(c.first_depth_mm < c.rfp_mm)) fail(word, "CYCLE83: the first drilling depth is not below the reference plane RFP");
+    const double dam = arg(7).value_or(0.0);
+    if (dam < 0.0) fail(word, "CYCLE83 DAM < 0 (a degression factor) is not read: give DAM as a length");
+    c.decrement_mm = dam * mm_per_unit_;
+    c.minimum_stroke_mm = std::max(c.decrement_mm, std::abs(arg(13).value_or(0.0)) * mm_per_unit_);
+    const double frf = arg(10).value_or(0.0);
+    if (!(frf >= 0.0 && frf <= 1.0)) fail(word, "CYCLE83 FRF (feed factor of the first stroke) must be within [0.001, 1]");
+    c.feed_factor = frf == 0.0 ? 1.0 : std::max(frf, 0.001);
+    const double vari = arg(11).value_or(0.0);
+    if (vari != 0.0 && vari != 1.0) fail(word, "CYCLE83 VARI must be 0 (chip breaking) or 1 (swarf removal)");
+    c.chip_breaking = vari == 0.0;
+    if (const auto axis = arg(12); axis && *axis != 0.0 && *axis != static_cast<double>(plane_axes(plane_)[2] + 1)) {
+      fail(word, "CYCLE83 _AXN: a drilling axis other than the plane's (G17: Z) is not read");
+    }
+    const double vrt = std::abs(arg(14).value_or(0.0)) * mm_per_unit_;
+    c.chip_break_mm = vrt > 0.0 ? vrt : 1.0;
+    const double dis1 = std::abs(arg(16).value_or(0.0)) * mm_per_unit_;
+    const double hole_mm = c.rfp_mm - c.depth_mm;
+    c.anticipation_mm = dis1 > 0.0 ? dis1 : (hole_mm <= 30.0 ? 0.6 : std::min(hole_mm / 50.0, 7.0));
+    return c;
+  }
+
+  void run_drill_cycle(const DrillCycle& c, long block_number) {
+    // A modal call runs in a later block: its errors name that block (and the MCALL's line).
+    const bool here = c.line == line_;
+    const std::string name = "CYCLE" + std::to_string(c.number) + (here ? "" : " (MCALL at line " + std::to_string(c.line) + ")");
+    const auto fail = [&](int column, const std::string& message) { this->fail(here ? column : 0, message); };
+    if (compensating()) fail(c.column, name + " under cutter compensation: cancel it (G40) first");
+    if (!feed_m_per_s_) fail(c.column, name + " before any F word: the drilling feed is unknown");
+    if (inverse_time_) fail(c.column, name + " under G93 (inverse time) is not read");
+    if (!position_[0] || !position_[1] || !position_[2]) {
+      fail(c.column, name + " before the tool's position is known: position it first");
+    }
+    const std::array<int, 3> axes = plane_axes(plane_);  // (no structured binding: the lambda below uses w)
+    const int u = axes[0], v = axes[1], w = axes[2];
+    const Vec3 start = from_frame(Vec3(*position_[0], *position_[1], *position_[2]));
+    std::vector<detail::CycleMove> moves;
+    if (c.number != 83) {
+      detail::CycleHole hole;
+      hole.code = 81;
+      hole.u = u;
+      hole.v = v;
+      hole.w = w;
+      hole.hole_mm = start;
+      hole.r_mm = c.rfp_mm + c.sdis_mm;
+      hole.bottom_mm = c.depth_mm;
+      hole.initial_mm = c.rtp_mm;
+      hole.return_to_initial = true;
+      moves = detail::expand_cycle(start, hole);
+    } else {
+      detail::PeckDrilling peck;
+      peck.w = w;
+      peck.reference_mm = c.rfp_mm;
+      peck.bottom_mm = c.depth_mm;
+      peck.first_stroke_mm = c.rfp_mm - c.first_depth_mm;
+      peck.stroke_decrement_mm = c.decrement_mm;
+      peck.minimum_stroke_mm = c.minimum_stroke_mm;
+      peck.chip_breaks_per_retract = c.chip_breaking ? -1 : 0;
+      peck.chip_break_mm = c.chip_break_mm;
+      peck.chip_break_rapid = false;
+      peck.chip_break_feed = detail::CycleFeed::cutting;
+      peck.retract_to_mm = c.rfp_mm + c.sdis_mm;
+      peck.retract_rapid = true;
+      peck.reapproach_clearance_mm = c.anticipation_mm;
+      peck.first_stroke_feed = detail::CycleFeed::first_stroke;
+      const std::size_t cap = options_.max_points_per_block + 1;
+      const std::size_t strokes = detail::peck_stroke_count(peck, cap);
+      if (strokes >= cap || !(3.0 * static_cast<double>(strokes) + 4.0 <= static_cast<double>(options_.max_points_per_block))) {
+        fail(c.column, "CYCLE83 expands to more than " + std::to_string(options_.max_points_per_block) +
+                           " points (ReaderOptions::max_points_per_block): the strokes are too short");
+      }
+      Vec3 p = start;
+      const auto add = [&](bool rapid, double level) {
+        if (p[w] == level) return;
+        p[w] = level;
+        moves.push_back({rapid, p, detail::CycleFeed::cutting});
+      };
+      add(true, c.rfp_mm + c.sdis_mm);
+      for (const detail::CycleMove& m : detail::peck_moves(p, peck)) moves.push_back(m);
+      p = moves.back().p_mm;
+      add(true, c.rtp_mm);
+    }
+    detail::require_room_for_points(path_, moves.size(), options_, current_file(), line_, c.column, name);
+    const int block = add_source_block(block_number);
+    for (const detail::CycleMove& m : moves) {
+      PathPoint point = new_point(m.rapid ? MotionKind::rapid : MotionKind::linear);
+      if (!m.rapid) point.feed_m_per_s = *feed_m_per_s_ * (m.feed == detail::CycleFeed::first_stroke ? c.feed_factor : 1.0);
+      point.corner_tolerance_m = 0.0;  // the control stops at each level of a cycle
+      point.block = block;
+      point.rotary_words_deg = rotary_words_deg(rotary_deg_);
+      set_pose(point, to_frame(m.p_mm), rotary_deg_);
+      detail::append_point(path_, point, options_, current_file(), line_);
+    }
+    if (!moves.empty()) {
+      const Vec3 f = to_frame(moves.back().p_mm);
+      for (std::size_t k = 0; k < 3; ++k) position_[k] = f[static_cast<Eigen::Index>(k)];
+    }
   }
 
   // --- Cutter radius compensation (G40 G41 G42; cutter_compensation.hpp) ------------------------
@@ -2133,6 +2336,7 @@ class SiemensReader {
   // Modal state.
   std::optional<Motion> motion_;
   Plane plane_ = Plane::xy;
+  std::optional<DrillCycle> modal_drill_;  ///< MCALL CYCLE8x(...)
   double mm_per_unit_ = 1.0;
   bool incremental_ = false;
   bool inverse_time_ = false;

@@ -414,7 +414,163 @@ def powermill_5axis():
                "{number: 5, type: ball, diameter_mm: 10, corner_radius_mm: 5, length_mm: 60, cutting_length_mm: 10}", 0)
 
 
+# --- 4. hyperMILL, contour with APPR / DEP, depth passes by LBL, drilling cycles ------------------
+
+def tnc_drilling(number, q, x, y, z, surface_shift=0.0):
+    """The moves [(rapid, x, y, z, feed)] of TNC cycle 200 / 203 from the tool at z, as the TNC 640
+    manual describes them (written here again, apart from the reader: the ISO twin's motion)."""
+    surface = q[203] + surface_shift
+    clearance = surface + q[200]
+    second = surface + max(q[204], q[200])
+    bottom = surface + q[201]
+    moves = []
+    at = [z]
+
+    def move(rapid, level, feed=None):
+        if abs(level - at[0]) > 1e-12:
+            moves.append((rapid, x, y, level, feed))
+            at[0] = level
+
+    move(True, clearance)
+    level, stroke, breaks = surface, q[202], 0
+    retract_feed = q.get(208, 0) or q[206]
+    while level > bottom:
+        level = max(level - stroke, bottom)
+        move(False, level, q[206])
+        if level <= bottom:
+            break
+        if number == 203 and breaks < q[213]:
+            breaks += 1
+            move(False, level + q[256], retract_feed)
+        else:
+            breaks = 0
+            if number == 203:
+                move(False, clearance, retract_feed)
+            else:
+                move(True, clearance)
+            move(True, level + q[200])
+        if number == 203:
+            shorter = max(stroke - q[212], q[205])
+            stroke = shorter if shorter > 0 else stroke
+    if number == 203:
+        move(False, clearance, retract_feed)
+    else:
+        move(True, clearance)
+    move(True, second)
+    return moves
+
+
+def hypermill_contour_holes():
+    """hyperMILL style for a TNC 640, 3-axis: an outside contour approached with APPR PLT (polar,
+    about CC) and left with DEP LT, under RL; two depth passes as a program section repeat
+    (LBL 1 ... CALL LBL 1 REP 1); drilling cycles 200 (CYCL CALL POS in the subprogram LBL 2)
+    and 203 (M99) with their Q parameter lines. The ISO twin writes the tool centre's path
+    (computed here: the rectangle offset outside by the tool radius, corners rolled on arcs)
+    and each cycle's moves as G0 / G1."""
+    folder = "hypermill_contour_holes"
+    os.makedirs(os.path.join(HERE, folder), exist_ok=True)
+    t, g = Tnc(), Iso()
+    r = 5.0
+    t("BEGIN PGM BOSS MM")
+    t(";hyperMILL TNC640 / CONTOUR + DRILLING")
+    t("BLK FORM 0.1 Z X-50 Y-40 Z-30")
+    t("BLK FORM 0.2 X+50 Y+40 Z+0")
+    t("* - T1 FLAT D10")
+    t("TOOL CALL 1 Z S8000")
+    t("L X+20 Y-45 Z+50 R0 FMAX M3")
+    t("L Z+2 FMAX")
+    g("%")
+    g("O1001 (BOSS)")
+    g("G90 G94 G17 G21 G40 G80")
+    g("T1 M6")
+    g("S8000 M3")
+    g("G0 G54 G43 H1 X20. Y-45. Z50.")
+    g("Z2.")
+    # Two passes, 2 mm each: the section LBL 1 .. CALL LBL 1 REP 1, the depth in Q10.
+    t("* - CONTOUR")
+    t("FN 0: Q10 = +0 ;DEPTH")
+    t("LBL 1")
+    t("Q10 = Q10 - 2")
+    t("L X+20 Y-45 R0 FMAX")
+    t("L Z+Q10 F300")
+    t("CC X+0 Y+0")
+    t("APPR PLT PR+20 PA-90 LEN10 RL F600")
+    for x, y in ((-30, -20), (-30, 20), (30, 20), (30, -20), (0, -20)):
+        t(f"L X{tnc(x)} Y{tnc(y)}")
+    t("DEP LT LEN10 F600")
+    t("L Z+2 FMAX")
+    t("CALL LBL 1 REP1")
+    for depth in (-2.0, -4.0):
+        g("G0 X20. Y-45.")
+        g(f"G1 Z{iso(depth)} F300.")
+        # APPR LT at PA (0, -20), t = (-1, 0), n = (0, -1) (RL, the outside): to PH + r n
+        # = (10, -25) at the motion before's feed, then to PA + r n = (0, -25).
+        g("X10. Y-25.")
+        g("X0. F600.")
+        # The rectangle clockwise, offset outside by r; convex corners rolled on radius r.
+        g(f"X-30.")
+        g(f"G2 X-35. Y-20. I0. J5.")
+        g(f"G1 Y20.")
+        g(f"G2 X-30. Y25. I5. J0.")
+        g(f"G1 X30.")
+        g(f"G2 X35. Y20. I0. J-5.")
+        g(f"G1 Y-20.")
+        g(f"G2 X30. Y-25. I-5. J0.")
+        g(f"G1 X0.")
+        # DEP LT LEN10: from PE + r n = (0, -25) to PE + LEN t + r n = (-10, -25).
+        g("X-10.")
+        g("G0 Z2.")
+    t("L Z+50 R0 FMAX")
+    g("G0 Z50.")
+    # Drilling: cycle 200 at two points (CYCL CALL POS in LBL 2), cycle 203 at one (M99).
+    q200 = {200: 2.0, 201: -8.0, 206: 250.0, 202: 3.0, 210: 0.0, 203: 0.0, 204: 20.0, 211: 0.2}
+    q203 = {200: 2.0, 201: -12.0, 206: 200.0, 202: 4.0, 210: 0.0, 203: 0.0, 204: 20.0, 212: 1.0,
+            213: 2, 205: 2.0, 211: 0.0, 208: 800.0, 256: 0.3, 395: 0}
+    names = {200: "SET-UP CLEARANCE", 201: "DEPTH", 206: "FEED RATE FOR PLNGNG", 202: "PLUNGING DEPTH",
+             210: "DWELL TIME AT TOP", 203: "SURFACE COORDINATE", 204: "2ND SET-UP CLEARANCE",
+             211: "DWELL TIME AT DEPTH", 212: "DECREMENT", 213: "NR OF BREAKS", 205: "MIN. PLUNGING DEPTH",
+             208: "RETRACTION FEED RATE", 256: "DIST FOR CHIP BRKNG", 395: "DEPTH REFERENCE"}
+    t("* - DRILLING")
+    t("CYCL DEF 200 DRILLING ~")
+    keys = list(q200)
+    for k in keys:
+        t(f"  Q{k}={tnc(q200[k])} ;{names[k]}" + (" ~" if k != keys[-1] else ""))
+    t("CALL LBL 2")
+    z = 50.0
+    for hx, hy in ((-15.0, -8.0), (-15.0, 8.0)):
+        g(f"G0 X{iso(hx)} Y{iso(hy)}")  # above the surface: in the plane first
+        for rapid, x, y, level, feed in tnc_drilling(200, q200, hx, hy, z):
+            g(f"G0 Z{iso(level)}" if rapid else f"G1 Z{iso(level)} F{iso(feed)}")
+            z = level
+    t("CYCL DEF 203 UNIVERSAL DRILLING ~")
+    keys = list(q203)
+    for k in keys:
+        t(f"  Q{k}={tnc(q203[k])} ;{names[k]}" + (" ~" if k != keys[-1] else ""))
+    t("L X+15 Y+0 R0 FMAX M99")
+    g("G0 X15. Y0.")
+    for rapid, x, y, level, feed in tnc_drilling(203, q203, 15.0, 0.0, z):
+        g(f"G0 Z{iso(level)}" if rapid else f"G1 Z{iso(level)} F{iso(feed)}")
+    t("L Z+50 R0 FMAX")
+    t("M30")
+    t("* - HOLES")
+    t("LBL 2")
+    t("CYCL CALL POS X-15 Y-8 Z+0 FMAX")
+    t("CYCL CALL POS X-15 Y+8 Z+0 FMAX")
+    t("LBL 0")
+    t("END PGM BOSS MM")
+    g("G0 Z50.")
+    g("M30")
+    g("%")
+    t.write(os.path.join(HERE, folder, "program.h"))
+    g.write(os.path.join(HERE, folder, "program_iso.nc"))
+    write_part(folder, "hyperMILL style for a TNC 640, 3-axis: an outside contour with APPR PLT / DEP LT under RL in "
+               "two depth passes (LBL 1 ... CALL LBL 1 REP1), drilling cycles 200 (CYCL CALL POS in a subprogram) "
+               "and 203 (M99)",
+               "{number: 1, type: flat, diameter_mm: 10, length_mm: 60, cutting_length_mm: 30}", 30)
+
+
 if __name__ == "__main__":
     hypermill_3axis()
     nx_3plus2()
     powermill_5axis()
+    hypermill_contour_holes()

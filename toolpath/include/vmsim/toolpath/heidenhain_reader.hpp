@@ -19,8 +19,38 @@
 //    and by FN 0 .. 8 and FN 13 (=, +, -, *, DIV, SQRT, SIN, COS, LEN, ANG). Reading one never
 //    set in the program is an error (the control would use what an earlier program left: not
 //    simulated); so is Q120 .. Q122 (the axis angles PLANE STAY computes: the control's
-//    kinematics). Jumps (FN 9 .. 12), labels and program calls (LBL, CALL LBL, CALL PGM) are
-//    errors.
+//    kinematics). Jumps (FN 9 .. 12) are errors.
+//  - Labels and calls: the program runs from a program counter. LBL n / LBL "NAME" marks a place
+//    (a label defined twice is an error); CALL LBL n REP k with the label before it and no
+//    LBL 0 between is a program section repeat (the section runs k more times; the counter
+//    belongs to the CALL block, so sections nest); any other CALL LBL runs the subprogram from
+//    LBL n to LBL 0 and returns after the CALL (REP k: k more runs). LBL 0 reached without a
+//    call is passed. CALL PGM name runs the file name (".h" added where it has no extension,
+//    drive and folders dropped: TNC:\nc\HOLE.H is HOLE.H) from ReaderOptions::
+//    subprogram_folder (read_heidenhain: the program's folder) to its END PGM; its blocks and
+//    errors name that file; Q parameters are shared (QL too). Errors: an undefined label, LBL 0
+//    called, REP not a whole number 0 .. 65534, calls nested beyond ReaderOptions::
+//    max_call_depth (a subprogram calling itself), more than ReaderOptions::max_executed_blocks
+//    blocks run from the first jump on, a subprogram running off the end of the file.
+//  - Machining cycles 200 DRILLING, 201 REAMING, 203 UNIVERSAL DRILLING: CYCL DEF 2xx with its
+//    parameters on the lines after it ("Q200=+2 ;SET-UP CLEARANCE", a trailing "~" is in the
+//    comment) or on its own line; they are set as Q parameters too; Q206 / Q208 may be FAUTO.
+//    Checked when the definition ends (at the CYCL DEF block): Q200 Q201 Q203 Q204 Q206, 200:
+//    Q202, 201: Q208, 203: Q202 Q205 Q208 Q212 Q213 (and Q256 where Q213 > 0); Q201 < 0
+//    (drilling towards -Z), Q202 > 0, feeds within range, Q395 0. Called by CYCL CALL, CYCL
+//    CALL POS X Y Z [FMAX | F] (the TNC's positioning logic: in the plane first where the tool
+//    is above the surface, else first up to the 2nd set-up clearance; Z shifts the surface),
+//    M99 on an L block (once, at its end point) and M89 (after every positioning L / LN block
+//    from there, until M99). The moves (along the tool axis, each level an exact stop) as the
+//    TNC 640 manual describes them: FMAX to the set-up clearance Q200 above the surface Q203;
+//    200: strokes of Q202 at Q206, after each FMAX out to the set-up clearance and FMAX back to
+//    Q200 above the depth reached; 201: Q206 to the depth, out at Q208 (0: Q206); 203: strokes
+//    of Q202, each Q212 shorter down to Q205, Q213 chip breaks (back Q256 at Q208) between full
+//    retracts (at Q208 to the set-up clearance, FMAX back to Q200 above the depth); out at
+//    Q208; all: then FMAX to the 2nd set-up clearance Q204 above the surface where it is higher
+//    than Q200. Dwells Q210 / Q211 are no motion. Errors: a call before a definition, under
+//    RL / RR, before the position is known, more points than max_points_per_block; CYCL CALL
+//    PAT (PATTERN DEF), cycles 202 204 205 207 208 220 221 and any other cycle number.
 //  - Tools: TOOL CALL <n> Z S<rpm> F<feed> DL<mm> DR<mm>: tool n (PathPoint::tool_number; a
 //    tool called by "name" gives -1 with a warning), its length from ReaderOptions::
 //    tool_length_mm (else default_tool_length_mm, else 0: without a machine the length cancels out), F the FAUTO
@@ -83,7 +113,10 @@
 //       chamfer cutting L off each of the two lines. Both between two straight lines in the
 //       working plane (the line before ends at the corner: its point moves to the tangent point);
 //       next to an arc, an error. F on RND / CHF: their own feed.
-//    LP / CP (polar), APPR / DEP and FK (free contour programming) are errors.
+//    LP / CP (polar) and FK (free contour programming) are errors. APPR / DEP LT LN CT LCT and
+//    their polar forms PLT PLN PCT PLCT (the point PR PA about the pole CC in the plane X/Y,
+//    PA from +X counter-clockwise; incremental IPR / IPA are errors): heidenhain_reader.cpp,
+//    "APPR / DEP", and the README.
 //  - Radius compensation (cutter_compensation.hpp, as G41 / G42 in G-code): RL keeps the tool
 //    centre left of the programmed contour in X/Y, RR right, by the radius of the TOOL CALL's
 //    tool (ReaderOptions::cutter_radius_mm by T number, else default_cutter_radius_mm) plus
@@ -100,10 +133,10 @@
 //    corners are blended within T; T 0: exact stop; 32.1 without T: NaN, the machine's own);
 //    32.2 HSC-MODE and TA (rotary tolerance) are accepted, not emulated. Jerk limitation and
 //    feedforward are the machine's on a TNC (no program word sets them): unspecified.
-//  - Accepted and ignored: M functions other than M2 M30 M91 M92 M128 M129 (spindle, coolant,
-//    M126 shortest path, ...; M140 retract is an error), STOP, CYCL DEF 9 (dwell), FUNCTION MODE
-//    MILL. Any other keyword or cycle (drilling cycles, CYCL CALL) is an error: it may change
-//    the geometry.
+//  - Accepted and ignored: M functions other than M2 M30 M89 M91 M92 M99 M128 M129 (spindle,
+//    coolant, M126 shortest path, ...; M140 retract and M98 are errors), STOP, CYCL DEF 9
+//    (dwell), FUNCTION MODE MILL. Any other keyword or cycle is an error: it may change the
+//    geometry.
 #include <string>
 
 #include "vmsim/toolpath/toolpath.hpp"

@@ -277,6 +277,20 @@
 //    CYCLE832(): G64, COMPOF, the tolerance forgotten (SOFT / BRISK and FFWON / FFWOF stay).
 //    DYNNORM DYNROUGH DYNSEMIFIN DYNFINISH (dynamic response groups: machine data) are accepted
 //    and not modelled. Points inside a block (arc chords, rotary steps) carry no corner mode.
+//  - Drilling cycles along the plane's axis (G17: Z) at the tool's position, in program
+//    coordinates through the frames, each level an exact stop (corner_tolerance_m 0):
+//    CYCLE81(RTP, RFP, SDIS, DP, DPR) and CYCLE82(..., DTB): G0 to RFP + SDIS, G1 to the depth
+//    (DPR when given and not 0: RFP - |DPR|, else DP), G0 to RTP. CYCLE83(RTP, RFP, SDIS, DP,
+//    DPR, FDEP, FDPR, DAM, DTB, DTS, FRF, VARI, _AXN, _MDEP, _VRT, _DTD, _DIS1): the first stroke
+//    to FDPR below RFP (else FDEP) at F * FRF (0: F), each next one DAM shorter, not shorter
+//    than DAM or _MDEP; VARI 0 (chip breaking): after each stroke G1 back _VRT (0: 1 mm) at F;
+//    VARI 1 (swarf removal): G0 to RFP + SDIS and G0 back to the anticipation distance above
+//    the depth reached (_DIS1, else 0.6 mm for holes up to 30 mm, depth / 50 up to 7 mm
+//    beyond); G0 to RTP. Dwells (DTB DTS _DTD) are no motion. MCALL CYCLE8x(...) calls the
+//    cycle after every following block with X Y Z words until MCALL alone. Errors at the
+//    cycle: no depth, the depth not below RFP, RTP below RFP, DAM < 0 (degression factor),
+//    _AXN not the plane's axis, no F, under G41 / G42 or G93, more points than
+//    ReaderOptions::max_points_per_block. Other cycles (CYCLE84 ...) are errors.
 //
 // G-code programs (read_gcode; toolpath/src/gcode_program.cpp): the programming language of
 // Fanuc Custom Macro B and LinuxCNC runs first, and the block interpreter above reads the blocks

@@ -1,0 +1,295 @@
+// Heidenhain TNC machining cycles 200 / 201 / 203, their calls (CYCL CALL, CYCL CALL POS, M99,
+// M89), labels and calls (LBL, CALL LBL ... REP, CALL PGM) and the polar APPR / DEP forms
+// (toolpath/src/heidenhain_reader.cpp). The expected tool-tip points and feeds are worked out by
+// hand from the TNC 640 manual's description of each cycle (the comments give the arithmetic).
+#include <gtest/gtest.h>
+
+#include <Eigen/Core>
+#include <cmath>
+#include <filesystem>
+#include <fstream>
+#include <numbers>
+#include <string>
+#include <vector>
+
+#include "plane_path_support.hpp"
+#include "reader_test_support.hpp"
+#include "vmsim/toolpath/heidenhain_reader.hpp"
+#include "vmsim/toolpath/toolpath.hpp"
+
+namespace vmsim::toolpath {
+namespace {
+
+using namespace test;
+
+ReaderOptions tool_options() {
+  ReaderOptions options;
+  options.cutter_radius_mm = {{1, 5.0}};
+  options.tool_length_mm = {{1, 0.0}};
+  return options;
+}
+
+Toolpath parse(const std::string& text, const ReaderOptions& options = tool_options()) {
+  return parse_heidenhain(text, "t.h", options);
+}
+
+double per_min(double mm_per_min) { return mm_per_min / 60000.0; }  // m/s
+
+/// One expected move of a cycle: tip Z [mm], rapid or the feed [mm/min].
+struct Expected {
+  double z_mm;
+  bool rapid;
+  double feed_mm_per_min;
+};
+
+void expect_moves(const std::vector<PathPoint>& points, double x_mm, double y_mm,
+                  const std::vector<Expected>& expected) {
+  ASSERT_EQ(points.size(), expected.size());
+  for (std::size_t i = 0; i < expected.size(); ++i) {
+    expect_xy(xy_mm(points[i]), x_mm, y_mm);
+    EXPECT_NEAR(z_mm(points[i]), expected[i].z_mm, kTight) << "move " << i;
+    EXPECT_EQ(points[i].kind == MotionKind::rapid, expected[i].rapid) << "move " << i;
+    if (!expected[i].rapid) {
+      EXPECT_NEAR(points[i].feed_m_per_s, per_min(expected[i].feed_mm_per_min), 1e-15) << "move " << i;
+    }
+    EXPECT_EQ(points[i].corner_tolerance_m, 0.0) << "move " << i;  // exact stop at each level
+  }
+}
+
+// Cycle 200: surface Q203 = 0, set-up clearance Q200 = 2, depth Q201 = -12, strokes Q202 = 5 at
+// Q206 = 150. FMAX to Z+2; 5 mm to Z-5; FMAX out to Z+2 and back to 2 above the depth (Z-3); to
+// Z-10; out, back to Z-8; the last 2 mm to Z-12; FMAX out to Z+2, then to the 2nd set-up
+// clearance Q204 = 50 above the surface.
+TEST(HeidenhainCycles, Drilling200PecksWithFullRetracts) {
+  const Toolpath path = parse(
+      "0 BEGIN PGM D MM\n"                  // 1
+      "1 TOOL CALL 1 Z S2000\n"             // 2
+      "2 L X+10 Y+20 Z+50 R0 FMAX\n"        // 3
+      "3 CYCL DEF 200 DRILLING ~\n"         // 4
+      "  Q200=+2 ;SET-UP CLEARANCE ~\n"     // 5
+      "  Q201=-12 ;DEPTH ~\n"               // 6
+      "  Q206=+150 ;FEED RATE FOR PLNGNG ~\n"
+      "  Q202=+5 ;PLUNGING DEPTH ~\n"
+      "  Q210=+0 ;DWELL TIME AT TOP ~\n"
+      "  Q203=+0 ;SURFACE COORDINATE ~\n"   // 10
+      "  Q204=+50 ;2ND SET-UP CLEARANCE ~\n"
+      "  Q211=+0.5 ;DWELL TIME AT DEPTH\n"  // 12
+      "4 CYCL CALL M3\n"                    // 13
+      "5 END PGM D MM\n");
+  expect_moves(points_of_lines(path, 13, 13), 10.0, 20.0,
+               {{2, true, 0}, {-5, false, 150}, {2, true, 0}, {-3, true, 0}, {-10, false, 150},
+                {2, true, 0}, {-8, true, 0}, {-12, false, 150}, {2, true, 0}, {50, true, 0}});
+}
+
+// Cycle 203 with a decrement and chip breaking: surface Z+5, clearance 2 (Z+7), depth -20 (Z-15),
+// strokes Q202 = 8 less Q212 = 2 each, not below Q205 = 3: 8, 6, 4, 3 -> levels Z-3, Z-9,
+// Z-13, Z-15 (the last cut short). One chip break (Q213 = 1, up Q256 = 0.5 at Q208 = 500)
+// before each full retract (at Q208 to Z+7, FMAX back to 2 above the depth). Out at Q208, then
+// FMAX to the 2nd set-up clearance Z+5+20.
+TEST(HeidenhainCycles, UniversalDrilling203DecrementAndChipBreaking) {
+  const Toolpath path = parse(
+      "BEGIN PGM D MM\nTOOL CALL 1 Z S2000\nL X+30 Y-10 Z+50 R0 FMAX\n"  // 1-3
+      "CYCL DEF 203 UNIVERSAL DRILLING\n"                                // 4
+      "Q200=+2 ;SET-UP CLEARANCE\nQ201=-20 ;DEPTH\nQ206=+100 ;FEED RATE FOR PLNGNG\n"
+      "Q202=+8 ;PLUNGING DEPTH\nQ210=+0 ;DWELL TIME AT TOP\nQ203=+5 ;SURFACE COORDINATE\n"
+      "Q204=+20 ;2ND SET-UP CLEARANCE\nQ212=+2 ;DECREMENT\nQ213=+1 ;NR OF BREAKS\n"
+      "Q205=+3 ;MIN. PLUNGING DEPTH\nQ211=+0 ;DWELL TIME AT DEPTH\nQ208=+500 ;RETRACTION FEED RATE\n"
+      "Q256=+0.5 ;DIST FOR CHIP BRKNG\nQ395=+0 ;DEPTH REFERENCE\n"       // 5-18
+      "CYCL CALL\n"                                                      // 19
+      "END PGM D MM\n");
+  expect_moves(points_of_lines(path, 19, 19), 30.0, -10.0,
+               {{7, true, 0}, {-3, false, 100}, {-2.5, false, 500}, {-9, false, 100}, {7, false, 500},
+                {-7, true, 0}, {-13, false, 100}, {-12.5, false, 500}, {-15, false, 100}, {7, false, 500},
+                {25, true, 0}});
+  // The parameters are Q parameters too, as on the control.
+  const Toolpath uses_q = parse(
+      "BEGIN PGM D MM\nTOOL CALL 1 Z\nCYCL DEF 201 REAMING Q200=2 Q201=-10 Q206=80 Q211=0 Q208=0 Q203=+0 Q204=10\n"
+      "L X+0 Y+0 Z+10 R0 FMAX\nL X+Q201 FMAX\nEND PGM D MM\n");
+  EXPECT_NEAR(xy_mm(uses_q.points.back()).x(), -10.0, kTight);
+}
+
+// Cycle 201 (one stroke at Q206 = 80, out at Q208 = 0: at Q206) called by CYCL CALL POS (its Z
+// shifts the surface: Z-2 + Q203 0; the tool at Z+30 is above it: first in the plane), by M99
+// (once, at the block's end point) and M89 (after every positioning block until M99).
+TEST(HeidenhainCycles, Reaming201CalledByPosM99AndM89) {
+  const Toolpath path = parse(
+      "BEGIN PGM D MM\nTOOL CALL 1 Z S800\nL X+0 Y+0 Z+30 R0 FMAX\n"  // 1-3
+      "CYCL DEF 201 REAMING\nQ200=+2\nQ201=-10\nQ206=+80\nQ211=+0\nQ208=+0\nQ203=+0\nQ204=+10\n"  // 4-11
+      "CYCL CALL POS X+10 Y+5 Z-2 FMAX\n"  // 12
+      "L X+20 Y+5 FMAX M99\n"              // 13
+      "L X+30 FMAX M89\n"                  // 14
+      "L X+40 FMAX\n"                      // 15
+      "L X+50 FMAX M99\n"                  // 16
+      "L X+60 FMAX\n"                      // 17
+      "END PGM D MM\n");
+  const std::vector<PathPoint> pos = points_of_lines(path, 12, 12);
+  ASSERT_EQ(pos.size(), 5u);
+  expect_xy(xy_mm(pos[0]), 10.0, 5.0);  // in the plane at Z+30
+  EXPECT_NEAR(z_mm(pos[0]), 30.0, kTight);
+  expect_moves({pos.begin() + 1, pos.end()}, 10.0, 5.0,
+               {{0, true, 0}, {-12, false, 80}, {0, false, 80}, {8, true, 0}});
+  const std::vector<PathPoint> m99 = points_of_lines(path, 13, 13);
+  ASSERT_EQ(m99.size(), 5u);
+  expect_moves({m99.begin() + 1, m99.end()}, 20.0, 5.0,
+               {{2, true, 0}, {-10, false, 80}, {2, false, 80}, {10, true, 0}});
+  // Holes: at X 10, 20 (M99), 30 (M89), 40 (modal), 50 (M99 ends it), none at X 60.
+  std::vector<double> holes;
+  for (const PathPoint& p : path.points) {
+    if (std::abs(z_mm(p) - (-10.0)) < 1e-9 || std::abs(z_mm(p) - (-12.0)) < 1e-9) holes.push_back(xy_mm(p).x());
+  }
+  EXPECT_EQ(holes, (std::vector<double>{10.0, 20.0, 30.0, 40.0, 50.0}));
+  expect_xy(xy_mm(path.points.back()), 60.0, 5.0);
+}
+
+// LBL / CALL LBL: a section repeat (REP 2: the section three times), a subprogram after M30
+// (REP 1: run twice), and a named label.
+TEST(HeidenhainLabels, SectionRepeatsAndSubprograms) {
+  const Toolpath path = parse(
+      "0 BEGIN PGM L MM\n"          // 1
+      "1 TOOL CALL 1 Z\n"           // 2
+      "2 L X+0 Y+0 Z+10 R0 FMAX\n"  // 3
+      "3 LBL 1\n"                   // 4
+      "4 L IX+10 F100\n"            // 5
+      "5 CALL LBL 1 REP 2\n"        // 6
+      "6 CALL LBL 5 REP1\n"         // 7
+      "7 CALL LBL \"UP\"\n"         // 8
+      "8 L X+0 FMAX\n"              // 9
+      "9 M30\n"                     // 10
+      "10 LBL 5\n"                  // 11
+      "11 L IY+5 F100\n"            // 12
+      "12 LBL 0\n"                  // 13
+      "13 LBL \"UP\"\n"             // 14
+      "14 L Z+20 FMAX\n"            // 15
+      "15 LBL 0\n"                  // 16
+      "16 END PGM L MM\n");
+  std::vector<int> lines;
+  for (const PathPoint& p : path.points) lines.push_back(line_of(path, p));
+  EXPECT_EQ(lines, (std::vector<int>{3, 5, 5, 5, 12, 12, 15, 9}));
+  const std::vector<PathPoint> section = points_of_lines(path, 5, 5);
+  ASSERT_EQ(section.size(), 3u);
+  for (std::size_t i = 0; i < 3; ++i) expect_xy(xy_mm(section[i]), 10.0 * static_cast<double>(i + 1), 0.0);
+  const std::vector<PathPoint> sub = points_of_lines(path, 12, 12);
+  ASSERT_EQ(sub.size(), 2u);
+  expect_xy(xy_mm(sub[1]), 30.0, 10.0);
+  EXPECT_NEAR(z_mm(path.points.back()), 20.0, kTight);
+  expect_xy(xy_mm(path.points.back()), 0.0, 10.0);
+}
+
+// Nested section repeats, as the manual's example nests them: the inner section twice in each of
+// the two passes of the outer one: 4 steps in X, 2 in Y.
+TEST(HeidenhainLabels, NestedRepeatsAndCyclesInSubprograms) {
+  const Toolpath path = parse(
+      "BEGIN PGM L MM\nTOOL CALL 1 Z\nL X+0 Y+0 Z+10 R0 FMAX\n"
+      "LBL 1\nLBL 2\nL IX+1 F100\nCALL LBL 2 REP 1\nL IY+1\nCALL LBL 1 REP 1\n"
+      "CYCL DEF 200 DRILLING\nQ200=2\nQ201=-3\nQ206=100\nQ202=5\nQ210=0\nQ203=0\nQ204=10\nQ211=0\n"
+      "L X+50 Y+50 FMAX\nCALL LBL 9\nL X+60 FMAX\nCALL LBL 9\nM30\n"
+      "LBL 9\nCYCL CALL\nLBL 0\nEND PGM L MM\n");
+  int x_steps = 0, y_steps = 0, holes = 0;
+  for (const PathPoint& p : path.points) {
+    const int line = line_of(path, p);
+    if (line == 6) ++x_steps;
+    if (line == 8) ++y_steps;
+    if (std::abs(z_mm(p) + 3.0) < 1e-9) ++holes;
+  }
+  EXPECT_EQ(x_steps, 4);
+  EXPECT_EQ(y_steps, 2);
+  EXPECT_EQ(holes, 2);
+}
+
+// CALL PGM: another file of the program's folder, run to its END PGM; its points name it.
+TEST(HeidenhainLabels, CallProgramReadsTheFileBesideTheProgram) {
+  const std::filesystem::path folder = std::filesystem::temp_directory_path() / "vmsim_tnc_call_pgm";
+  std::filesystem::create_directories(folder);
+  std::ofstream(folder / "main.h") << "0 BEGIN PGM MAIN MM\n1 TOOL CALL 1 Z\n2 L X+0 Y+0 Z+10 R0 FMAX\n"
+                                      "3 CALL PGM TNC:\\nc\\HOLE.H\n4 L X+5 FMAX\n5 END PGM MAIN MM\n";
+  std::ofstream(folder / "hole.h") << "0 BEGIN PGM HOLE MM\n1 L Z+2 FMAX\n2 L Z-1 F50\n3 L Z+10 FMAX\n4 END PGM HOLE MM\n";
+  const Toolpath path = read_heidenhain((folder / "main.h").string(), tool_options());
+  ASSERT_EQ(path.points.size(), 5u);
+  const SourceBlock& cut = path.blocks[static_cast<std::size_t>(path.points[2].block)];
+  EXPECT_EQ(std::filesystem::path(cut.file).filename(), "hole.h");
+  EXPECT_EQ(cut.line, 3);
+  EXPECT_NEAR(z_mm(path.points[2]), -1.0, kTight);
+  expect_xy(xy_mm(path.points.back()), 5.0, 0.0);
+  std::ofstream(folder / "bad.h") << "BEGIN PGM MAIN MM\nTOOL CALL 1 Z\nL X+0 Y+0 Z+10 R0 FMAX\nCALL PGM NOPE\nEND PGM MAIN MM\n";
+  const std::string missing = input_error_of([&] { read_heidenhain((folder / "bad.h").string(), tool_options()); });
+  EXPECT_NE(missing.find("bad.h:4:10: 'NOPE': CALL PGM: NOPE.h is not in"), std::string::npos) << missing;
+  std::filesystem::remove_all(folder);
+}
+
+// Located errors: file:line:column, the word, what is wrong.
+TEST(HeidenhainLabels, LocatedErrors) {
+  const std::string head = "BEGIN PGM E MM\nTOOL CALL 1 Z\nL X+0 Y+0 Z+10 R0 FMAX\n";  // 1-3
+  const auto error = [&](const std::string& body, ReaderOptions options = tool_options()) {
+    return input_error_of([&] { parse(head + body + "END PGM E MM\n", options); });
+  };
+  EXPECT_NE(error("CALL LBL 7\n").find("t.h:4:10: '7': label 7 is not defined"), std::string::npos)
+      << error("CALL LBL 7\n");
+  EXPECT_NE(error("LBL 3\nLBL 3\n").find("t.h:5:5: '3': label 3 is defined twice (first at line 4)"), std::string::npos);
+  EXPECT_NE(error("CALL LBL 0\n").find("t.h:4:10: '0': LBL 0 ends a subprogram"), std::string::npos);
+  // Recursion stops at the nesting limit, at the CALL that goes one too deep.
+  const std::string recursion = error("CALL LBL 1\nM30\nLBL 1\nL IX+1 F100\nCALL LBL 1\nLBL 0\n");
+  EXPECT_NE(recursion.find("t.h:8:10: '1': calls nested more than 64 deep"), std::string::npos) << recursion;
+  // A repeat that runs too long stops at the executed-block limit.
+  ReaderOptions few = tool_options();
+  few.max_executed_blocks = 1000;
+  const std::string runaway = error("LBL 1\nLBL 2\nL IX+1 F100\nCALL LBL 2 REP 65534\nCALL LBL 1 REP 65534\n", few);
+  EXPECT_NE(runaway.find("more than 1000 blocks run"), std::string::npos) << runaway;
+  EXPECT_NE(error("CALL LBL 1 REP x\nLBL 1\n").find("t.h:4:16: 'x': REP needs a whole number"), std::string::npos)
+      << error("CALL LBL 1 REP x\nLBL 1\n");
+  // Cycles: a missing parameter at the CYCL DEF block, unknown cycles, a call without one.
+  const std::string missing = error("CYCL DEF 200 DRILLING\nQ200=2\nQ201=-5\nQ202=2\nQ203=0\nQ204=10\nCYCL CALL\n");
+  EXPECT_NE(missing.find("t.h:4:10: cycle 200: Q206 is missing (feed rate for plunging)"), std::string::npos) << missing;
+  EXPECT_NE(error("CYCL DEF 262 THREAD MILLING\n").find("t.h:4:10: '262': cycle 262 is not supported"), std::string::npos)
+      << error("CYCL DEF 262 THREAD MILLING\n");
+  EXPECT_NE(error("CYCL CALL\n").find("t.h:4:1: 'CYCL': cycle call without a machining cycle defined"), std::string::npos);
+  const std::string upward = error("CYCL DEF 201 REAMING Q200=2 Q201=+5 Q206=80 Q211=0 Q208=0 Q203=0 Q204=10\nCYCL CALL\n");
+  EXPECT_NE(upward.find("t.h:4:10: cycle 201: Q201 (depth) = 5: only a negative depth"), std::string::npos) << upward;
+  const std::string tiny = error("CYCL DEF 200 DRILLING Q200=2 Q201=-500 Q206=80 Q202=0.00001 Q210=0 Q203=0 Q204=10\nCYCL CALL\n");
+  EXPECT_NE(tiny.find("t.h:5:1: 'CYCL': cycle 200 expands to more than"), std::string::npos) << tiny;
+  // A formula's error names its column in the line, on a parameter line and on the CYCL DEF line.
+  EXPECT_NE(error("CYCL DEF 200 DRILLING\n  Q200=+2 * ;SET-UP CLEARANCE\n").find("t.h:5:13: in the formula"), std::string::npos)
+      << error("CYCL DEF 200 DRILLING\n  Q200=+2 * ;SET-UP CLEARANCE\n");
+  EXPECT_NE(error("CYCL DEF 200 DRILLING Q200=2/0\n").find("t.h:4:30: in the formula"), std::string::npos)
+      << error("CYCL DEF 200 DRILLING Q200=2/0\n");
+  EXPECT_NE(error("CYCL DEF 201 REAMING Q200=2 Q201=-5 Q206=FMAX Q211=0 Q208=0 Q203=0 Q204=10\nCYCL CALL\n")
+                .find("Q206 (feed rate for plunging) FMAX"),
+            std::string::npos);
+}
+
+// Polar APPR / DEP: the same motion as the Cartesian form at the point PR PA about CC. With
+// CC (10, 0), PA = (0, 0) is PR 10 at PA 180 (or -180); with CC (0, 0), DEP LCT's PN (-20, -10)
+// is PR sqrt(500) at PA 180 + atan2(10, 20) deg.
+TEST(HeidenhainApproach, PolarFormsEqualTheCartesianOnes) {
+  const auto square = [](const std::string& appr, const std::string& dep) {
+    return "BEGIN PGM P MM\nTOOL CALL 1 Z S1000\nL X-30 Y-30 Z-2 R0 FMAX\nCC X+10 Y+0\n" + appr +
+           "\nL Y+40\nL X+40\nL Y+0\nL X+0\nCC X+0 Y+0\n" + dep + "\nL Z+5 FMAX\nEND PGM P MM\n";
+  };
+  const double pn_angle_deg = 180.0 + std::atan2(10.0, 20.0) * 180.0 / std::numbers::pi;
+  char dep_polar[128];
+  std::snprintf(dep_polar, sizeof dep_polar, "DEP PLCT PR+%.12f PA+%.12f R+10 F400", std::sqrt(500.0), pn_angle_deg);
+  const std::vector<std::pair<std::string, std::string>> pairs = {
+      {"APPR LT X+0 Y+0 LEN15 RL F200", "APPR PLT PR+10 PA+180 LEN15 RL F200"},
+      {"APPR LN X+0 Y+0 LEN10 RL F200", "APPR PLN PR+10 PA+180 LEN10 RL F200"},
+      {"APPR CT X+0 Y+0 CCA90 R+10 RL F200", "APPR PCT PR+10 PA-180 CCA90 R+10 RL F200"},
+      {"APPR LCT X+0 Y+0 R+10 RL F200", "APPR PLCT PR+10 PA+180 R+10 RL F200"},
+  };
+  for (const auto& [cartesian, polar] : pairs) {
+    const Toolpath a = parse(square(cartesian, "DEP LCT X-20 Y-10 R+10 F400"));
+    const Toolpath b = parse(square(polar, dep_polar));
+    ASSERT_EQ(a.points.size(), b.points.size()) << polar;
+    for (std::size_t i = 0; i < a.points.size(); ++i) {
+      expect_vector(a.points[i].tip_W_m * 1e3, b.points[i].tip_W_m * 1e3, 1e-9);
+    }
+  }
+  const std::string no_pole = input_error_of([] {
+    parse("BEGIN PGM P MM\nTOOL CALL 1 Z\nL X-30 Y-30 Z-2 R0 FMAX\nAPPR PLT PR+10 PA+180 LEN15 RL F200\nL Y+40\n");
+  });
+  EXPECT_NE(no_pole.find("t.h:4:6: 'PLT': polar coordinates without a pole CC"), std::string::npos) << no_pole;
+  const std::string no_angle = input_error_of([] {
+    parse("BEGIN PGM P MM\nTOOL CALL 1 Z\nL X-30 Y-30 Z-2 R0 FMAX\nCC X+0 Y+0\nAPPR PLT PR+10 LEN15 RL F200\nL Y+40\n");
+  });
+  EXPECT_NE(no_angle.find("t.h:5:6: 'PLT': APPR PLT needs the polar radius PR and angle PA"), std::string::npos) << no_angle;
+}
+
+}  // namespace
+}  // namespace vmsim::toolpath
