@@ -1348,7 +1348,9 @@ class Program {
         }
       }
       const std::string_view from_word = text.substr(static_cast<std::size_t>(*move_column - 1));
-      check_modal_call_depth(modal, column, std::string(from_word.substr(0, from_word.find_first_of(" \t(;ABCDEFGHIJKLMNOPQRSTUVWXYZabcdefghijklmnopqrstuvwxyz", 1))));
+      const std::size_t word_end = from_word.find_first_of(
+          " \t(;ABCDEFGHIJKLMNOPQRSTUVWXYZabcdefghijklmnopqrstuvwxyz", 1);
+      check_modal_call_depth(modal, column, std::string(from_word.substr(0, word_end)));
     }
     const std::size_t return_to = jump_ ? *jump_ : line_ + 1;
     const std::size_t return_source = jump_ ? jump_source_ : source_;
