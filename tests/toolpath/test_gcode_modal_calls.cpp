@@ -130,7 +130,8 @@ TEST(GcodeModalCalls, BadInputIsALocatedError) {
       {"G0 X0 Y0 Z0\nG66 A1\n", "part.nc:2:1: 'G66'", "G66 needs P"},
       {"G0 X0 Y0 Z0\nG66 P10 G0\nM30\nO10\nM99\n", "part.nc:2:9: 'G0'", "not a G66 argument"},
       {"G0 X0 Y0 Z0\nG66 P10 L-1\nM30\nO10\nM99\n", "part.nc:2:9: 'L-1'", "non-negative"},
-      {"G0 X0 Y0 Z0\nG66.1 P10\n", "part.nc:2:1: 'G66.1'", "not supported"},
+      {"G0 X0 Y0 Z0\nG65 P10 G66.1 P10\nM30\nO10\nM99\n", "part.nc:2:9: 'G66.1'",
+       "not in one block with G65"},
       {"G0 X0 Y0 Z0\nG65 P10 G66 P10\n", "part.nc:2:", "G65 and G66 in one block"},
       // An error inside the macro names the macro's line.
       {"G0 X0 Y0 Z0\nG66 P10 A1\nG0 X5\nM30\nO10\nG1 X[1 / 0] F100\nM99\n", "part.nc:6:",

@@ -337,6 +337,17 @@ struct Source {
   std::unordered_map<std::size_t, std::vector<Token>> token_cache;
 };
 
+/// The local a macro call's argument word sets (Fanuc argument specification I: A -> #1,
+/// B -> #2, C -> #3, I J K -> #4 #5 #6, D E F -> #7 #8 #9, H -> #11, M -> #13, Q-Z -> #17-#26);
+/// 0 for a letter that is no argument (G L N O P).
+int argument_local(char letter) {
+  static constexpr std::array<int, 26> kLocalOfLetter = {
+      // A  B  C  D  E  F  G  H   I  J  K  L  M   N  O  P  Q   R   S   T   U   V   W   X   Y   Z
+      1, 2, 3, 7, 8, 9, 0, 11, 4, 5, 6, 0, 13, 0, 0, 0, 17, 18, 19, 20, 21, 22, 23, 24, 25, 26};
+  if (letter < 'A' || letter > 'Z') return 0;
+  return kLocalOfLetter[static_cast<std::size_t>(letter - 'A')];
+}
+
 struct Locals {
   std::array<Value, kLocalCount + 1> numbered;  ///< [0] unused
   std::unordered_map<std::string, Value> named;
@@ -457,7 +468,9 @@ class Program {
     std::size_t first = 0;
     while (first < raw.size() && std::isspace(static_cast<unsigned char>(raw[first]))) ++first;
     // Block delete and '%' lines go to the interpreter as they are (it warns / skips them).
-    if (first == raw.size() || raw[first] == '/' || raw[first] == '%' || is_plain(raw)) {
+    // Under G66.1 a plain block is a macro call, not a block to hand on.
+    const bool plain = is_plain(raw) && !each_block_call_active();
+    if (first == raw.size() || raw[first] == '/' || raw[first] == '%' || plain) {
       if (!hand_on(raw, raw, nullptr)) return false;
       if (raw[first] != '/' && raw[first] != '%') modal_call_after(raw, raw);
       return true;
@@ -922,11 +935,12 @@ class Program {
       fail(t, t.kind == Tok::keyword ? "not expected here" : "unexpected character", raw_);
     }
 
-    // Calls and returns: M98 P L, M99, G65 P L (arguments).
+    // Calls and returns: M98 P L, M99, G65 P L (arguments), G66 / G66.1 / G67 modal calls.
     const OutWord* m98 = nullptr;
     const OutWord* m99 = nullptr;
     const OutWord* g65 = nullptr;
     const OutWord* g66 = nullptr;
+    const OutWord* g66_1 = nullptr;
     const OutWord* g67 = nullptr;
     for (const OutWord& w : words) {
       if (!w.value) continue;
@@ -935,15 +949,15 @@ class Program {
       if (w.letter == 'G' && *w.value == 65.0) g65 = &w;
       if (w.letter == 'G' && *w.value == 66.0) g66 = &w;
       if (w.letter == 'G' && *w.value == 67.0) g67 = &w;
-      if (w.letter == 'G' && *w.value == 66.1) {
-        site().fail(w.column, "'" + w.text + "': G66.1 (a macro call from every block, its "
-                                              "words the arguments) is not supported: use G66 "
-                                              "or G65");
-      }
+      if (w.letter == 'G' && *w.value == 66.1) g66_1 = &w;
     }
     for (const auto& [t, v] : sets) write(t, v, comment);
-    const OutWord* call_word = g65 ? g65 : g66;
+    const OutWord* call_word = g65 ? g65 : g66 ? g66 : g66_1;
     if (g65 && g66) site().fail(g66->column, "'" + g66->text + "': G65 and G66 in one block");
+    if ((g65 || g66) && g66_1) {
+      site().fail(g66_1->column, "'" + g66_1->text + "': not in one block with " +
+                                     call_word->text);
+    }
     if (call_word && (m98 || m99 || g67 || goto_n)) {
       const OutWord* other = m98 ? m98 : m99 ? m99 : g67;
       site().fail(other ? other->column : goto_column,
@@ -952,8 +966,25 @@ class Program {
     }
     if (g65) return g65_call(words, *g65);
     if (g66) {
-      set_modal_call(words, *g66);
+      set_modal_call(words, *g66, false);
       return true;
+    }
+    if (g66_1) {
+      // The G66.1 block calls the macro too, with its own arguments.
+      set_modal_call(words, *g66_1, true);
+      const ModalCall& modal = modal_calls_.back();
+      check_modal_call_depth(modal, g66_1->column, g66_1->text);
+      call_macro(modal.call, line_ + 1, source_, true);
+      return true;
+    }
+    // Under G66.1 a block with words other than N calls the macro (its words the arguments)
+    // instead of running; G67 cancels, M98 / M99 still call and return.
+    if (each_block_call_active() && !g67 && !m98 && !m99) {
+      std::vector<const OutWord*> arguments;
+      for (const OutWord& w : words) {
+        if (w.letter != 'N') arguments.push_back(&w);
+      }
+      if (!arguments.empty()) return each_block_call(arguments, goto_n, goto_column);
     }
 
     std::vector<OutWord> kept;
@@ -1211,9 +1242,6 @@ class Program {
   /// The words of a G65 / G66 block: P the program, L the count, arguments A B C I J K D E F H
   /// M Q R S T U V W X Y Z into the locals of the macro (Fanuc argument specification I).
   MacroCall macro_call_of(const std::vector<OutWord>& words, const OutWord& call) {
-    static constexpr std::array<int, 26> kLocalOfLetter = {
-        // A  B  C  D  E  F  G  H   I  J  K  L  M   N  O  P  Q   R   S   T   U   V   W   X   Y   Z
-        1, 2, 3, 7, 8, 9, 0, 11, 4, 5, 6, 0, 13, 0, 0, 0, 17, 18, 19, 20, 21, 22, 23, 24, 25, 26};
     const std::string name = call.text;
     const OutWord* p_word = nullptr;
     MacroCall result;
@@ -1226,10 +1254,8 @@ class Program {
           site().fail(w.column, "'" + w.text + "': the call count must be a non-negative integer");
         }
         result.repeats = std::lround(*w.value);
-      } else if (w.letter >= 'A' && w.letter <= 'Z' &&
-                 kLocalOfLetter[static_cast<std::size_t>(w.letter - 'A')] != 0) {
-        result.arguments.numbered[static_cast<std::size_t>(kLocalOfLetter[static_cast<std::size_t>(
-            w.letter - 'A')])] = Value::of(*w.value);
+      } else if (const int local = argument_local(w.letter); local != 0) {
+        result.arguments.numbered[static_cast<std::size_t>(local)] = Value::of(*w.value);
       } else {
         site().fail(w.column, "'" + w.text + "': not a " + name +
                                   " argument (A-F H-K M Q-Z) nor P / L");
@@ -1281,19 +1307,22 @@ class Program {
 
   // --- G66 / G67: modal macro calls -----------------------------------------------------------
 
-  /// A G66 in force: its macro is called after every move block of the level that gave it.
+  /// A G66 in force: its macro is called after every move block of the level that gave it;
+  /// a G66.1 in force: every block of that level with words calls it instead of running.
   struct ModalCall {
     MacroCall call;
-    std::string g66_text;  ///< "G66 P9010", for messages
+    bool each_block = false;  ///< G66.1
+    std::string g66_text;  ///< "G66 P9010" / "G66.1 P9010", for messages
     int g66_line = 0;
     /// The modal-call macros running when G66 was given: the blocks of a macro this call
     /// started do not call it again (Fanuc: a modal call is not made from its own macro).
     std::size_t bodies_running = 0;
   };
 
-  void set_modal_call(const std::vector<OutWord>& words, const OutWord& g66) {
+  void set_modal_call(const std::vector<OutWord>& words, const OutWord& g66, bool each_block) {
     ModalCall modal;
     modal.call = macro_call_of(words, g66);
+    modal.each_block = each_block;
     for (const OutWord& w : words) {
       if (w.letter == 'P') modal.g66_text = g66.text + " " + w.text;
     }
@@ -1308,7 +1337,7 @@ class Program {
   void modal_call_after(std::string_view raw, std::string_view text) {
     if (modal_calls_.empty()) return;
     const ModalCall& modal = modal_calls_.back();
-    if (modal.bodies_running != modal_bodies_running_) return;
+    if (modal.bodies_running != modal_bodies_running_ || modal.each_block) return;
     const std::optional<int> move_column = move_word_column(text);
     if (!move_column) return;
     if (frames_.size() > options_.max_call_depth) {
@@ -1319,15 +1348,53 @@ class Program {
         }
       }
       const std::string_view from_word = text.substr(static_cast<std::size_t>(*move_column - 1));
-      site().fail(column, "'" + std::string(from_word.substr(0, from_word.find_first_of(" \t(;ABCDEFGHIJKLMNOPQRSTUVWXYZabcdefghijklmnopqrstuvwxyz", 1))) +
-                              "': the modal call " + modal.g66_text + " (line " +
-                              std::to_string(modal.g66_line) + ") nests calls more than " +
-                              std::to_string(options_.max_call_depth) +
-                              " deep (ReaderOptions::max_call_depth)");
+      const std::size_t word_end = from_word.find_first_of(
+          " \t(;ABCDEFGHIJKLMNOPQRSTUVWXYZabcdefghijklmnopqrstuvwxyz", 1);
+      check_modal_call_depth(modal, column, std::string(from_word.substr(0, word_end)));
     }
     const std::size_t return_to = jump_ ? *jump_ : line_ + 1;
     const std::size_t return_source = jump_ ? jump_source_ : source_;
     call_macro(modal.call, return_to, return_source, true);
+  }
+
+  /// A located error when the call `modal` makes from this block (`word` at `column`) would nest
+  /// calls deeper than ReaderOptions::max_call_depth.
+  void check_modal_call_depth(const ModalCall& modal, int column, const std::string& word) {
+    if (frames_.size() <= options_.max_call_depth) return;
+    site().fail(column, "'" + word + "': the modal call " + modal.g66_text + " (line " +
+                            std::to_string(modal.g66_line) + ") nests calls more than " +
+                            std::to_string(options_.max_call_depth) +
+                            " deep (ReaderOptions::max_call_depth)");
+  }
+
+  /// True when a G66.1 is in force for the blocks running (not those of its own macro).
+  bool each_block_call_active() const {
+    return !modal_calls_.empty() && modal_calls_.back().each_block &&
+           modal_calls_.back().bodies_running == modal_bodies_running_;
+  }
+
+  /// A block under G66.1: the macro runs instead of the block, its words the arguments (as
+  /// G65's); it returns to where the block would have gone (the next line or the GOTO's target).
+  bool each_block_call(const std::vector<const OutWord*>& words, std::optional<long> goto_n,
+                       int goto_column) {
+    const ModalCall& modal = modal_calls_.back();
+    MacroCall call = modal.call;
+    call.arguments = Locals{};
+    for (const OutWord* w : words) {
+      const int local = argument_local(w->letter);
+      if (local == 0 || !w->value) {
+        site().fail(w->column, "'" + w->text + "': not a macro argument (A-F H-K M Q-Z): under " +
+                                   modal.g66_text + " (line " + std::to_string(modal.g66_line) +
+                                   ") this block calls the macro, its words the arguments");
+      }
+      call.arguments.numbered[static_cast<std::size_t>(local)] = Value::of(*w->value);
+    }
+    check_modal_call_depth(modal, words.front()->column, words.front()->text);
+    if (goto_n) jump_to_n(*goto_n, goto_column);
+    const std::size_t return_to = jump_ ? *jump_ : line_ + 1;
+    const std::size_t return_source = jump_ ? jump_source_ : source_;
+    call_macro(std::move(call), return_to, return_source, true);
+    return true;
   }
 
   /// The 1-based column of the first axis word (X Y Z A B C U V W) of a block that moves (not
@@ -1799,7 +1866,7 @@ class Program {
   // Parameters and calls.
   std::vector<Locals> locals_;
   std::vector<Frame> frames_;
-  std::vector<ModalCall> modal_calls_;  ///< G66 in force (the last one given calls)
+  std::vector<ModalCall> modal_calls_;  ///< G66 / G66.1 in force (the last one given calls)
   std::size_t modal_bodies_running_ = 0;
   std::unordered_map<int, Value> globals_;
   std::unordered_map<std::string, Value> globals_named_;

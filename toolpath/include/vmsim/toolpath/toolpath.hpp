@@ -346,8 +346,13 @@
 //    G66 blocks nest as a stack). The moves of the macro a modal call started do not call it
 //    again; those of an M98 / G65 subprogram called under G66 do. An unknown program is an
 //    error at the G66; a modal call beyond ReaderOptions::max_call_depth at the move word that
-//    would make it. Not supported (errors): M99 P (return to a block number), G66.1 (a call
-//    from every block, its words the arguments).
+//    would make it. `G66.1 P<n> [L<k>]` (Fanuc "each block" call) calls the macro from its
+//    own block (its arguments), then every following block with a word other than N calls
+//    the macro instead of running, the block's words the arguments (A -> #1 ... Z -> #26 as
+//    G65; G L O P words are an error there), returning to the next block (or its GOTO's
+//    target), until G67; blocks with only N, assignments, comments, IF / WHILE, M98 / M99
+//    blocks and G65 / G66 blocks are no calls. Not supported (errors): M99 P (return to a
+//    block number).
 //  - Subprograms in other files: a program number or o-word subroutine not in the file is
 //    looked for in ReaderOptions::subprogram_folder (read_gcode: the program's folder): M98 /
 //    G65 P1234 in O1234.nc, o1234.nc, 1234.nc, O1234.NC (O0012.nc for P12), which may hold the
