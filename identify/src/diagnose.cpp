@@ -17,6 +17,7 @@
 #include "vmsim/common/errors.hpp"
 #include "vmsim/common/files.hpp"
 #include "vmsim/identify/diagnose.hpp"
+#include "vmsim/kinematics/kinematics.hpp"
 
 namespace vmsim::identify {
 namespace {
@@ -1077,7 +1078,7 @@ ResidualSummary summarise(const Context& ctx, const Evaluation& ev, bool validat
 AxisDiagnosis diagnose_axis(const kinematics::MachineModel& machine,
                             const std::vector<const AxisMeasurement*>& fit_runs,
                             const std::vector<const AxisMeasurement*>& val_runs,
-                            const DiagnoseOptions& options) {
+                            const DiagnoseOptions& options, const std::vector<double>& reference) {
   const AxisMeasurement& first = *fit_runs.front();
   const kinematics::Axis& axis = machine.axes[static_cast<std::size_t>(first.axis_index)];
   AxisDiagnosis out;
@@ -1142,7 +1143,7 @@ AxisDiagnosis diagnose_axis(const kinematics::MachineModel& machine,
     }
   }
 
-  DriveModel model = make_drive_model(machine, first.axis_index);
+  DriveModel model = make_drive_model(machine, first.axis_index, reference);
   // Noise levels from the measured signals themselves (never from a residual, which model
   // error at high frequency would raise): the effort's own white noise, plus the simulation's
   // own (its quantised-encoder ripple does not line up with the measured one), or as given.
@@ -1329,7 +1330,7 @@ AxisDiagnosis diagnose_axis(const kinematics::MachineModel& machine,
   warn_if_noise_is_large(out.unexplained, ctx);
 
   // Residual series on the validation samples (the whole first run when held-out blocks).
-  const Evaluation before_ev = ctx.evaluate(make_drive_model(machine, first.axis_index), true);
+  const Evaluation before_ev = ctx.evaluate(make_drive_model(machine, first.axis_index, reference), true);
   for (std::size_t k = 0; k < ctx.sets.size(); ++k) {
     const Dataset& d = ctx.sets[k];
     const bool whole = val_runs.empty();
@@ -1343,6 +1344,125 @@ AxisDiagnosis diagnose_axis(const kinematics::MachineModel& machine,
     }
     break;  // one run is enough for the plot
   }
+  return out;
+}
+
+// Largest commanded travel (max - min of .cmd) over the runs of one axis [joint unit].
+double commanded_travel(const std::vector<const AxisMeasurement*>& runs) {
+  double travel = 0.0;
+  for (const AxisMeasurement* m : runs) {
+    if (m->cmd.empty()) continue;
+    const auto [lo, hi] = std::minmax_element(m->cmd.begin(), m->cmd.end());
+    travel = std::max(travel, *hi - *lo);
+  }
+  return travel;
+}
+
+// RMS and peak of a series over the samples `use` marks.
+std::pair<double, double> rms_and_peak(const std::vector<double>& x, const std::vector<char>& use) {
+  double sum = 0.0, peak = 0.0;
+  std::size_t n = 0;
+  for (std::size_t i = 0; i < x.size(); ++i) {
+    if (!use[i]) continue;
+    sum += x[i] * x[i];
+    peak = std::max(peak, std::abs(x[i]));
+    ++n;
+  }
+  return {n ? std::sqrt(sum / static_cast<double>(n)) : 0.0, peak};
+}
+
+// The tool tip through the direct kinematics of the commanded, measured and simulated axes.
+// The simulated positions are the measured ones less the position residuals of the diagnosis
+// (the first run of the judged data, as in residuals.csv); held axes and axes without a trace
+// column enter with their measured position (home when not logged).
+ContourError tool_tip_contour(const kinematics::MachineModel& machine, const Diagnosis& diagnosis,
+                              const std::vector<AxisMeasurement>& runs,
+                              const DiagnoseOptions& options) {
+  ContourError out;
+  out.tool_length_m = options.tool_length_m;
+  if (diagnosis.axes.empty()) {
+    out.note = "no axis was diagnosed";
+    return out;
+  }
+  const std::size_t n = diagnosis.axes.front().t.size();
+  // The first run of every axis (the one the residual series come from).
+  std::vector<const AxisMeasurement*> run_of(machine.axes.size(), nullptr);
+  for (const auto& m : runs) {
+    auto& slot = run_of[static_cast<std::size_t>(m.axis_index)];
+    if (!slot) slot = &m;
+  }
+  for (const auto* m : run_of) {
+    if (m && m->t.size() != n) {
+      out.note = "the axes' traces differ in length: no tool tip";
+      return out;
+    }
+  }
+  for (const AxisDiagnosis& a : diagnosis.axes) {
+    if (a.t.size() != n) {
+      out.note = "the axes' traces differ in length: no tool tip";
+      return out;
+    }
+  }
+  const std::size_t axes = machine.axes.size();
+  Eigen::VectorXd q_cmd(axes), q_pos(axes), q_before(axes), q_after(axes);
+  std::vector<Eigen::Vector3d> tip_cmd(n), tip_pos(n), tip_before(n), tip_after(n);
+  for (std::size_t i = 0; i < n; ++i) {
+    for (std::size_t k = 0; k < axes; ++k) {
+      const AxisMeasurement* m = run_of[k];
+      q_cmd[k] = m ? m->cmd[i] : machine.axes[k].home;
+      q_pos[k] = m ? m->pos[i] : machine.axes[k].home;
+      q_before[k] = q_after[k] = q_pos[k];
+    }
+    for (const AxisDiagnosis& a : diagnosis.axes) {
+      const auto k = static_cast<std::size_t>(a.axis_index);
+      q_before[k] = q_pos[k] - a.position_before[i];
+      q_after[k] = q_pos[k] - a.position_after[i];
+    }
+    tip_cmd[i] = kinematics::forward_kinematics(machine, q_cmd, options.tool_length_m).tip_W_m;
+    tip_pos[i] = kinematics::forward_kinematics(machine, q_pos, options.tool_length_m).tip_W_m;
+    tip_before[i] = kinematics::forward_kinematics(machine, q_before, options.tool_length_m).tip_W_m;
+    tip_after[i] = kinematics::forward_kinematics(machine, q_after, options.tool_length_m).tip_W_m;
+  }
+  // Contour error: the part of a tip deviation square to the commanded tip's direction of
+  // motion (the lag along the path leaves no mark); where the tip hardly moves, all of it.
+  const double period = diagnosis.axes.front().t.size() > 1
+                            ? diagnosis.axes.front().t[1] - diagnosis.axes.front().t[0]
+                            : 1.0;
+  std::vector<char> use(n, 1);
+  const std::size_t edge = std::min(n / 4, static_cast<std::size_t>(options.edge_s / period));
+  for (std::size_t i = 0; i < edge; ++i) use[i] = use[n - 1 - i] = 0;
+  out.t = diagnosis.axes.front().t;
+  out.measured_um.resize(n);
+  out.predicted_before_um.resize(n);
+  out.predicted_after_um.resize(n);
+  out.residual_before_um.resize(n);
+  out.residual_after_um.resize(n);
+  for (std::size_t i = 0; i < n; ++i) {
+    const std::size_t lo = i == 0 ? 0 : i - 1, hi = std::min(n - 1, i + 1);
+    Eigen::Vector3d direction = tip_cmd[hi] - tip_cmd[lo];
+    const double step = direction.norm();
+    const bool moving = step > 1e-9 * static_cast<double>(hi - lo);  // 1 nm a sample
+    if (moving) direction /= step;
+    auto normal = [&](const Eigen::Vector3d& e) {
+      return (moving ? (e - e.dot(direction) * direction) : e).norm() * 1e6;
+    };
+    out.measured_um[i] = normal(tip_pos[i] - tip_cmd[i]);
+    out.predicted_before_um[i] = normal(tip_before[i] - tip_cmd[i]);
+    out.predicted_after_um[i] = normal(tip_after[i] - tip_cmd[i]);
+    out.residual_before_um[i] = normal(tip_pos[i] - tip_before[i]);
+    out.residual_after_um[i] = normal(tip_pos[i] - tip_after[i]);
+  }
+  std::tie(out.measured_rms_um, out.measured_peak_um) = rms_and_peak(out.measured_um, use);
+  std::tie(out.predicted_before_rms_um, out.predicted_before_peak_um) =
+      rms_and_peak(out.predicted_before_um, use);
+  std::tie(out.predicted_after_rms_um, out.predicted_after_peak_um) =
+      rms_and_peak(out.predicted_after_um, use);
+  std::tie(out.residual_before_rms_um, out.residual_before_peak_um) =
+      rms_and_peak(out.residual_before_um, use);
+  std::tie(out.residual_after_rms_um, out.residual_after_peak_um) =
+      rms_and_peak(out.residual_after_um, use);
+  out.samples = static_cast<std::size_t>(std::count(use.begin(), use.end(), 1));
+  out.computed = true;
   return out;
 }
 
@@ -1361,6 +1481,8 @@ Diagnosis diagnose(const kinematics::MachineModel& machine, const std::vector<Ax
   }
   Diagnosis result;
   result.validation = validation.empty() ? "held-out blocks" : validation.front().source;
+  // On a whole machine's trace the other axes stand where the trace has them: gravity there.
+  const std::vector<double> reference = reference_configuration(machine, data);
   for (int a = 0; a < static_cast<int>(machine.axes.size()); ++a) {
     std::vector<const AxisMeasurement*> fit, val;
     for (const auto& m : data) {
@@ -1375,8 +1497,25 @@ Diagnosis diagnose(const kinematics::MachineModel& machine, const std::vector<Ax
                        machine.axes[static_cast<std::size_t>(a)].name +
                        " (the validation trace needs the same axes as the trace)");
     }
-    result.axes.push_back(diagnose_axis(machine, fit, val, options));
+    // An axis the part program holds still (a rotary axis of a 3-axis program) gives no
+    // evidence of its drive: it is listed, not diagnosed (every fit would be at the noise).
+    const kinematics::Axis& axis = machine.axes[static_cast<std::size_t>(a)];
+    const double travel = commanded_travel(fit);
+    const double least = axis.type == kinematics::AxisType::linear ? options.least_travel_m
+                                                                   : options.least_travel_rad;
+    if (travel < least) {
+      const bool lin = axis.type == kinematics::AxisType::linear;
+      result.held_axes.push_back(
+          {axis.name, "commanded travel " + format_double(travel * 1e6) +
+                          (lin ? " um" : " urad") + " (below " +
+                          format_double(least * 1e6) + (lin ? " um" : " urad") +
+                          "): held still, nothing to diagnose"});
+      continue;
+    }
+    result.axes.push_back(diagnose_axis(machine, fit, val, options, reference));
   }
+  const std::vector<AxisMeasurement>& tip_data = validation.empty() ? data : validation;
+  result.contour = tool_tip_contour(machine, result, tip_data, options);
   return result;
 }
 

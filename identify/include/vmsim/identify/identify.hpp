@@ -48,6 +48,16 @@ struct DriveModel {
 
 /// The drive model of an axis from the machine (gravity at the axes' home).
 DriveModel make_drive_model(const kinematics::MachineModel& machine, int axis_index);
+/// The same with the gravity torque of the configuration `reference` (one value per machine
+/// axis, joint units): on a whole machine's trace the other axes stand where the trace has them
+/// (a tilted cradle loads its axis otherwise than at home).
+DriveModel make_drive_model(const kinematics::MachineModel& machine, int axis_index,
+                            const std::vector<double>& reference);
+
+/// The configuration a whole machine's trace works about: each axis's mean measured position
+/// where `data` has the axis, its home otherwise [joint units, one per machine axis].
+std::vector<double> reference_configuration(const kinematics::MachineModel& machine,
+                                            const std::vector<AxisMeasurement>& data);
 
 /// Closed-loop simulation of `model` driven by the measured set points, recorded on the
 /// measurement's grid. A trace that starts or ends in motion is simulated with a lead-in and a
