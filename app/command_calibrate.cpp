@@ -72,7 +72,9 @@ double distance_mm(const Json& a, const Json& b) {
 }
 
 // One row of the side-by-side table: a mark of either run and its counterpart in the other
-// (same view, deepest points within `match_mm`); a depth of 0 where the other run has none.
+// (same view, centroids within `match_mm`: a mark's deepest point is no place to match by, along
+// a mark of nearly constant depth it jumps from one end to the other); a depth of 0 where the
+// other run has none.
 struct MarkRow {
   std::string surface, view, kind, block;
   Json point_mm;
@@ -84,12 +86,12 @@ std::vector<MarkRow> pair_marks(const Json& nominal, const Json& calibrated, dou
   std::vector<char> used(calibrated.size(), 0);
   for (const Json& mark : nominal) {
     MarkRow row{mark.value("surface", ""), mark.value("view", ""), mark.value("kind", ""),
-                mark.value("block", ""), mark["deepest_point_mm"], mark["depth_um"].get<double>(), 0.0};
+                mark.value("block", ""), mark["centroid_mm"], mark["depth_um"].get<double>(), 0.0};
     std::size_t best = calibrated.size();
     double best_distance = match_mm;
     for (std::size_t k = 0; k < calibrated.size(); ++k) {
       if (used[k] || calibrated[k].value("view", "") != row.view) continue;
-      const double d = distance_mm(calibrated[k]["deepest_point_mm"], row.point_mm);
+      const double d = distance_mm(calibrated[k]["centroid_mm"], row.point_mm);
       if (d <= best_distance) {
         best_distance = d;
         best = k;
@@ -105,7 +107,7 @@ std::vector<MarkRow> pair_marks(const Json& nominal, const Json& calibrated, dou
     if (used[k]) continue;
     const Json& mark = calibrated[k];
     rows.push_back({mark.value("surface", ""), mark.value("view", ""), mark.value("kind", ""),
-                    mark.value("block", ""), mark["deepest_point_mm"], 0.0,
+                    mark.value("block", ""), mark["centroid_mm"], 0.0,
                     mark["depth_um"].get<double>()});
   }
   std::stable_sort(rows.begin(), rows.end(), [](const MarkRow& a, const MarkRow& b) {
@@ -243,7 +245,7 @@ int run_calibrate(const CalibrateCommandOptions& options, const CommandContext& 
                                {"view", row.view},
                                {"kind", row.kind},
                                {"block", row.block},
-                               {"deepest_point_mm", row.point_mm},
+                               {"centroid_mm", row.point_mm},
                                {"depth_nominal_um", row.nominal_um},
                                {"depth_calibrated_um", row.calibrated_um},
                                {"change_um", row.calibrated_um - row.nominal_um}});
@@ -269,7 +271,7 @@ int run_calibrate(const CalibrateCommandOptions& options, const CommandContext& 
      << "Deepest: nominal " << num(result["runs"]["nominal"]["deepest_mark_um"].get<double>())
      << " um, calibrated " << num(result["runs"]["calibrated"]["deepest_mark_um"].get<double>())
      << " um (folders `nominal/`, `calibrated/`).\n\n"
-     << "| surface | kind | deepest point [mm] | block | depth nominal [um] | depth calibrated [um] |\n"
+     << "| surface | kind | centroid [mm] | block | depth nominal [um] | depth calibrated [um] |\n"
      << "|---|---|---|---|---|---|\n";
   for (const MarkRow& row : rows) {
     md << "| " << row.surface << " | " << row.kind << " | (" << num(row.point_mm[0].get<double>())
@@ -329,7 +331,7 @@ void add_calibrate_command(CLI::App& app, CommandContext& context) {
                       "a line deviating more than this belongs to a mark [um]")
       ->capture_default_str();
   command->add_option("--match-distance-mm", options->match_distance_mm,
-                      "marks of the two runs within this distance are the same mark [mm]")
+                      "marks of the two runs whose centroids lie within this distance are the same mark [mm]")
       ->check(CLI::PositiveNumber)
       ->capture_default_str();
   command->add_flag("--renders", options->renders, "also render the part runs' images (needs a display)");
