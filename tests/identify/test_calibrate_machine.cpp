@@ -289,3 +289,38 @@ TEST(CalibrateMachine, HiddenDelayOnYFoundThereOnlyAndTheCalibratedMarksMatchThe
 
 }  // namespace
 }  // namespace vmsim::identify::test
+
+namespace vmsim::identify::test {
+namespace {
+
+// Bad input: a trace naming an axis the machine does not have is refused with its file and line
+// (exit 3), before anything is computed, and no output folder is left.
+TEST(CalibrateMachine, BadTraceIsRefusedWithItsFileAndNothingIsWritten) {
+  const fs::path folder = vmsim::test::fresh_folder("calibrate_bad_input");
+  write(folder / "nominal.yaml", machine_yaml(0.0));
+  write_part(folder, "nominal.yaml", "part.yaml");
+  write(folder / "trace.csv", "t,X.cmd,X.pos,X.cur,W.cmd\n0,0,0,0,0\n0.002,0,0,0,0\n");
+  const auto run = vmsim::test::run_vmsim(
+      "calibrate --machine " + (folder / "nominal.yaml").string() + " --trace " +
+      (folder / "trace.csv").string() + " --part " + (folder / "part.yaml").string() + " --out " +
+      (folder / "out").string());
+  EXPECT_EQ(run.exit_code, 3) << run.output;
+  EXPECT_NE(run.output.find("trace.csv"), std::string::npos) << run.output;
+  EXPECT_NE(run.output.find("W"), std::string::npos) << run.output;
+  EXPECT_FALSE(fs::exists(folder / "out")) << run.output;
+  for (const auto& entry : fs::directory_iterator(folder)) {
+    EXPECT_EQ(entry.path().filename().string().find(".out.vmsim-staging"), std::string::npos);
+  }
+  // A part file with an unknown key: refused likewise, naming the part file.
+  write(folder / "bad_part.yaml", read(folder / "part.yaml") + "colour: red\n");
+  const auto bad_part = vmsim::test::run_vmsim(
+      "calibrate --machine " + (folder / "nominal.yaml").string() + " --trace " +
+      (folder / "trace.csv").string() + " --part " + (folder / "bad_part.yaml").string() + " --out " +
+      (folder / "out").string());
+  EXPECT_EQ(bad_part.exit_code, 3) << bad_part.output;
+  EXPECT_NE(bad_part.output.find("bad_part.yaml"), std::string::npos) << bad_part.output;
+  EXPECT_FALSE(fs::exists(folder / "out"));
+}
+
+}  // namespace
+}  // namespace vmsim::identify::test
