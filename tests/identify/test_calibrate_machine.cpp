@@ -234,6 +234,22 @@ TEST(CalibrateMachine, HiddenDelayOnYFoundThereOnlyAndTheCalibratedMarksMatchThe
   ASSERT_EQ(control_json["held_axes"].size(), 2u) << control.output;  // A and C
   EXPECT_TRUE(control_json["tool_tip"]["computed"].get<bool>());
 
+  // identify on the whole machine's trace: the held rotary axes are left as they were (they
+  // used to stop it: "too few moving samples"), the delay comes out on Y.
+  auto identify = vmsim::test::run_vmsim("identify --machine " + (folder / "nominal.yaml").string() +
+                                         " --trace " + (folder / "trace.csv").string() + " --out " +
+                                         (folder / "identified.yaml").string());
+  ASSERT_EQ(identify.exit_code, 0) << identify.output;
+  EXPECT_NE(identify.output.find("A: held still"), std::string::npos) << identify.output;
+  EXPECT_NE(identify.output.find("C: held still"), std::string::npos) << identify.output;
+  {
+    const std::size_t y_line = identify.output.find("  Y: ");
+    ASSERT_NE(y_line, std::string::npos) << identify.output;
+    const std::size_t at = identify.output.find("delay ", y_line);
+    ASSERT_NE(at, std::string::npos) << identify.output;
+    EXPECT_NEAR(std::stod(identify.output.substr(at + 6)), kHiddenDelayS * 1e3, 0.05) << identify.output;
+  }
+
   // The hidden delay: found on Y, nothing elsewhere; the calibrated machine's marks.
   const int grid_um = 100;
   auto calibrate = vmsim::test::run_vmsim(
