@@ -29,6 +29,7 @@
 #include "../app/cli_runner.hpp"
 #include "truth_sim_independent.hpp"
 #include "vmsim/common/trace.hpp"
+#include "vmsim/identify/diagnose.hpp"
 #include "vmsim/kinematics/machine_loader.hpp"
 
 namespace vmsim::identify::test {
@@ -336,6 +337,51 @@ TEST(CalibrateMachine, BadTraceIsRefusedWithItsFileAndNothingIsWritten) {
   EXPECT_EQ(bad_part.exit_code, 3) << bad_part.output;
   EXPECT_NE(bad_part.output.find("bad_part.yaml"), std::string::npos) << bad_part.output;
   EXPECT_FALSE(fs::exists(folder / "out"));
+}
+
+}  // namespace
+}  // namespace vmsim::identify::test
+
+namespace vmsim::identify::test {
+namespace {
+
+// A rotary axis that moves: the Mikron's C table driven by the independent truth through the
+// generic excitation (1 rad a metre of it: up to 0.2 rad/s, reversals, hard accelerations), the
+// other axes held. The control gives nothing; a dry friction on C three times the file's is
+// named first on C.
+Diagnosis diagnose_rotary_case(double coulomb_factor) {
+  const kinematics::MachineModel machine = kinematics::parse_machine(machine_yaml(0.0), "mikron_truth.yaml");
+  std::size_t from = 0, to = 0;
+  const std::vector<double> excitation = independent_excitation(0.002, from, to);
+  to = std::min(to, from + 3000);  // 6 s at 2 ms
+  std::vector<IndependentDrive> drives = truth_drives(machine, 0.0);
+  std::vector<std::vector<double>> setpoints;
+  for (const IndependentDrive& d : drives) {
+    std::vector<double> q(excitation.size(), 0.0);
+    if (d.axis_name == "C") q = excitation;  // [m] of the excitation read as [rad]
+    setpoints.push_back(q);
+  }
+  for (IndependentDrive& d : drives) {
+    if (d.axis_name == "C") d.coulomb_A *= coulomb_factor;
+  }
+  const Trace trace = simulate_independent_machine(drives, setpoints, from, to, 3);
+  const auto data = extract_measurements(machine, trace, "rotary.csv");
+  return diagnose(machine, data, {});
+}
+
+TEST(CalibrateMachine, MovingRotaryAxisControlFindsNothingAndItsFrictionIsNamed) {
+  const Diagnosis control = diagnose_rotary_case(1.0);
+  ASSERT_EQ(control.axes.size(), 1u);
+  EXPECT_EQ(control.axes[0].axis_name, "C");
+  EXPECT_TRUE(control.axes[0].found.empty())
+      << control.axes[0].found.front().effect << ": " << control.axes[0].found.front().evidence;
+  EXPECT_EQ(control.held_axes.size(), 4u);
+  const Diagnosis friction = diagnose_rotary_case(3.0);
+  ASSERT_EQ(friction.axes.size(), 1u);
+  ASSERT_FALSE(friction.axes[0].found.empty());
+  for (const auto& c : friction.axes[0].found) std::printf("C found: %s: %s\n", c.effect.c_str(), c.evidence.c_str());
+  const std::string first = friction.axes[0].found.front().effect;
+  EXPECT_TRUE(first == "coulomb_friction" || first == "asymmetric_friction") << first;
 }
 
 }  // namespace
