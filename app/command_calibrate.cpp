@@ -160,8 +160,17 @@ int run_calibrate(const CalibrateCommandOptions& options, const CommandContext& 
   std::vector<identify::AxisNote> notes;
   const kinematics::MachineModel calibrated = identify::extended_machine(machine, diagnosis, notes);
   const std::string parent = std::filesystem::path(options.machine_path).parent_path().string();
+  // Only the axes with a found effect are written back: the others keep their keys as the user
+  // wrote them (updated_machine_yaml rewrites the drive, controller and effects of every axis
+  // it is given).
+  kinematics::MachineModel changed_axes = calibrated;
+  std::erase_if(changed_axes.axes, [&](const kinematics::Axis& axis) {
+    return std::none_of(diagnosis.axes.begin(), diagnosis.axes.end(), [&](const identify::AxisDiagnosis& a) {
+      return a.axis_name == axis.name && !a.found.empty();
+    });
+  });
   const std::string calibrated_yaml =
-      identify::updated_machine_yaml(read_file(options.machine_path), calibrated, notes,
+      identify::updated_machine_yaml(read_file(options.machine_path), changed_axes, notes,
                                      options.machine_path, parent.empty() ? "." : parent);
 
   const std::filesystem::path& staging = output.staging();
