@@ -24,6 +24,7 @@ struct DiagnoseCommandOptions {
   int max_effects = 4;
   double effort_noise_A = 0.0;
   double position_noise_um = 0.0;
+  double tool_length_mm = 0.0;
 };
 
 int run_diagnose(const DiagnoseCommandOptions& options, const CommandContext& context) {
@@ -47,6 +48,7 @@ int run_diagnose(const DiagnoseCommandOptions& options, const CommandContext& co
   diagnose_options.effort_noise_A = options.effort_noise_A;
   // um -> m on a linear axis; the same factor reads urad -> rad on a rotary one.
   diagnose_options.position_noise = options.position_noise_um * 1e-6;
+  diagnose_options.tool_length_m = options.tool_length_mm * 1e-3;
   const identify::Diagnosis diagnosis =
       identify::diagnose(machine, data, validation, diagnose_options);
   std::vector<identify::AxisNote> notes;
@@ -78,6 +80,16 @@ int run_diagnose(const DiagnoseCommandOptions& options, const CommandContext& co
          << axis.after.effort_rms_A << " A";
     context.say(line.str());
     context.say("    " + axis.unexplained.sentence);
+  }
+  for (const auto& held : diagnosis.held_axes) context.say("  " + held.axis_name + ": " + held.reason);
+  if (diagnosis.contour.computed) {
+    const auto& tip = diagnosis.contour;
+    std::ostringstream line;
+    line.precision(3);
+    line << "  tool tip contour error: measured " << tip.measured_rms_um << " um RMS ("
+         << tip.measured_peak_um << " peak); measured minus simulated " << tip.residual_before_rms_um
+         << " -> " << tip.residual_after_rms_um << " um RMS";
+    context.say(line.str());
   }
   return 0;
 }
@@ -117,6 +129,10 @@ void add_diagnose_command(CLI::App& app, CommandContext& context) {
                       "noise of the measured position [um; urad on a rotary axis]; default: "
                       "estimated from the measured signal, at least the encoder quantum / sqrt(12)")
       ->check(CLI::PositiveNumber);
+  command->add_option("--tool-length-mm", options->tool_length_mm,
+                      "tool length for the tool tip's contour error on a whole machine's trace "
+                      "[mm]; default 0: the spindle gauge point")
+      ->check(CLI::NonNegativeNumber);
   command->callback([options, &context] { context.result = run_diagnose(*options, context); });
 }
 

@@ -6,6 +6,7 @@
 #include <memory>
 
 #include "commands.hpp"
+#include "vmsim/common/errors.hpp"
 #include "vmsim/common/files.hpp"
 #include "vmsim/common/output_folder.hpp"
 #include "vmsim/common/trace.hpp"
@@ -50,7 +51,12 @@ int run_identify(const IdentifyCommandOptions& options, const CommandContext& co
   }
   identify::IdentifyOptions identify_options;
   identify_options.filter_cutoff_hz = options.filter_cutoff_hz;
-  const auto results = identify::identify_axes(machine, data, identify_options);
+  std::vector<std::string> held_axes;
+  const auto results = identify::identify_axes(machine, data, identify_options, &held_axes);
+  if (results.empty() && !held_axes.empty()) {
+    throw vmsim::InputError(options.trace_paths.front() + ": every axis of the trace is held still (" +
+                     held_axes.front() + " ...): nothing to identify");
+  }
   std::vector<identify::AxisNote> notes;
   for (const auto& r : results) {
     identify::apply_identification(machine, r);
@@ -79,6 +85,7 @@ int run_identify(const IdentifyCommandOptions& options, const CommandContext& co
       directory_of(options.machine_path));
   write_file_atomically(options.out_path, text);
   context.say("wrote " + options.out_path);
+  for (const auto& name : held_axes) context.say("  " + name + ": held still in the trace, left as it was");
   for (const auto& r : results) {
     context.say("  " + r.axis_name + ": J_eq " + short_number(r.equivalent_inertia_kg_m2) +
                 " kg m^2, viscous " + short_number(r.friction_viscous_A_per_joint_unit_per_s) +

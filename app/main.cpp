@@ -45,6 +45,7 @@ int main(int argc, char** argv) {
   add_diagnose_command(app, context);
   add_remove_command(app, context);
   add_circle_test_command(app, context);
+  add_calibrate_command(app, context);
 
   try {
     app.parse(argc, argv);

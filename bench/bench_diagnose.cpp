@@ -4,7 +4,15 @@
 // diagnosed with the whole catalogue and the default options. Aim: under 30 s on 2 cores.
 //
 //   build/bench/bench_diagnose --benchmark_repetitions=3
+//
+// VMSIM_BENCH_DIAGNOSE_FILES=DIR also writes the trace and the machine file into DIR (trace.csv,
+// machine.yaml), to time the program itself:
+//   /usr/bin/time -v build/app/vmsim diagnose --machine DIR/machine.yaml --trace DIR/trace.csv --out D
 #include <benchmark/benchmark.h>
+
+#include <cstdlib>
+#include <filesystem>
+#include <fstream>
 
 #include "../tests/identify/truth_sim_independent.hpp"
 #include "vmsim/identify/diagnose.hpp"
@@ -26,6 +34,12 @@ void BM_DiagnoseTwentySeconds(benchmark::State& state) {
   const kinematics::MachineModel machine = kinematics::parse_machine(
       identify::test::independent_machine_yaml(nominal), "independent.yaml");
   const auto data = identify::extract_measurements(machine, trace, "bench");
+  if (const char* folder = std::getenv("VMSIM_BENCH_DIAGNOSE_FILES")) {
+    std::filesystem::create_directories(folder);
+    write_trace((std::filesystem::path(folder) / "trace.csv").string(), trace);
+    std::ofstream(std::filesystem::path(folder) / "machine.yaml")
+        << identify::test::independent_machine_yaml(nominal);
+  }
   std::size_t found = 0;
   std::string names;
   for (auto _ : state) {

@@ -83,8 +83,11 @@ double rms_difference(const std::vector<double>& a, const std::vector<double>& b
 
 std::vector<AxisIdentification> identify_axes(const kinematics::MachineModel& machine,
                                               const std::vector<AxisMeasurement>& measurements,
-                                              const IdentifyOptions& options) {
+                                              const IdentifyOptions& options,
+                                              std::vector<std::string>* held_axes) {
   std::vector<AxisIdentification> results;
+  // On a whole machine's trace the other axes stand where the trace has them: gravity there.
+  const std::vector<double> reference = reference_configuration(machine, measurements);
   for (int a = 0; a < static_cast<int>(machine.axes.size()); ++a) {
     std::vector<const AxisMeasurement*> runs;
     for (const auto& m : measurements) {
@@ -92,9 +95,21 @@ std::vector<AxisIdentification> identify_axes(const kinematics::MachineModel& ma
     }
     if (runs.empty()) continue;
     const kinematics::Axis& axis = machine.axes[static_cast<std::size_t>(a)];
+    // An axis the trace holds still (a rotary axis of a 3-axis part program) says nothing of
+    // its drive: left as it is, and named in `held_axes`.
+    double travel = 0.0;
+    for (const AxisMeasurement* m : runs) {
+      if (m->cmd.empty()) continue;
+      const auto [lo, hi] = std::minmax_element(m->cmd.begin(), m->cmd.end());
+      travel = std::max(travel, *hi - *lo);
+    }
+    if (travel < options.least_travel) {
+      if (held_axes) held_axes->push_back(axis.name);
+      continue;
+    }
     const double kt = axis.drive.torque_constant_N_m_per_A;
     const double r = axis.drive.ratio;
-    DriveModel model = make_drive_model(machine, a);
+    DriveModel model = make_drive_model(machine, a, reference);
     const double gravity_A = model.servo.gravity_constant_N_m / kt;
 
     // Rows of the inverse model: [q''/(Kt r), q', sign(q'), 1] theta = effort.

@@ -88,6 +88,28 @@ std::vector<AxisMeasurement> extract_measurements(const kinematics::MachineModel
 DriveModel make_drive_model(const kinematics::MachineModel& machine, int axis_index) {
   std::vector<double> reference;
   for (const auto& axis : machine.axes) reference.push_back(axis.home);
+  return make_drive_model(machine, axis_index, reference);
+}
+
+std::vector<double> reference_configuration(const kinematics::MachineModel& machine,
+                                            const std::vector<AxisMeasurement>& data) {
+  std::vector<double> reference;
+  for (const auto& axis : machine.axes) reference.push_back(axis.home);
+  for (std::size_t a = 0; a < machine.axes.size(); ++a) {
+    double sum = 0.0;
+    std::size_t count = 0;
+    for (const auto& m : data) {
+      if (m.axis_index != static_cast<int>(a)) continue;
+      for (double q : m.pos) sum += q;
+      count += m.pos.size();
+    }
+    if (count > 0) reference[a] = sum / static_cast<double>(count);
+  }
+  return reference;
+}
+
+DriveModel make_drive_model(const kinematics::MachineModel& machine, int axis_index,
+                            const std::vector<double>& reference) {
   DriveModel model;
   model.servo = servo::make_axis_servo_model(machine, axis_index, reference, true);
   return model;

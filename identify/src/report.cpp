@@ -53,6 +53,20 @@ json candidate_json(const CandidateResult& c) {
               {"bound_note", c.bound_note.empty() ? json(nullptr) : json(c.bound_note)}};
 }
 
+json contour_json(const ContourError& c) {
+  if (!c.computed) return json{{"computed", false}, {"note", c.note}};
+  return json{{"computed", true},
+              {"tool_length_mm", c.tool_length_m * 1e3},
+              {"samples", c.samples},
+              {"contour_error_measured", {{"rms_um", c.measured_rms_um}, {"peak_um", c.measured_peak_um}}},
+              {"contour_error_predicted_before",
+               {{"rms_um", c.predicted_before_rms_um}, {"peak_um", c.predicted_before_peak_um}}},
+              {"contour_error_predicted_after",
+               {{"rms_um", c.predicted_after_rms_um}, {"peak_um", c.predicted_after_peak_um}}},
+              {"residual_before", {{"rms_um", c.residual_before_rms_um}, {"peak_um", c.residual_before_peak_um}}},
+              {"residual_after", {{"rms_um", c.residual_after_rms_um}, {"peak_um", c.residual_after_peak_um}}}};
+}
+
 std::string num(double v, const char* format = "%.4g") {
   char text[64];
   std::snprintf(text, sizeof text, format, v);
@@ -137,6 +151,11 @@ std::string diagnosis_json(const Diagnosis& diagnosis, const kinematics::Machine
                            {"verdict", x.sentence}};
     root["axes"].push_back(axis);
   }
+  root["held_axes"] = json::array();
+  for (const HeldAxis& h : diagnosis.held_axes) {
+    root["held_axes"].push_back({{"axis", h.axis_name}, {"reason", h.reason}});
+  }
+  root["tool_tip"] = contour_json(diagnosis.contour);
   return root.dump(2) + "\n";
 }
 
@@ -149,6 +168,26 @@ std::string diagnosis_report(const Diagnosis& diagnosis, const kinematics::Machi
       << "Residual = measured - simulated (the servo simulation driven by the measured set "
          "points). Effort in equivalent current [A], low-passed (zero phase) before it is "
          "judged; positions in mm or deg.\n";
+  for (const HeldAxis& h : diagnosis.held_axes) {
+    out << "\nAxis " << h.axis_name << ": " << h.reason << ".\n";
+  }
+  const ContourError& tip = diagnosis.contour;
+  if (tip.computed) {
+    out << "\n## Tool tip\n\n"
+        << "Contour error (the tip's deviation square to the commanded direction of motion; "
+           "tool length "
+        << num(tip.tool_length_m * 1e3) << " mm; " << tip.samples << " samples) [um]:\n\n"
+        << "| | RMS | peak |\n|---|---|---|\n"
+        << "| measured (pos vs cmd) | " << num(tip.measured_rms_um) << " | " << num(tip.measured_peak_um) << " |\n"
+        << "| predicted, model before | " << num(tip.predicted_before_rms_um) << " | "
+        << num(tip.predicted_before_peak_um) << " |\n"
+        << "| predicted, model after | " << num(tip.predicted_after_rms_um) << " | "
+        << num(tip.predicted_after_peak_um) << " |\n"
+        << "| measured vs predicted, before | " << num(tip.residual_before_rms_um) << " | "
+        << num(tip.residual_before_peak_um) << " |\n"
+        << "| measured vs predicted, after | " << num(tip.residual_after_rms_um) << " | "
+        << num(tip.residual_after_peak_um) << " |\n";
+  }
   for (const AxisDiagnosis& a : diagnosis.axes) {
     const bool lin = linear(machine, a.axis_index);
     const double k = position_scale(lin);
@@ -234,6 +273,12 @@ std::string residuals_csv(const Diagnosis& diagnosis, const kinematics::MachineM
     trace.add_column(a.axis_name + "_effort_residual_after_A", a.effort_after);
     trace.add_column(a.axis_name + "_position_residual_before_" + u, scaled(a.position_before));
     trace.add_column(a.axis_name + "_position_residual_after_" + u, scaled(a.position_after));
+  }
+  const ContourError& c = diagnosis.contour;
+  if (c.computed && c.t.size() == n && !trace.columns.empty()) {
+    trace.add_column("tip_contour_error_measured_um", c.measured_um);
+    trace.add_column("tip_contour_residual_before_um", c.residual_before_um);
+    trace.add_column("tip_contour_residual_after_um", c.residual_after_um);
   }
   return format_trace(trace);
 }

@@ -154,8 +154,11 @@ TEST(Diagnose, AnAxisAtStandstillFindsNothingAndDoesNotCrash) {
   }
   const auto data = extract_measurements(machine, log, "standstill.csv");
   const Diagnosis d = diagnose(machine, data, {});
-  ASSERT_EQ(d.axes.size(), 1u);
-  EXPECT_TRUE(d.axes[0].found.empty());
+  // An axis the trace holds still is listed, not diagnosed (nothing of its drive shows).
+  EXPECT_TRUE(d.axes.empty());
+  ASSERT_EQ(d.held_axes.size(), 1u);
+  EXPECT_EQ(d.held_axes[0].axis_name, "X");
+  EXPECT_NE(d.held_axes[0].reason.find("held still"), std::string::npos) << d.held_axes[0].reason;
 }
 
 }  // namespace

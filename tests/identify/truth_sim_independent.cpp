@@ -26,7 +26,9 @@ void ramp_hold(std::vector<double>& vel, double period, double target, double ac
 
 }  // namespace
 
-double IndependentDrive::ratio_m_per_rad() const { return lead_m / (2.0 * kPi); }
+double IndependentDrive::ratio_m_per_rad() const {
+  return ratio_joint_per_rad > 0.0 ? ratio_joint_per_rad : lead_m / (2.0 * kPi);
+}
 
 double IndependentDrive::equivalent_inertia_kg_m2() const {
   const double r = ratio_m_per_rad();
@@ -145,8 +147,11 @@ Trace simulate_independent(const IndependentDrive& p, const std::vector<double>&
   double i_cmd = 0.0, i_cmd_next = 0.0;  // velocity output, one velocity cycle late
 
   Trace out;
-  out.columns = {"t", "X.cmd", "X.pos", "X.pos_motor", "X.cur"};
+  const std::string& a = p.axis_name;
+  out.columns = {"t", a + ".cmd", a + ".pos", a + (p.loop_on_motor_encoder ? ".pos2" : ".pos_motor"),
+                 a + ".cur"};
   out.values.assign(5, {});
+  const double unit = p.rotary ? 180.0 / kPi : 1e3;  // joint unit -> deg or mm
   const std::size_t ticks = (sp.size() - 1) * static_cast<std::size_t>(per_position);
   for (std::size_t j = 0; j < ticks; ++j) {
     const double t = static_cast<double>(j) * Tv;
@@ -163,9 +168,9 @@ Trace simulate_independent(const IndependentDrive& p, const std::vector<double>&
       if (k >= record_from && k <= record_to) {
         out.values[0].push_back(static_cast<double>(k - record_from) * p.trace_period_s);
         out.values[1].push_back(sp[k * static_cast<std::size_t>(per_trace) /
-                                   static_cast<std::size_t>(per_position)] * 1e3);
-        out.values[2].push_back(scale * 1e3);
-        out.values[3].push_back(r * enc * 1e3);
+                                   static_cast<std::size_t>(per_position)] * unit);
+        out.values[2].push_back((p.loop_on_motor_encoder ? r * enc : scale) * unit);
+        out.values[3].push_back((p.loop_on_motor_encoder ? scale : r * enc) * unit);
         out.values[4].push_back(quantise(current + p.current_noise_A * gauss(rng), p.current_quantum_A));
       }
     }
@@ -177,7 +182,8 @@ Trace simulate_independent(const IndependentDrive& p, const std::vector<double>&
       }
       x_prev2 = x_prev;
       x_prev = x;
-      speed_cmd_next = p.kv_per_s * (x - scale) + v_ff;
+      const double feedback = p.loop_on_motor_encoder ? r * enc : scale;
+      speed_cmd_next = p.kv_per_s * (x - feedback) + v_ff;
       tau_ff_next = tau_ff;
       if (p.position_output_delay_cycles == 0) {
         speed_cmd = speed_cmd_next;
@@ -236,6 +242,22 @@ Trace simulate_independent(const IndependentDrive& p, const std::vector<double>&
     }
   }
   return out;
+}
+
+Trace simulate_independent_machine(const std::vector<IndependentDrive>& drives,
+                                   const std::vector<std::vector<double>>& setpoints,
+                                   std::size_t record_from, std::size_t record_to, std::uint32_t seed) {
+  Trace merged;
+  for (std::size_t k = 0; k < drives.size(); ++k) {
+    const Trace one = simulate_independent(drives[k], setpoints[k], record_from, record_to,
+                                           seed + static_cast<std::uint32_t>(k));
+    for (std::size_t c = 0; c < one.columns.size(); ++c) {
+      if (one.columns[c] == "t" && k > 0) continue;
+      merged.columns.push_back(one.columns[c]);
+      merged.values.push_back(one.values[c]);
+    }
+  }
+  return merged;
 }
 
 std::string independent_machine_yaml(const IndependentDrive& p) {

@@ -68,6 +68,15 @@ struct IndependentDrive {
   double motor_counts_per_rev = 1048576.0;
   double trace_period_s = 1e-3;
   std::string description;
+  // Whole machines (issue 20): one drive per axis, each simulated on its own.
+  std::string axis_name = "X";
+  bool rotary = false;  ///< joint unit rad (logged in deg), else m (logged in mm)
+  /// Joint displacement per motor radian where > 0 (a gear: 1 / ratio), else lead / 2 pi; the
+  /// load "mass" is then in joint units (kg m^2 on a rotary axis) and forces in N (N m).
+  double ratio_joint_per_rad = 0.0;
+  /// The position loop closed on the motor encoder (`.pos`), the load scale logged as `.pos2`;
+  /// else on the scale (`.pos`) with `.pos_motor` logged.
+  bool loop_on_motor_encoder = false;
 
   double ratio_m_per_rad() const;
   double equivalent_inertia_kg_m2() const;  ///< nominal, without inertia_factor
@@ -82,6 +91,13 @@ std::vector<double> independent_excitation(double period_s, std::size_t& record_
 /// Simulates and returns the logged window: t, X.cmd, X.pos (scale), X.pos_motor, X.cur.
 Trace simulate_independent(const IndependentDrive& drive, const std::vector<double>& setpoints_m,
                            std::size_t record_from, std::size_t record_to, std::uint32_t seed);
+
+/// A whole machine: every drive follows its own set points [joint units, one vector per drive,
+/// all on the position period, which must be the same for all], each on its own (no coupling,
+/// seed + the drive's index); the logged windows are merged into one trace.
+Trace simulate_independent_machine(const std::vector<IndependentDrive>& drives,
+                                   const std::vector<std::vector<double>>& setpoints,
+                                   std::size_t record_from, std::size_t record_to, std::uint32_t seed);
 
 /// The machine file (YAML text) that describes the nominal drive in vmsim's terms.
 std::string independent_machine_yaml(const IndependentDrive& nominal);

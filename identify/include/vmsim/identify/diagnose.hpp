@@ -46,6 +46,13 @@ struct DiagnoseOptions {
   /// samples exceeds this many noise levels (effort: the low-passed residual against the
   /// low-passed noise; load minus motor: raw).
   double unexplained_noise_units = 3.0;
+  /// An axis whose commanded travel in the trace is below this is held still (a rotary axis of
+  /// a 3-axis program): listed in Diagnosis::held_axes, not diagnosed [m] / [rad].
+  double least_travel_m = 1e-6;
+  double least_travel_rad = 1e-6;
+  /// Tool length for the tool tip's contour error (kinematics::forward_kinematics) [m]; 0 = the
+  /// spindle gauge point.
+  double tool_length_m = 0.0;
 };
 
 /// One candidate effect fitted on the fit data and judged on the validation data.
@@ -136,8 +143,37 @@ struct AxisDiagnosis {
   std::vector<double> t, effort_before, effort_after, position_before, position_after;
 };
 
+/// The tool tip's contour error on a whole machine's trace: the tip through the direct
+/// kinematics of the commanded axes, of the measured ones, and of the simulated ones before and
+/// after the found effects (simulated = measured - position residual). Each deviation is taken
+/// square to the commanded tip's direction of motion (the lag along the path leaves no mark);
+/// where the tip stands, whole. Statistics over the judged samples less the trace's edges.
+struct ContourError {
+  bool computed = false;
+  std::string note;  ///< why not computed
+  double tool_length_m = 0.0;
+  std::size_t samples = 0;
+  double measured_rms_um = 0.0, measured_peak_um = 0.0;  ///< tip(pos) vs tip(cmd)
+  /// What the model predicts: tip(simulated) vs tip(cmd), before and after the found effects.
+  double predicted_before_rms_um = 0.0, predicted_before_peak_um = 0.0;
+  double predicted_after_rms_um = 0.0, predicted_after_peak_um = 0.0;
+  /// What the model misses: tip(pos) vs tip(simulated), before and after.
+  double residual_before_rms_um = 0.0, residual_before_peak_um = 0.0;
+  double residual_after_rms_um = 0.0, residual_after_peak_um = 0.0;
+  std::vector<double> t, measured_um, predicted_before_um, predicted_after_um,
+      residual_before_um, residual_after_um;  ///< per sample [um]
+};
+
+/// An axis of the trace that was not diagnosed, and why.
+struct HeldAxis {
+  std::string axis_name;
+  std::string reason;
+};
+
 struct Diagnosis {
   std::vector<AxisDiagnosis> axes;
+  std::vector<HeldAxis> held_axes;  ///< in the trace but held still
+  ContourError contour;             ///< the tool tip (whole-machine traces)
   std::string validation;  ///< "held-out blocks" or the validation file
 };
 

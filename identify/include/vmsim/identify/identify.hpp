@@ -48,6 +48,16 @@ struct DriveModel {
 
 /// The drive model of an axis from the machine (gravity at the axes' home).
 DriveModel make_drive_model(const kinematics::MachineModel& machine, int axis_index);
+/// The same with the gravity torque of the configuration `reference` (one value per machine
+/// axis, joint units): on a whole machine's trace the other axes stand where the trace has them
+/// (a tilted cradle loads its axis otherwise than at home).
+DriveModel make_drive_model(const kinematics::MachineModel& machine, int axis_index,
+                            const std::vector<double>& reference);
+
+/// The configuration a whole machine's trace works about: each axis's mean measured position
+/// where `data` has the axis, its home otherwise [joint units, one per machine axis].
+std::vector<double> reference_configuration(const kinematics::MachineModel& machine,
+                                            const std::vector<AxisMeasurement>& data);
 
 /// Closed-loop simulation of `model` driven by the measured set points, recorded on the
 /// measurement's grid. A trace that starts or ends in motion is simulated with a lead-in and a
@@ -86,6 +96,9 @@ struct IdentifyOptions {
   /// Gauss-Newton iterations of the output-error refinement of J, a, b and the offset on the
   /// closed-loop simulation after the inverse model; 0 = inverse model only.
   int output_error_iterations = 3;
+  /// An axis whose commanded travel is below this [joint unit: m or rad] is held still in the
+  /// trace (a rotary axis of a 3-axis part program): not identified.
+  double least_travel = 1e-6;
 };
 
 /// Identified parameters of one axis and the fit quality.
@@ -113,9 +126,12 @@ struct AxisIdentification {
 /// measured motion, then the delay by a scan of the closed-loop simulation (effort and position),
 /// then an output-error refinement of J, a, b, c on the closed-loop effort and the delay again.
 /// The inverse-model fit's R^2 and residual are reported for the inverse model.
+/// Axes held still in the trace are skipped and, with `held_axes`, named there; gravity is taken
+/// at the trace's configuration (reference_configuration).
 std::vector<AxisIdentification> identify_axes(const kinematics::MachineModel& machine,
                                               const std::vector<AxisMeasurement>& measurements,
-                                              const IdentifyOptions& options = {});
+                                              const IdentifyOptions& options = {},
+                                              std::vector<std::string>* held_axes = nullptr);
 
 /// Applies identified values to a machine model (drive a, b, J_eq, controller delay).
 void apply_identification(kinematics::MachineModel& machine, const AxisIdentification& result);
