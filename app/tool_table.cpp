@@ -71,7 +71,8 @@ std::vector<removal::Tool> point_tools(const PartDescription& part, const ChainI
 removal::CutStatistics cut_with_tools(removal::NBuffer& buffer, const std::vector<removal::Tool>& point_tools,
                                       const std::vector<removal::Pose>& poses,
                                       const std::vector<std::size_t>& pose_point,
-                                      const removal::CutOptions& options) {
+                                      const removal::CutOptions& options,
+                                      const std::function<void(removal::NBuffer&)>& between_stretches) {
   removal::CutStatistics total;
   const auto same = [](const removal::Tool& a, const removal::Tool& b) {
     return a.type == b.type && a.diameter_m == b.diameter_m && a.corner_radius_m == b.corner_radius_m &&
@@ -95,6 +96,7 @@ removal::CutStatistics cut_with_tools(removal::NBuffer& buffer, const std::vecto
     total.interrupted = total.interrupted || part.interrupted;
     if (part.interrupted) break;
     first = last + 1;
+    if (first < poses.size() && between_stretches) between_stretches(buffer);
   }
   return total;
 }

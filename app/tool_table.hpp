@@ -3,6 +3,7 @@
 // tool_number through the part file's `tools:` table) and cutting a trajectory stretch by
 // stretch with the tool in the spindle.
 #include <cstddef>
+#include <functional>
 #include <vector>
 
 #include "chain_inputs.hpp"
@@ -25,9 +26,12 @@ std::vector<removal::Tool> point_tools(const PartDescription& part, const ChainI
 /// Cuts `poses` into `buffer` stretch by stretch: the segment that ends at pose k is cut with
 /// point_tools[pose_point[k]] (pose_point: per pose, the index of the path point its motion runs
 /// towards); one NBuffer::cut per stretch of the same tool. Returns the summed statistics.
+/// `between_stretches(buffer)`, when given, runs after each stretch that another follows (the
+/// ranks of an MPI job exchange their bands' tile bounds there: banded_removal.hpp).
 removal::CutStatistics cut_with_tools(removal::NBuffer& buffer, const std::vector<removal::Tool>& point_tools,
                                       const std::vector<removal::Pose>& poses,
                                       const std::vector<std::size_t>& pose_point,
-                                      const removal::CutOptions& options = {});
+                                      const removal::CutOptions& options = {},
+                                      const std::function<void(removal::NBuffer&)>& between_stretches = {});
 
 }  // namespace vmsim::app
