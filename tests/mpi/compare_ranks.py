@@ -5,7 +5,8 @@ Runs `vmsim simulate-part <args>` once as one process and once as `mpirun -np N`
 --allow-run-as-root; --oversubscribe: more ranks than cores), then checks that the results are
 the same: report.json key by key except the clocks and the ranks' own figures (stage_seconds,
 stage_cpu_seconds, stage_peak_rss_mib, the date, the command line, "processes",
-view_3d.seconds), and every height file (*.bin), marks.csv and .vtp byte for byte. Then checks
+view_3d.seconds), and every other file (heights *.bin, marks.csv, .vtp, images, the 3-D view's
+data) byte for byte but report.html (it shows the date and the command line). Then checks
 that only rank 0 wrote: the output folder holds the same file names, and nothing else was
 left beside it. Exit 0 when all agree, 1 with the differences listed.
 
@@ -78,18 +79,20 @@ def main():
     processes = b.get("processes", {})
     if processes.get("ranks") != options.ranks:
         problems.append(f"report.json processes.ranks: {processes.get('ranks')} (expected {options.ranks})")
-    names_a = sorted(p.name for p in single.iterdir())
-    names_b = sorted(p.name for p in ranked.iterdir())
+    names_a = sorted(str(p.relative_to(single)) for p in single.rglob("*") if p.is_file())
+    names_b = sorted(str(p.relative_to(ranked)) for p in ranked.rglob("*") if p.is_file())
     if names_a != names_b:
         problems.append(f"files differ: {names_a} against {names_b}")
+    # Every other file byte for byte (report.html shows the date and the command line).
     compared = 0
     for name in names_a:
-        if name.endswith((".bin", ".vtp")) or name == "marks.csv":
-            compared += 1
-            if (single / name).read_bytes() != (ranked / name).read_bytes():
-                problems.append(f"{name}: not byte-identical")
-    if compared < 3:
-        problems.append(f"only {compared} height / marks files compared")
+        if name in ("report.json", "report.html") or name not in names_b:
+            continue
+        compared += 1
+        if (single / name).read_bytes() != (ranked / name).read_bytes():
+            problems.append(f"{name}: not byte-identical")
+    if sum(name.endswith(".bin") for name in names_a) < 2 or "marks.csv" not in names_a:
+        problems.append("no heights (.bin) or no marks.csv to compare")
     # Only rank 0 wrote: nothing but the output folder beside it (no other rank's staging).
     beside = sorted(p.name for p in (work / "ranks").iterdir())
     if beside != ["out"]:
@@ -97,7 +100,7 @@ def main():
     for problem in problems:
         print("DIFFERENT:", problem)
     print(f"{options.ranks} ranks against 1 process: {len(problems)} differences; "
-          f"{compared} height / marks files and report.json ({len(a)} top-level keys) compared; "
+          f"{compared} files byte for byte and report.json ({len(a)} top-level keys) compared; "
           f"bands {json.dumps(processes.get('bands'))}")
     return 1 if problems else 0
 
