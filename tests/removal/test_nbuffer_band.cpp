@@ -122,6 +122,28 @@ TEST(NBufferBand, TiltedBullChainsAndTurningPasses) {
   }
 }
 
+// The first tool faces the whole top 1 mm down, so the material box's top drops by 1 mm in every
+// band; the second turns its axis along its passes, and the box sizes its orientation sub-steps.
+// Without the exchange of the tile bounds between the two cuts, a band would still see the other
+// bands' tiles at the old top and cut the turning passes in other sub-steps.
+TEST(NBufferBand, TileBoundsExchangedAfterAFacingGiveTheWholeMaterialBox) {
+  std::mt19937 rng(15);
+  const NBuffer uncut = NBuffer::zmap(kStock, 0.2 * mm);
+  std::vector<Pose> facing;
+  for (int pass = 0; pass <= 6; ++pass) {
+    const double y = -4.5 + 1.5 * pass;
+    for (double x : {-8.0, 8.0}) facing.push_back({Eigen::Vector3d(pass % 2 == 0 ? x : -x, y, 9.0) * mm, Eigen::Vector3d::UnitZ()});
+  }
+  for (int parts : {2, 3}) {
+    const auto [whole, gathered] =
+        whole_and_banded(uncut,
+                         {{make_tool(ToolType::flat, 4.0), facing},
+                          {make_tool(ToolType::flat, 3.0, 0.0, 8.0), passes(rng, 0.1, 0.3, false, 3)}},
+                         parts);
+    expect_bit_identical(whole, gathered);
+  }
+}
+
 TEST(NBufferBand, CompactStorage) {
   std::mt19937 rng(13);
   NBuffer uncut = NBuffer::zmap(kStock, 0.05 * mm);
