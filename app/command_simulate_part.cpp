@@ -129,6 +129,7 @@ int run(const CommandOptions& command, const CommandContext& context) {
   };
   const nlohmann::json report = simulate_part(options, progress);
   if (terminal && !context.quiet) std::cout << '\n';
+  if (report.empty()) return 0;  // a rank other than 0 of an MPI job: rank 0 reports
 
   context.say("wrote " + options.out_dir + "/ (report.json, report.html, marks.csv, surfaces, images)");
   const auto& production = report["runs"]["production"];

@@ -1,6 +1,9 @@
 // vmsim: the command-line program. A thin layer over the libraries: it parses arguments, calls
 // the libraries, prints, and turns errors into exit codes (exit_codes.hpp).
 #include <CLI/CLI.hpp>
+#include <unistd.h>
+
+#include <cstdio>
 #include <exception>
 #include <filesystem>
 #include <iostream>
@@ -8,13 +11,49 @@
 
 #include "commands.hpp"
 #include "exit_codes.hpp"
+#include "mpi_ranks.hpp"
 #include "vmsim/common/errors.hpp"
 #include "vmsim/common/memory.hpp"
 #include "vmsim/viz/display.hpp"
 
+namespace {
+
+// Under mpirun with several ranks: only simulate-part is split (the other commands would run
+// whole on every rank and write the same files); ranks other than 0 print nothing but errors.
+int run(int argc, char** argv);
+
+// Ends the job with `code` after an error on this rank. One rank: returns it. Several: ranks
+// other than 0 first wait a moment, so that where every rank fails alike (bad input, read by
+// all) rank 0's message is the one printed and its MPI_Abort ends the others; then every rank
+// of the job ends with `code` (MPI_Abort; mpirun exits with it).
+int fail(int code, const std::string& message) {
+  const vmsim::app::Ranks& ranks = vmsim::app::Ranks::world();
+  if (!ranks.distributed()) {
+    std::cerr << message;
+    return code;
+  }
+  if (!ranks.root()) ::sleep(2);
+  std::cerr << (ranks.root() ? "" : "rank " + std::to_string(ranks.rank()) + ": ") << message << std::flush;
+  ranks.abort(code);
+}
+
+}  // namespace
+
 int main(int argc, char** argv) {
+  vmsim::app::MpiSession mpi(argc, argv);
+  return run(argc, argv);
+}
+
+namespace {
+
+int run(int argc, char** argv) {
   using namespace vmsim::app;
   vmsim::keep_freed_memory_in_process();
+  const Ranks& ranks = Ranks::world();
+  if (ranks.distributed() && !ranks.root()) {
+    // Progress and results are rank 0's to print.
+    if (std::freopen("/dev/null", "w", stdout) == nullptr) return fail(kInternalError, "cannot silence stdout\n");
+  }
   CLI::App app{"vmsim: virtual machining simulator. Predicts how a machine's drives follow a tool "
                "path at production feed and what marks that leaves on the part."};
   app.footer(kExitCodeHelp);
@@ -47,35 +86,46 @@ int main(int argc, char** argv) {
   add_circle_test_command(app, context);
   add_calibrate_command(app, context);
 
+  if (ranks.distributed()) {
+    // Checked before parsing runs the command (CLI11 runs a subcommand's callback in parse()).
+    for (CLI::App* command : app.get_subcommands({})) {
+      command->preparse_callback([command, &ranks](std::size_t) {
+        if (command->get_name() != "simulate-part") {
+          throw CommandLineError(command->get_name() + " runs on one process; under mpirun (" +
+                                 std::to_string(ranks.size()) + " ranks) only simulate-part is split");
+        }
+      });
+    }
+  }
+
   try {
     app.parse(argc, argv);
   } catch (const CLI::CallForHelp& help) {
-    return app.exit(help);
+    return ranks.root() ? app.exit(help) : 0;
   } catch (const CLI::CallForAllHelp& help) {
-    return app.exit(help);
+    return ranks.root() ? app.exit(help) : 0;
   } catch (const CLI::ParseError& error) {
-    app.exit(error);
-    return kUsageError;
+    if (!ranks.distributed()) {
+      app.exit(error);
+      return kUsageError;
+    }
+    return fail(kUsageError, "error: " + std::string(error.what()) + "\n");
   } catch (const CommandLineError& error) {
-    std::cerr << "error: " << error.what() << "\nRun with --help for more information.\n";
-    return kUsageError;
+    return fail(kUsageError, "error: " + std::string(error.what()) + "\nRun with --help for more information.\n");
   } catch (const vmsim::InputError& error) {
-    std::cerr << "error: " << error.what() << '\n';
-    return kInputError;
+    return fail(kInputError, "error: " + std::string(error.what()) + "\n");
   } catch (const vmsim::InfeasibleError& error) {
-    std::cerr << "error: " << error.what() << '\n';
-    return kInfeasible;
+    return fail(kInfeasible, "error: " + std::string(error.what()) + "\n");
   } catch (const vmsim::viz::NoDisplayError& error) {
-    std::cerr << "error: " << error.what() << '\n';
-    return kNoDisplay;
+    return fail(kNoDisplay, "error: " + std::string(error.what()) + "\n");
   } catch (const std::filesystem::filesystem_error& error) {
     // The system refused a file operation (no space, read-only, permission): the user's to fix.
-    std::cerr << "error: " << error.what() << '\n';
-    return kInputError;
+    return fail(kInputError, "error: " + std::string(error.what()) + "\n");
   } catch (const std::exception& error) {
-    std::cerr << "internal error: " << error.what()
-              << "\n(this is a bug in vmsim: please report it with the command line)\n";
-    return kInternalError;
+    return fail(kInternalError, "internal error: " + std::string(error.what()) +
+                                    "\n(this is a bug in vmsim: please report it with the command line)\n");
   }
   return context.result;
 }
+
+}  // namespace

@@ -14,7 +14,9 @@
 #include <span>
 #include <sstream>
 
+#include "banded_removal.hpp"
 #include "chain_inputs.hpp"
+#include "mpi_ranks.hpp"
 #include "tool_table.hpp"
 #include "json_text.hpp"
 #include "nc_modes.hpp"
@@ -146,6 +148,10 @@ struct Context {
   /// The uncut buffer of each view, made once (over a mesh stock that takes a while): every run
   /// starts from a copy, so that all runs cut identical lines.
   std::vector<removal::NBuffer> uncut;
+  /// Several ranks (mpi_ranks.hpp): each view's bands; rank 0 keeps the whole `uncut` buffers
+  /// (it gathers into copies of them), the others only their bands.
+  const Ranks& ranks;
+  std::vector<ViewBands> bands;
   /// The NC modes the runs apply (the program's, or the command line's) and, where the
   /// feedforward is switched, the machine the servo simulates.
   NcModes nc;
@@ -555,9 +561,18 @@ Run simulate_run(const Context& context, const std::string& name, const FeedSett
         }
         return false;
       };
-      run.buffers.push_back(context.uncut[static_cast<std::size_t>(&view - context.views.data())]);
-      run.cuts.push_back(cut_with_tools(run.buffers.back(), context.point_tools, run.trajectory,
-                                        trajectory_point, cut_options, context.point_length_m));
+      // Every rank has the same trajectory (the stages above are deterministic) and cuts its
+      // band of the view; rank 0 gathers the bands (banded_removal.hpp).
+      const std::size_t v = static_cast<std::size_t>(&view - context.views.data());
+      removal::NBuffer share = rank_share(context.uncut[v], context.bands[v], context.ranks);
+      removal::CutStatistics cut = cut_with_tools(share, context.point_tools, run.trajectory, trajectory_point,
+                                                  cut_options, context.point_length_m, [&](removal::NBuffer& buffer) {
+                                                    exchange_tile_bounds(buffer, context.bands[v], context.ranks);
+                                                  });
+      cut.tiles_visited = context.ranks.sum(cut.tiles_visited);
+      cut.lines_lowered = context.ranks.sum(cut.lines_lowered);
+      run.buffers.push_back(gather_bands(std::move(share), context.uncut[v], context.bands[v], context.ranks));
+      run.cuts.push_back(cut);
     }
   }
   if (!keep_signals) {
@@ -1249,7 +1264,8 @@ Json simulate_part(const SimulatePartOptions& options, const ProgressSink& progr
   chain_options.part_path = options.part_path;
   chain_options.corner_tolerance_m = options.corner_tolerance_m;
   chain_options.corner_tolerance_override = options.corner_tolerance_override;
-  Context context{options, progress, load_part(options.part_path), load_chain_inputs(chain_options), {}, {}, {}, {}, {}, {}, {}, {}, false};
+  const Ranks& ranks = Ranks::world();
+  Context context{options, progress, load_part(options.part_path), load_chain_inputs(chain_options), {}, {}, {}, {}, {}, {}, ranks, {}, {}, {}, false};
   NcModeCommandLine nc_command_line;
   nc_command_line.third_order = options.third_order;
   nc_command_line.third_order_option = options.third_order && *options.third_order ? "--third-order" : "--no-third-order";
@@ -1261,10 +1277,14 @@ Json simulate_part(const SimulatePartOptions& options, const ProgressSink& progr
   for (const std::string& line : context.nc.lines()) progress("NC mode: " + line);
   // The output folder is checked (and its staging folder made) before any computation: a bad
   // --out fails at once, and nothing the user owns is ever replaced.
-  OutputFolder output(options.out_dir,
-                      {options.part_path, context.part.machine_path, context.part.toolpath_path,
-                       context.part.stock_stl_path, context.inputs.machine.source_file},
-                      {"simulate-part", VMSIM_VERSION});
+  // Only rank 0 touches the output folder (mpi_ranks.hpp).
+  std::optional<OutputFolder> output;
+  if (ranks.root()) {
+    output.emplace(options.out_dir,
+                   std::vector<std::string>{options.part_path, context.part.machine_path, context.part.toolpath_path,
+                                            context.part.stock_stl_path, context.inputs.machine.source_file},
+                   ResultOrigin{"simulate-part", VMSIM_VERSION});
+  }
   if (context.part.stock_mesh) {
     context.stock = {context.part.stock_mesh->bounds(), &*context.part.stock_mesh};
   } else if (context.part.stock) {
@@ -1316,6 +1336,18 @@ Json simulate_part(const SimulatePartOptions& options, const ProgressSink& progr
   if (context.views.front().zmap && context.uncut.front().line_count() > options.compact_zmap_above_lines) {
     context.uncut.front().make_compact();
   }
+  // Several ranks: each view split into bands of tile rows (the Z-map's balanced by the cutting
+  // moves over its rows); ranks other than 0 keep only their band of the uncut buffers.
+  for (std::size_t v = 0; v < context.views.size(); ++v) {
+    const removal::NBuffer& uncut = context.uncut[v];
+    context.bands.push_back(
+        ranks.distributed()
+            ? view_bands(uncut, ranks,
+                         uncut.is_zmap() ? zmap_row_weights(uncut, cutting_tips, context.tool.diameter_m / 2)
+                                         : std::vector<double>{})
+            : ViewBands{});
+    if (ranks.distributed() && !ranks.root()) context.uncut[v] = rank_share(uncut, context.bands[v], ranks);
+  }
   const auto millimetres = [](const Eigen::Vector3d& v) { return Json{v.x() * 1e3, v.y() * 1e3, v.z() * 1e3}; };
   report["stock"] = {{"min_mm", millimetres(context.stock.bounds.min_W_m)},
                      {"max_mm", millimetres(context.stock.bounds.max_W_m)}};
@@ -1363,8 +1395,11 @@ Json simulate_part(const SimulatePartOptions& options, const ProgressSink& progr
     std::size_t isolated_lines = 0;
     Eigen::Vector3d worst_at = Eigen::Vector3d::Zero();
     for (std::size_t v = 0; v < context.views.size(); ++v) {
-      removal::NBuffer commanded = context.uncut[v];
-      cut_with_tools(commanded, context.point_tools, poses, pose_point, cut_options, context.point_length_m);
+      removal::NBuffer commanded = rank_share(context.uncut[v], context.bands[v], ranks);
+      cut_with_tools(commanded, context.point_tools, poses, pose_point, cut_options, context.point_length_m,
+                     [&](removal::NBuffer& buffer) { exchange_tile_bounds(buffer, context.bands[v], ranks); });
+      commanded = gather_bands(std::move(commanded), context.uncut[v], context.bands[v], ranks);
+      if (!ranks.root()) continue;  // (rank 0 compares: it alone holds the whole buffers)
       std::vector<double> reference_vs_commanded = removal::difference(reference.buffers[v], commanded);
       // Steep in either surface: a line in the plane of a tool face (a wall view's row at the
       // floor's height) is cut whole or not at all by a rounding of the tool's height.
@@ -1388,6 +1423,14 @@ Json simulate_part(const SimulatePartOptions& options, const ProgressSink& progr
                                              static_cast<int>(line / static_cast<std::size_t>(nu)));
         }
       }
+    }
+    {
+      // Rank 0's figures on every rank: all decide alike on the reference.
+      std::vector<double> figures{worst, worst_isolated, static_cast<double>(isolated_lines), worst_at.x(),
+                                  worst_at.y(), worst_at.z()};
+      ranks.broadcast(figures);
+      worst = figures[0], worst_isolated = figures[1], isolated_lines = static_cast<std::size_t>(figures[2]);
+      worst_at = Eigen::Vector3d(figures[3], figures[4], figures[5]);
     }
     commanded_figures["reference_vs_commanded_max_um"] = worst * 1e6;
     end_stage("commanded_check");
@@ -1414,6 +1457,19 @@ Json simulate_part(const SimulatePartOptions& options, const ProgressSink& progr
   }
 
   Run production = simulate_run(context, "production", production_feed, options.method, true);
+  if (!ranks.root()) {
+    // The other ranks' part ends with their bands gathered: rank 0 compares and writes. They
+    // cut the other method's production run too, then send rank 0 their clocks.
+    if (options.compare_methods) {
+      simulate_run(context, "production (other method)", production_feed,
+                   options.method == planner::FeedrateMethod::kinematic ? planner::FeedrateMethod::dynamic
+                                                                        : planner::FeedrateMethod::kinematic,
+                   true);
+    }
+    ranks.gather_to_root({seconds_since(start), cpu_seconds() - cpu_start, peak_rss_mib()},
+                         [](int, std::vector<double>&&) {});
+    return Json::object();
+  }
 
   stage_clock = Clock::now();
   stage_cpu = cpu_seconds();
@@ -1557,7 +1613,30 @@ Json simulate_part(const SimulatePartOptions& options, const ProgressSink& progr
 
   // Everything goes into the staging folder, swapped in whole at the end (a failure before
   // that leaves the previous results as they were).
-  const std::filesystem::path& staging = output.staging();
+  if (ranks.distributed()) {
+    // What each rank did (its band of each view, its clocks and peak memory).
+    Json processes{{"ranks", ranks.size()}};
+    Json view_bands = Json::array();
+    for (std::size_t v = 0; v < context.views.size(); ++v) {
+      // Each rank's lines of the view's index rows [first, end).
+      Json per_rank = Json::array();
+      const int rows = context.uncut[v].nv(), tile = removal::NBuffer::kTile;
+      for (const auto& [begin, end] : context.bands[v].per_rank) {
+        per_rank.push_back({begin * tile, std::min(end * tile, rows)});
+      }
+      view_bands.push_back({{"view", context.views[v].id}, {"rows_per_rank", per_rank}});
+    }
+    processes["bands"] = view_bands;
+    Json per_rank = Json::array();
+    ranks.gather_to_root({seconds_since(start), cpu_seconds() - cpu_start, peak_rss_mib()},
+                         [&](int rank, std::vector<double>&& values) {
+                           per_rank.push_back({{"rank", rank}, {"seconds_so_far", values[0]},
+                                               {"cpu_seconds_so_far", values[1]}, {"peak_rss_mib", values[2]}});
+                         });
+    processes["per_rank"] = per_rank;
+    report["processes"] = processes;
+  }
+  const std::filesystem::path& staging = output->staging();
   stage_clock = Clock::now();
   stage_cpu = cpu_seconds();
   progress("writing surfaces ...");
@@ -1606,7 +1685,7 @@ Json simulate_part(const SimulatePartOptions& options, const ProgressSink& progr
   write_file_atomically((staging / "report.json").string(), json_file_text(report));
   write_file_atomically((staging / "report.html").string(), html_report(report, images));
   write_file_atomically((staging / "marks.csv").string(), marks_csv(curated));
-  output.commit();
+  output->commit();
   return report;
 }
 

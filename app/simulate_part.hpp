@@ -91,6 +91,9 @@ struct SimulatePartOptions {
 /// Progress lines for the long stages (the command prints them).
 using ProgressSink = std::function<void(const std::string& line)>;
 
+/// Under mpirun with several ranks (mpi_ranks.hpp) every rank calls this: each cuts its band of
+/// the surface views, rank 0 alone compares and writes and returns the report; the other ranks
+/// write nothing and return an empty object.
 /// Runs the chain and writes everything into options.out_dir (complete or not at all: the
 /// folder is assembled in a staging folder beside it and swapped in whole; an existing folder
 /// is replaced only when empty or a previous vmsim result, see vmsim/common/output_folder.hpp,

@@ -103,7 +103,8 @@ removal::CutStatistics cut_with_tools(removal::NBuffer& buffer, const std::vecto
                                       const std::vector<removal::Pose>& poses,
                                       const std::vector<std::size_t>& pose_point,
                                       const removal::CutOptions& options,
-                                      const std::vector<double>& point_length_m) {
+                                      const std::vector<double>& point_length_m,
+                                      const std::function<void(removal::NBuffer&)>& between_stretches) {
   removal::CutStatistics total;
   const auto length_of = [&](std::size_t pose) {
     return point_length_m.empty() ? 0.0 : point_length_m[pose_point[pose]];
@@ -147,6 +148,7 @@ removal::CutStatistics cut_with_tools(removal::NBuffer& buffer, const std::vecto
     add(part);
     if (part.interrupted) break;
     first = last + 1;
+    if (first < poses.size() && between_stretches) between_stretches(buffer);
   }
   return total;
 }

@@ -3,6 +3,7 @@
 // tool_number through the part file's `tools:` table) and cutting a trajectory stretch by
 // stretch with the tool in the spindle.
 #include <cstddef>
+#include <functional>
 #include <vector>
 
 #include "chain_inputs.hpp"
@@ -60,10 +61,13 @@ class ToolPoseStream {
 /// point_length_m (per path point, the gauge-to-tip length of its tool; empty: all the same):
 /// where it changes, the segment into the new stretch starts at the last pose moved to the new
 /// tool's tip (kinematics::tip_with_tool_length: the same axis positions, another tool).
+/// `between_stretches(buffer)`, when given, runs after each stretch that another follows (the
+/// ranks of an MPI job exchange their bands' tile bounds there: banded_removal.hpp).
 removal::CutStatistics cut_with_tools(removal::NBuffer& buffer, const std::vector<removal::Tool>& point_tools,
                                       const std::vector<removal::Pose>& poses,
                                       const std::vector<std::size_t>& pose_point,
                                       const removal::CutOptions& options = {},
-                                      const std::vector<double>& point_length_m = {});
+                                      const std::vector<double>& point_length_m = {},
+                                      const std::function<void(removal::NBuffer&)>& between_stretches = {});
 
 }  // namespace vmsim::app

@@ -20,6 +20,7 @@ packages=(
   libopenvdb-dev libboost-iostreams-dev  # level-set material removal (OpenVDB's CMake needs boost_iostreams)
   libvtk9-dev xvfb xauth libgl1-mesa-dri   # off-screen rendering (viz)
   fonts-dejavu-core      # viz text: VTK 9.1's embedded Arial draws [ ] as ( )
+  libopenmpi-dev openmpi-bin  # simulate-part over several processes (mpirun; app/mpi_ranks.hpp)
   python3 time           # bench/scaling.py (peak memory and CPU from /usr/bin/time -v)
   "$@"
 )

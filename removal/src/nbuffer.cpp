@@ -180,6 +180,7 @@ std::vector<double> NBuffer::lengths() const {
 
 void NBuffer::build_tiles() {
   tiles_.assign(static_cast<std::size_t>(tiles_u_) * tiles_v_, TileBounds{});
+  band_tile_begin_ = 0, band_tile_end_ = tiles_.size();
   for (std::size_t t = 0; t < tiles_.size(); ++t) refresh_tile(t, &h_[t * kTile * kTile]);
 }
 
@@ -194,7 +195,7 @@ double NBuffer::compact_length(std::size_t stored) const {
 void NBuffer::tile_lengths(std::size_t tile, double* out) const {
   constexpr std::size_t n = kTile * kTile;
   if (!compact_) {
-    std::copy_n(h_.begin() + static_cast<std::ptrdiff_t>(tile * n), n, out);
+    std::copy_n(h_.begin() + static_cast<std::ptrdiff_t>((tile - band_tile_begin_) * n), n, out);
     return;
   }
   const std::vector<float>& offsets = offsets_[tile];
@@ -211,8 +212,8 @@ void NBuffer::make_compact() {
   constexpr std::size_t n = kTile * kTile;
   base_.assign(tiles_.size(), 0.0);
   offsets_.assign(tiles_.size(), {});
-  for (std::size_t t = 0; t < tiles_.size(); ++t) {
-    const double* h = &h_[t * n];
+  for (std::size_t t = band_tile_begin_; t < band_tile_end_; ++t) {
+    const double* h = &h_[(t - band_tile_begin_) * n];
     const double base = *std::max_element(h, h + n);
     base_[t] = base;
     if (std::all_of(h, h + n, [&](double v) { return v == base; })) continue;
@@ -225,7 +226,7 @@ void NBuffer::make_compact() {
   // The bounds from the lengths as now stored (a rounded offset may sit just above the exact
   // length: the culling must see what is stored).
   double h[n];
-  for (std::size_t t = 0; t < tiles_.size(); ++t) {
+  for (std::size_t t = band_tile_begin_; t < band_tile_end_; ++t) {
     tile_lengths(t, h);
     refresh_tile(t, h);
   }
@@ -1085,6 +1086,10 @@ CutStatistics NBuffer::cut(const Tool& tool, std::span<const Pose> trajectory, c
           }
         }
       }
+      // A band buffer cuts its own tiles only (every decision on a tile is the tile's own).
+      if (!holds_all_tiles()) {
+        std::erase_if(pairs, [&](const auto& pair) { return pair.first < band_tile_begin_ || pair.first >= band_tile_end_; });
+      }
       std::sort(pairs.begin(), pairs.end());
       group_begin.clear();
       for (std::size_t k = 0; k < pairs.size(); ++k) {
@@ -1253,7 +1258,7 @@ CutStatistics NBuffer::cut(const Tool& tool, std::span<const Pose> trajectory, c
           std::copy_n(scratch, n_tile, decoded);
           tile_h = scratch;
         } else {
-          tile_h = &h_[tile * n_tile];
+          tile_h = &h_[(tile - band_tile_begin_) * n_tile];
         }
         const std::size_t lowered_start = lowered;
         for (std::size_t k = group_begin[g]; k < group_begin[g + 1]; ++k) {
@@ -1333,6 +1338,9 @@ bool NBuffer::same_lines(const NBuffer& other) const {
 std::vector<double> difference(const NBuffer& production, const NBuffer& reference) {
   if (!production.same_lines(reference)) {
     throw std::invalid_argument("difference: the two N-buffers are not on identical lines");
+  }
+  if (!production.holds_all_tiles() || !reference.holds_all_tiles()) {
+    throw std::invalid_argument("difference: a band buffer (gather the bands first)");
   }
   // Tile by tile in storage order, written row-major: no whole copy of either buffer.
   constexpr int n_tile = NBuffer::kTile * NBuffer::kTile;

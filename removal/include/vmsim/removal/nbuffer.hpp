@@ -53,6 +53,7 @@
 #include <cstddef>
 #include <functional>
 #include <span>
+#include <utility>
 #include <vector>
 
 #include "vmsim/removal/tool.hpp"
@@ -139,7 +140,7 @@ class NBuffer {
   Eigen::Vector3d direction(int iu, int iv) const;
   /// Remaining length h [m] of line (iu, iv); for a Z-map the height is h + zmap_origin_m().z().
   double length(int iu, int iv) const {
-    return compact_ ? compact_length(index(iu, iv)) : h_[index(iu, iv)];
+    return compact_ ? compact_length(index(iu, iv)) : h_[stored_index(iu, iv)];
   }
   /// The surface point o + h u [m, W].
   Eigen::Vector3d surface_point(int iu, int iv) const;
@@ -177,6 +178,36 @@ class NBuffer {
   /// its tile's base: the float rounding of the offset plus that of the double sum.
   static double compact_bound_m(double depth_m) { return depth_m * 0x1p-24 + 1e-15; }
 
+  /// Bands (several processes, each cutting a part of the lines; nbuffer_band.cpp). A band is a
+  /// range of tile rows [tile_row_begin, tile_row_end) (tiles of kTile x kTile lines, tile row
+  /// tv holding lines iv in [tv kTile, (tv + 1) kTile)); its tiles are contiguous in storage.
+  /// A band buffer keeps the whole grid's geometry and every tile's bounds (upper bounds of the
+  /// lines it does not hold), but holds the lengths of its band's tiles only: cut() cuts those
+  /// tiles only, each exactly as the whole buffer's cut would (a tile's cut depends on the tile's
+  /// own lines and the sweeps), so gathering the bands gives the whole buffer's lengths bit for
+  /// bit. length(), lengths(), difference() and the outputs need a buffer that holds all tiles.
+  int tile_rows() const { return tiles_v_; }
+  bool holds_all_tiles() const { return band_tile_begin_ == 0 && band_tile_end_ == tiles_.size(); }
+  /// The tile rows held: [first, second).
+  std::pair<int, int> band_tile_rows() const {
+    return {static_cast<int>(band_tile_begin_ / static_cast<std::size_t>(tiles_u_)),
+            static_cast<int>(band_tile_end_ / static_cast<std::size_t>(tiles_u_))};
+  }
+  /// A copy holding the lengths of tile rows [tile_row_begin, tile_row_end) only (of a buffer
+  /// that holds them). Throws std::invalid_argument on an empty or out-of-range band.
+  NBuffer band(int tile_row_begin, int tile_row_end) const;
+  /// The band's lengths as stored, packed in doubles (plain: the lengths, tile-major; compact:
+  /// per tile its base, then 0 or kTile * kTile float offsets widened to double, with a count).
+  std::vector<double> pack_band() const;
+  /// Sets tile rows [tile_row_begin, tile_row_end) of this buffer (which holds all tiles, same
+  /// grid and storage as the band's) from a band's pack_band(), and their bounds.
+  void unpack_band(int tile_row_begin, int tile_row_end, std::span<const double> packed);
+  /// Every tile's bounds packed (7 doubles a tile), and set from such a pack for the tiles this
+  /// buffer does not hold: a band buffer then sees the bounds the whole buffer has (its cut's
+  /// culling and its material box, which decides the 5-axis sub-steps, are then the same).
+  std::vector<double> pack_tile_bounds() const;
+  void set_foreign_tile_bounds(std::span<const double> packed);
+
  private:
   std::size_t index(int iu, int iv) const;
   void build_tiles();
@@ -202,6 +233,10 @@ class NBuffer {
     double h_max = 0.0;      // largest remaining length in the tile
   };
   std::vector<TileBounds> tiles_;
+  // The tiles whose lengths are held (a band; all by default): h_ starts at tile
+  // band_tile_begin_ (compact storage keeps every tile's slot; out-of-band tiles stay empty).
+  std::size_t band_tile_begin_ = 0, band_tile_end_ = 0;
+  std::size_t stored_index(int iu, int iv) const { return index(iu, iv) - band_tile_begin_ * kTile * kTile; }
   friend struct NBufferAccess;
   friend std::vector<double> difference(const NBuffer& production, const NBuffer& reference);
 };
