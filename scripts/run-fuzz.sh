@@ -16,7 +16,7 @@
 #                         (-seed=1), so that a run repeats exactly (CI: what passed here passes
 #                         there; a new finding comes from a change, not from chance)
 #   VMSIM_FUZZ_PARALLEL   targets fuzzed at once (2)
-#   VMSIM_FUZZ_TARGETS    targets to run, space-separated (all seven)
+#   VMSIM_FUZZ_TARGETS    targets to run, space-separated (all nine)
 #   VMSIM_FUZZ_TIMEOUT    one input slower than this [s] is a hang (10)
 #   VMSIM_FUZZ_MAX_LEN    largest input [bytes] (16384; longer seeds are cut)
 #   VMSIM_FUZZ_ARGS       further libFuzzer flags, e.g. "-fork=1 -ignore_crashes=1" to go on
@@ -35,7 +35,7 @@ parallel=${VMSIM_FUZZ_PARALLEL:-2}
 timeout=${VMSIM_FUZZ_TIMEOUT:-10}
 max_len=${VMSIM_FUZZ_MAX_LEN:-16384}
 jobs=${VMSIM_JOBS:-$(nproc)}
-read -r -a targets <<< "${VMSIM_FUZZ_TARGETS:-gcode heidenhain apt trace machine_yaml part_file stl urdf}"
+read -r -a targets <<< "${VMSIM_FUZZ_TARGETS:-gcode heidenhain siemens apt trace machine_yaml part_file stl urdf}"
 read -r -a extra_args <<< "${VMSIM_FUZZ_ARGS:-}"
 started=$SECONDS
 
@@ -82,7 +82,8 @@ fi
 seed_samples() {
   local target=$1
   case $target in
-    gcode) find tests/data samples -name '*.nc' -o -name '*.mpf' -o -name '*.ngc' ;;
+    gcode) find tests/data samples -name '*.nc' -o -name '*.ngc' ;;
+    siemens) find tests/data samples -name '*.mpf' -o -name '*.spf' ;;
     heidenhain) find tests/data samples -name '*.h' ;;
     apt) find tests/data samples -name '*.apt' -o -name '*.cl' -o -name '*.cls' ;;
     machine_yaml) find samples/machines -name '*.yaml' ;;
