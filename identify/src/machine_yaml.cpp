@@ -1,5 +1,6 @@
 // Writing identified and extended drive parameters back into a machine file: the original YAML
 // with each axis's drive, controller and effects fields replaced (keys as the loader reads them).
+#include <filesystem>
 #include <yaml-cpp/yaml.h>
 
 #include "vmsim/common/errors.hpp"
@@ -125,6 +126,15 @@ std::string updated_machine_yaml(const std::string& original_yaml,
     const std::string name = node["name"].as<std::string>();
     for (const auto& axis : machine.axes) {
       if (axis.name == name) write_axis(node, axis);
+    }
+  }
+  // The written file goes elsewhere (a result folder): a URDF named relative to the original's
+  // folder is written with its absolute path, so that the file still loads from there.
+  if (root["structure"] && root["structure"].IsMap() && root["structure"]["urdf"]) {
+    const std::filesystem::path urdf = root["structure"]["urdf"].as<std::string>();
+    if (!urdf.is_absolute()) {
+      root["structure"]["urdf"] =
+          std::filesystem::absolute(std::filesystem::path(base_directory) / urdf).lexically_normal().string();
     }
   }
   YAML::Emitter out;

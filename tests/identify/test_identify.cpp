@@ -5,6 +5,7 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <filesystem>
 #include <numbers>
 #include <random>
 
@@ -170,6 +171,20 @@ namespace {
 // A robot's joints default to friction on the motor side; a machine file that says `load` for
 // one of them must say so again after identify writes it back (the writer used to leave the key
 // out, and the loader's robot default turned it into `motor`).
+// identify and calibrate write the machine file into a result folder: a URDF the original names
+// relative to its own folder must still load from there.
+TEST(MachineYaml, ARelativeUrdfPathStillLoadsFromAnotherFolder) {
+  const std::string folder = std::string(VMSIM_SOURCE_DIR) + "/samples/machines";
+  const std::string path = folder + "/kr180_class_urdf.yaml";
+  const kinematics::MachineModel robot = kinematics::load_machine(path);
+  const std::string yaml = updated_machine_yaml(read_file(path), robot, {}, path, folder);
+  const std::filesystem::path elsewhere = std::filesystem::temp_directory_path();
+  const kinematics::MachineModel back = kinematics::parse_machine(yaml, "written", elsewhere.string());
+  ASSERT_EQ(back.axes.size(), robot.axes.size());
+  EXPECT_NE(yaml.find((std::filesystem::path(folder) / "kr180_class.urdf").lexically_normal().string()),
+            std::string::npos);
+}
+
 TEST(MachineYaml, TheFrictionSideOfAnElasticJointSurvivesTheRoundTrip) {
   const std::string path = std::string(VMSIM_SOURCE_DIR) + "/samples/machines/kr180_class.yaml";
   kinematics::MachineModel robot = kinematics::load_machine(path);
