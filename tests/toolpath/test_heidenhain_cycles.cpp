@@ -108,6 +108,52 @@ TEST(HeidenhainCycles, UniversalDrilling203DecrementAndChipBreaking) {
   EXPECT_NEAR(xy_mm(uses_q.points.back()).x(), -10.0, kTight);
 }
 
+// Cycle 205 with a decrement, a minimum plunging depth and graded advanced stop distances:
+// surface Z0, clearance 2, depth -20, strokes Q202 = 6 less Q212 = 2 each, not below Q205 = 3:
+// 6, 4, 3, 3, 3, 1 -> levels Z-6, -10, -13, -16, -19, -20. After each stroke but the last: FMAX
+// out to Z+2 and FMAX back to the advanced stop distance above the depth reached, 1 (Q258) at
+// the first of the 5 retracts, 0.2 (Q259) at the last, linearly between: 1, 0.8, 0.6, 0.4, 0.2.
+// Out at Q208 = 500, then FMAX to Q204 = 30.
+TEST(HeidenhainCycles, UniversalPecking205DecrementAndAdvancedStop) {
+  const Toolpath path = parse(
+      "BEGIN PGM D MM\nTOOL CALL 1 Z S2000\nL X+5 Y+6 Z+50 R0 FMAX\n"  // 1-3
+      "CYCL DEF 205 UNIVERSAL PECKING ~\n"                            // 4
+      "  Q200=+2 ;SET-UP CLEARANCE ~\n  Q201=-20 ;DEPTH ~\n  Q206=+100 ;FEED RATE FOR PLNGNG ~\n"
+      "  Q202=+6 ;PLUNGING DEPTH ~\n  Q203=+0 ;SURFACE COORDINATE ~\n  Q204=+30 ;2ND SET-UP CLEARANCE ~\n"
+      "  Q212=+2 ;DECREMENT ~\n  Q205=+3 ;MIN. PLUNGING DEPTH ~\n  Q258=+1 ;UPPER ADV STOP DIST ~\n"
+      "  Q259=+0.2 ;LOWER ADV STOP DIST ~\n  Q257=+0 ;DEPTH FOR CHIP BRKNG ~\n"
+      "  Q256=+0.2 ;DIST FOR CHIP BRKNG ~\n  Q211=+0 ;DWELL TIME AT DEPTH ~\n"
+      "  Q379=+0 ;STARTING POINT ~\n  Q253=+750 ;F PRE-POSITIONING ~\n  Q208=+500 ;RETRACTION FEED RATE ~\n"
+      "  Q395=+0 ;DEPTH REFERENCE\n"                                  // 5-21
+      "CYCL CALL\n"                                                    // 22
+      "END PGM D MM\n");
+  expect_moves(points_of_lines(path, 22, 22), 5.0, 6.0,
+               {{2, true, 0}, {-6, false, 100}, {2, true, 0}, {-5, true, 0},
+                {-10, false, 100}, {2, true, 0}, {-9.2, true, 0},
+                {-13, false, 100}, {2, true, 0}, {-12.4, true, 0},
+                {-16, false, 100}, {2, true, 0}, {-15.6, true, 0},
+                {-19, false, 100}, {2, true, 0}, {-18.8, true, 0},
+                {-20, false, 100}, {2, false, 500}, {30, true, 0}});
+}
+
+// Cycle 205 with a deepened starting point and chip breaking: Q379 = 3 below the surface Z0,
+// reached at Q253 = 750 to Q200 = 2 above it (Z-1); strokes of Q202 = 5 from Z-3: to Z-8, then
+// to the depth Z-10; inside a stroke a chip break every Q257 = 2 (Z-5, Z-7: back Q256 = 0.3 at
+// Q208 = 0, i.e. at Q206 = 100). One full retract (FMAX to Z+2, FMAX back to Q258 = Q259 = 0.5
+// above Z-8); out at Q206, FMAX to Q204 = 20.
+TEST(HeidenhainCycles, UniversalPecking205DeepenedStartAndChipBreaks) {
+  const Toolpath path = parse(
+      "BEGIN PGM D MM\nTOOL CALL 1 Z S2000\nL X-4 Y+0 Z+50 R0 FMAX\n"  // 1-3
+      "CYCL DEF 205 UNIVERSAL PECKING Q200=2 Q201=-10 Q206=100 Q202=5 Q203=0 Q204=20 Q212=0 Q205=0 "
+      "Q258=0.5 Q259=0.5 Q257=2 Q256=0.3 Q211=0 Q379=3 Q253=750 Q208=0\n"  // 4
+      "CYCL CALL\n"                                                         // 5
+      "END PGM D MM\n");
+  expect_moves(points_of_lines(path, 5, 5), -4.0, 0.0,
+               {{2, true, 0}, {-1, false, 750}, {-5, false, 100}, {-4.7, false, 100}, {-7, false, 100},
+                {-6.7, false, 100}, {-8, false, 100}, {2, true, 0}, {-7.5, true, 0},
+                {-10, false, 100}, {2, false, 100}, {20, true, 0}});
+}
+
 // Cycle 201 (one stroke at Q206 = 80, out at Q208 = 0: at Q206) called by CYCL CALL POS (its Z
 // shifts the surface: Z-2 + Q203 0; the tool at Z+30 is above it: first in the plane), by M99
 // (once, at the block's end point) and M89 (after every positioning block until M99).
@@ -251,6 +297,16 @@ TEST(HeidenhainLabels, LocatedErrors) {
       << error("CYCL DEF 200 DRILLING\n  Q200=+2 * ;SET-UP CLEARANCE\n");
   EXPECT_NE(error("CYCL DEF 200 DRILLING Q200=2/0\n").find("t.h:4:30: in the formula"), std::string::npos)
       << error("CYCL DEF 200 DRILLING Q200=2/0\n");
+  // Cycle 205: a missing advanced stop distance, a deepened start below the depth.
+  const std::string no_q258 = error("CYCL DEF 205 UNIVERSAL PECKING Q200=2 Q201=-10 Q206=100 Q202=5 Q203=0 Q204=20 "
+                                    "Q212=0 Q205=0 Q259=0.5 Q257=0 Q208=0\nCYCL CALL\n");
+  EXPECT_NE(no_q258.find("t.h:4:10: cycle 205: Q258 is missing (upper advanced stop distance)"), std::string::npos)
+      << no_q258;
+  const std::string deep_start = error("CYCL DEF 205 UNIVERSAL PECKING Q200=2 Q201=-10 Q206=100 Q202=5 Q203=0 Q204=20 "
+                                       "Q212=0 Q205=0 Q258=0.5 Q259=0.5 Q257=0 Q208=0 Q379=12 Q253=500\nCYCL CALL\n");
+  EXPECT_NE(deep_start.find("t.h:4:10: cycle 205: Q379 (deepened starting point) = 12 is not above the depth"),
+            std::string::npos)
+      << deep_start;
   EXPECT_NE(error("CYCL DEF 201 REAMING Q200=2 Q201=-5 Q206=FMAX Q211=0 Q208=0 Q203=0 Q204=10\nCYCL CALL\n")
                 .find("Q206 (feed rate for plunging) FMAX"),
             std::string::npos);

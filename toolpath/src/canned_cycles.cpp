@@ -2,6 +2,7 @@
 #include "canned_cycles.hpp"
 
 #include <algorithm>
+#include <cmath>
 
 namespace vmsim::toolpath::detail {
 
@@ -24,8 +25,24 @@ std::vector<CycleMove> peck_moves(const Eigen::Vector3d& start_mm, const PeckDri
   double stroke = peck.first_stroke_mm;
   int breaks = 0;
   bool first = true;
+  // The rapid back after full retract k of n stops between the first and the last clearance.
+  const bool graded = !std::isnan(peck.reapproach_clearance_last_mm);
+  const std::size_t full_retracts =
+      graded && peck.chip_breaks_per_retract == 0 ? peck_stroke_count(peck, 1u << 30) - 1 : 0;
+  std::size_t retract_index = 0;
   while (level > peck.bottom_mm) {
-    level = std::max(level - stroke, peck.bottom_mm);
+    const double target = std::max(level - stroke, peck.bottom_mm);
+    if (peck.chip_break_every_mm > 0.0) {
+      // Chip breaks inside the stroke: cut chip_break_every_mm, back off, go on.
+      double cut_to = level - peck.chip_break_every_mm;
+      while (cut_to > target) {
+        move(false, cut_to, first ? peck.first_stroke_feed : CycleFeed::cutting);
+        first = false;
+        move(peck.chip_break_rapid, cut_to + peck.chip_break_mm, peck.chip_break_feed);
+        cut_to -= peck.chip_break_every_mm;
+      }
+    }
+    level = target;
     move(false, level, first ? peck.first_stroke_feed : CycleFeed::cutting);
     first = false;
     if (level <= peck.bottom_mm) break;
@@ -35,7 +52,13 @@ std::vector<CycleMove> peck_moves(const Eigen::Vector3d& start_mm, const PeckDri
     } else {
       breaks = 0;
       move(peck.retract_rapid, peck.retract_to_mm, CycleFeed::retract);
-      move(true, level + peck.reapproach_clearance_mm, CycleFeed::cutting);
+      double clearance_mm = peck.reapproach_clearance_mm;
+      if (graded && full_retracts > 1) {
+        const double t = static_cast<double>(retract_index) / static_cast<double>(full_retracts - 1);
+        clearance_mm += t * (peck.reapproach_clearance_last_mm - peck.reapproach_clearance_mm);
+      }
+      ++retract_index;
+      move(true, level + clearance_mm, CycleFeed::cutting);
     }
     stroke = next_stroke(peck, stroke);
   }

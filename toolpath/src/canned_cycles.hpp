@@ -5,6 +5,7 @@
 // words and turn the moves into path points.
 #include <Eigen/Core>
 #include <cstddef>
+#include <limits>
 #include <vector>
 
 namespace vmsim::toolpath::detail {
@@ -28,7 +29,9 @@ struct CycleMove {
 ///  G83: strokes Q from R, a full rapid retract after each; G73: chip breaks only (rapid);
 ///  TNC 200: Q202 from the surface, full rapid retracts; TNC 203: Q202 decreasing by Q212 down
 ///  to Q205, Q213 chip breaks (Q256 at Q208) between full retracts (at Q208); 840D CYCLE83:
-///  VARI=1 full rapid retracts, VARI=0 chip breaks at F, DAM the decrement.
+///  VARI=1 full rapid retracts, VARI=0 chip breaks at F, DAM the decrement; TNC 205: strokes
+///  as 203, chip breaks every Q257 within a stroke, full rapid retracts after each stroke, the
+///  rapid back stopping Q258 (first) .. Q259 (last) above the depth reached.
 struct PeckDrilling {
   int w = 2;                  ///< the drilling axis (X Y Z index)
   double reference_mm = 0.0;  ///< the level the strokes are counted from (R, the surface)
@@ -47,6 +50,12 @@ struct PeckDrilling {
   double retract_to_mm = 0.0;    ///< where a full retract goes (R, set-up clearance)
   bool retract_rapid = true;     ///< else at CycleFeed::retract
   double reapproach_clearance_mm = 0.1;  ///< the rapid back stops this far above the depth reached
+  /// TNC 205 (Q258 / Q259): where given (> 0 ... or any value, not NaN), the rapid back after
+  /// the last full retract stops this far above the depth reached, the ones between changing
+  /// linearly with the retract's index from reapproach_clearance_mm (the first); NaN: all alike.
+  double reapproach_clearance_last_mm = std::numeric_limits<double>::quiet_NaN();
+  /// TNC 205 (Q257): within a stroke, a chip break after each this much of cutting (0: none).
+  double chip_break_every_mm = 0.0;
   CycleFeed first_stroke_feed = CycleFeed::cutting;
 };
 

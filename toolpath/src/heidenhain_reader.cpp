@@ -1079,7 +1079,7 @@ class HeidenhainReader {
       return;  // 32.2 HSC-MODE / TA: accepted, not emulated
     }
     if (cycle_number == "9") return;  // dwell: no geometry
-    if (cycle_number == "200" || cycle_number == "201" || cycle_number == "203") {
+    if (cycle_number == "200" || cycle_number == "201" || cycle_number == "203" || cycle_number == "205") {
       if (!sub.empty()) fail(number_token, "cycle " + cycle_number + " has no sub-blocks");
       MachiningCycle definition;
       definition.number = std::stoi(cycle_number);
@@ -1108,12 +1108,12 @@ class HeidenhainReader {
     if (cycle_number == "19") {
       fail(number_token, "cycle 19 (working plane by axis angles) is not supported: use PLANE SPATIAL");
     }
-    if (cycle_number == "205" || cycle_number == "204" || cycle_number == "202" || cycle_number == "207" ||
+    if (cycle_number == "204" || cycle_number == "202" || cycle_number == "207" ||
         cycle_number == "208" || cycle_number == "220" || cycle_number == "221") {
       fail(number_token, "cycle " + cycle_number + " is not read (read: 200 DRILLING, 201 REAMING, 203 "
-                         "UNIVERSAL DRILLING; output the others as L blocks)");
+                         "UNIVERSAL DRILLING, 205 UNIVERSAL PECKING; output the others as L blocks)");
     }
-    fail(number_token, "cycle " + cycle_number + " is not supported (read: 7, 9, 32, 200, 201, 203; output it as L blocks)");
+    fail(number_token, "cycle " + cycle_number + " is not supported (read: 7, 9, 32, 200, 201, 203, 205; output it as L blocks)");
   }
 
   // --- Machining cycles 200, 201, 203 ---------------------------------------------------------
@@ -1185,11 +1185,16 @@ class HeidenhainReader {
       for (int n : {202, 212, 213, 205, 208}) required.push_back(n);
       if (c.q.count(213) && c.q.at(213) > 0.0) required.push_back(256);
     }
+    if (c.number == 205) {
+      for (int n : {202, 212, 205, 258, 259, 257, 208}) required.push_back(n);
+      if (c.q.count(257) && c.q.at(257) > 0.0) required.push_back(256);
+      if (c.q.count(379) && c.q.at(379) > 0.0) required.push_back(253);
+    }
     for (int n : required) {
       if (!c.q.count(n)) where("Q" + std::to_string(n) + " is missing (" + cycle_parameter_name(n) + ")");
     }
     const auto length = [&](int n) { return c.q.at(n) * mm_per_unit_; };
-    for (int n : {200, 201, 202, 203, 204, 205, 212, 256}) {
+    for (int n : {200, 201, 202, 203, 204, 205, 212, 256, 257, 258, 259, 379}) {
       if (c.q.count(n) && !(std::abs(length(n)) <= detail::kMaxCoordinateMm)) {
         where("Q" + std::to_string(n) + " = " + detail::format_number(c.q.at(n)) + " is outside +-1e6 mm");
       }
@@ -1201,8 +1206,9 @@ class HeidenhainReader {
     if (length(200) < 0.0) where("Q200 (set-up clearance) must not be negative");
     if (c.q.count(202) && !(length(202) > 0.0)) where("Q202 (plunging depth) must be positive");
     if (c.rapid_feed.count(206)) where("Q206 (feed rate for plunging) FMAX: give a feed");
-    for (int n : {206, 208}) {
+    for (int n : {206, 208, 253}) {
       if (!c.q.count(n) || c.rapid_feed.count(n)) continue;
+      if (n == 253 && !(c.q.count(379) && c.q.at(379) > 0.0)) continue;  // not used
       const double v = c.q.at(n);
       if (n == 208 && v == 0.0) continue;  // retract at Q206
       const double mm_per_min = v * (mm_per_unit_ == 1.0 ? 1.0 : mm_per_unit_ / 10.0);
@@ -1216,6 +1222,18 @@ class HeidenhainReader {
       where("Q213 (number of chip breaks) must be a whole number 0 .. 99999");
     }
     if (c.q.count(256) && !(length(256) > 0.0)) where("Q256 (retraction for chip breaking) must be positive");
+    if (c.number == 205) {
+      if (length(205) < 0.0) where("Q205 (minimum plunging depth) must not be negative");
+      if (length(212) < 0.0) where("Q212 (decrement) must not be negative");
+      if (length(257) < 0.0) where("Q257 (depth for chip breaking) must not be negative");
+      for (int n : {258, 259}) {
+        if (length(n) < 0.0) where("Q" + std::to_string(n) + " (" + cycle_parameter_name(n) + ") must not be negative");
+      }
+      if (c.q.count(379) && length(379) < 0.0) where("Q379 (deepened starting point) must not be negative");
+      if (c.q.count(379) && !(length(379) < -length(201))) {
+        where("Q379 (deepened starting point) = " + detail::format_number(c.q.at(379)) + " is not above the depth Q201");
+      }
+    }
     if (c.q.count(395) && c.q.at(395) != 0.0) {
       where("Q395 = 1 (depth to the full diameter) needs the tool's point angle: not read (Q395 = 0, depth to the tip)");
     }
@@ -1237,6 +1255,11 @@ class HeidenhainReader {
       case 212: return "decrement";
       case 213: return "number of chip breaks before retracting";
       case 256: return "retraction for chip breaking";
+      case 253: return "feed rate for pre-positioning";
+      case 257: return "depth for chip breaking";
+      case 258: return "upper advanced stop distance";
+      case 259: return "lower advanced stop distance";
+      case 379: return "deepened starting point";
       default: return "parameter";
     }
   }
@@ -1293,7 +1316,7 @@ class HeidenhainReader {
   /// surface, else up to the 2nd set-up clearance first).
   void run_cycle(const Token& head, std::optional<Vec3> call_position, bool position_rapid,
                  std::optional<double> position_feed) {
-    if (!cycle_definition_) fail(head, "cycle call without a machining cycle defined (CYCL DEF 200, 201, 203)");
+    if (!cycle_definition_) fail(head, "cycle call without a machining cycle defined (CYCL DEF 200, 201, 203, 205)");
     close_cycle_definition();
     require_no_pending_corner(head);
     require_no_compensation(head, "a cycle call");
@@ -1330,8 +1353,16 @@ class HeidenhainReader {
       add(position_rapid, Vec3(call_position->x(), call_position->y(), p.z()), position_feed.value_or(cutting));
     }
     add(true, at_level(clearance), 0.0);
+    // 205: a deepened starting point Q379 below the surface, reached at Q253 (FMAX: rapid) to Q200
+    // above it; the strokes count from there.
+    double start_level = surface;
+    if (c.number == 205 && c.q.count(379) && c.q.at(379) > 0.0) {
+      start_level = surface - c.q.at(379) * unit;
+      const bool pre_rapid = c.rapid_feed.count(253) > 0;
+      add(pre_rapid, at_level(start_level + c.q.at(200) * unit), pre_rapid ? 0.0 : cycle_feed_m_per_s(c, 253));
+    }
     detail::PeckDrilling peck;
-    peck.reference_mm = surface;
+    peck.reference_mm = start_level;
     peck.bottom_mm = bottom;
     peck.retract_to_mm = clearance;
     peck.reapproach_clearance_mm = c.q.at(200) * unit;
@@ -1344,10 +1375,24 @@ class HeidenhainReader {
       peck.chip_break_rapid = retract_rapid;
       peck.retract_rapid = retract_rapid;
     }
+    if (c.number == 205) {
+      // Full retracts in rapid, the rapid back stopping Q258 (first) .. Q259 (last) above the
+      // depth reached; chip breaks every Q257 (a retract of Q256 at Q208).
+      peck.stroke_decrement_mm = c.q.at(212) * unit;
+      peck.minimum_stroke_mm = c.q.at(205) * unit;
+      peck.chip_breaks_per_retract = 0;
+      peck.reapproach_clearance_mm = c.q.at(258) * unit;
+      peck.reapproach_clearance_last_mm = c.q.at(259) * unit;
+      peck.chip_break_every_mm = c.q.at(257) * unit;
+      if (c.q.count(256)) peck.chip_break_mm = c.q.at(256) * unit;
+      peck.chip_break_rapid = retract_rapid;
+      peck.retract_rapid = true;
+    }
     // Points before they are made: a tiny plunging depth would make millions.
     const std::size_t cap = options_.max_points_per_block + 1;
     const std::size_t strokes = detail::peck_stroke_count(peck, cap);
-    const double estimate = 3.0 * static_cast<double>(strokes) + 6.0;
+    double estimate = 3.0 * static_cast<double>(strokes) + 7.0;
+    if (peck.chip_break_every_mm > 0.0) estimate += 2.0 * (peck.reference_mm - peck.bottom_mm) / peck.chip_break_every_mm;
     if (strokes >= cap || !(estimate <= static_cast<double>(options_.max_points_per_block))) {
       fail(head, "cycle " + std::to_string(c.number) + " expands to more than " +
                      std::to_string(options_.max_points_per_block) +
