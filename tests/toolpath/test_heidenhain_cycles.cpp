@@ -154,6 +154,105 @@ TEST(HeidenhainCycles, UniversalPecking205DeepenedStartAndChipBreaks) {
                 {-10, false, 100}, {2, false, 100}, {20, true, 0}});
 }
 
+// PATTERN DEF with CYCL CALL PAT: cycle 200 (one stroke: Q202 = 5 is more than the depth 3)
+// at each point in the order defined. POS1 (10, 0); ROW1 from (0, 20), 10 apart, NUM 3, turned
+// ROT 90: (0, 20), (0, 30), (0, 40), its surface Z-1 (added to Q203 = 0); PAT1 from (50, 0),
+// DX 10, DY 5, 2 x 2, turned 90 deg about (50, 0): the local (i 10, j 5) becomes (-j 5, i 10):
+// (50, 0), (50, 10), (45, 0), (45, 10). The tool at Z+50 at the call: between the points at
+// max(50, surface + Q204 10) = Z+50. At each: up to Z+50, across in rapid, FMAX to the surface
+// + 2, Q206 = 100 to the surface - 3, FMAX out to the surface + 2, FMAX to the surface + 10.
+TEST(HeidenhainPatterns, PointRowAndTurnedPatternCallTheCycleAtEachPoint) {
+  const Toolpath path = parse(
+      "BEGIN PGM P MM\nTOOL CALL 1 Z S2000\nL X+0 Y+0 Z+50 R0 FMAX\n"       // 1-3
+      "CYCL DEF 200 DRILLING Q200=2 Q201=-3 Q206=100 Q202=5 Q210=0 Q203=0 Q204=10 Q211=0\n"  // 4
+      "PATTERN DEF ~\n"                                                       // 5
+      "  POS1 (X+10 Y+0 Z+0) ~\n"                                             // 6
+      "  ROW1 (X+0 Y+20 D+10 NUM3 ROT+90 Z-1) ~\n"                            // 7
+      "  PAT1 (X+50 Y+0 DX+10 DY+5 NUMX2 NUMY2 ROT+90 ROTX+0 ROTY+0 Z+0)\n"   // 8
+      "CYCL CALL PAT FMAX M13\n"                                              // 9
+      "END PGM P MM\n");
+  const std::vector<PathPoint> points = points_of_lines(path, 9, 9);
+  struct Hole {
+    double x_mm, y_mm, surface_mm;
+  };
+  const std::vector<Hole> holes = {{10, 0, 0},  {0, 20, -1}, {0, 30, -1}, {0, 40, -1},
+                                   {50, 0, 0}, {50, 10, 0}, {45, 0, 0},  {45, 10, 0}};
+  // The first hole: 5 moves (the tool is at Z+50 already); each after it: 6.
+  ASSERT_EQ(points.size(), 5u + 6u * (holes.size() - 1));
+  std::size_t at = 0;
+  for (std::size_t h = 0; h < holes.size(); ++h) {
+    const Hole& hole = holes[h];
+    if (h > 0) {  // up to the travel height where the last hole left the tool
+      expect_xy(xy_mm(points[at]), holes[h - 1].x_mm, holes[h - 1].y_mm);
+      EXPECT_NEAR(z_mm(points[at]), 50.0, kTight) << "hole " << h;
+      EXPECT_EQ(points[at].kind, MotionKind::rapid);
+      ++at;
+    }
+    expect_xy(xy_mm(points[at]), hole.x_mm, hole.y_mm);  // across at Z+50
+    EXPECT_NEAR(z_mm(points[at]), 50.0, kTight) << "hole " << h;
+    EXPECT_EQ(points[at].kind, MotionKind::rapid);
+    ++at;
+    const double s = hole.surface_mm;
+    expect_moves({points.begin() + static_cast<std::ptrdiff_t>(at), points.begin() + static_cast<std::ptrdiff_t>(at + 4)},
+                 hole.x_mm, hole.y_mm, {{s + 2, true, 0}, {s - 3, false, 100}, {s + 2, true, 0}, {s + 10, true, 0}});
+    at += 4;
+  }
+}
+
+// Circles and the travel height: PITCHCIRC1 about (0, 0), D 20, from 90 deg, 4 points: (0, 10),
+// (-10, 0), (0, -10), (10, 0); CIRC1 about (100, 0), D 10, from 0 in steps of 45, 2 points:
+// (105, 0), (100 + 5 cos 45, 5 sin 45). The tool at Z+5 at the call, below the 2nd set-up
+// clearance Z+10: between the points at Z+10 (after each hole it is there already).
+TEST(HeidenhainPatterns, CirclesAndTheHigherOfTheCallHeightAndTheSecondClearance) {
+  const Toolpath path = parse(
+      "BEGIN PGM P MM\nTOOL CALL 1 Z S2000\nL X+0 Y+0 Z+5 R0 FMAX\n"  // 1-3
+      "CYCL DEF 200 DRILLING Q200=2 Q201=-3 Q206=100 Q202=5 Q210=0 Q203=0 Q204=10 Q211=0\n"  // 4
+      "PATTERN DEF PITCHCIRC1 (X+0 Y+0 D+20 START+90 NUM4 Z+0)\n"       // 5
+      "CIRC1 (X+100 Y+0 D+10 START+0 STEP+45 NUM2 Z+0)\n"                // 6
+      "CYCL CALL PAT\n"                                                  // 7
+      "END PGM P MM\n");
+  const std::vector<PathPoint> points = points_of_lines(path, 7, 7);
+  const double r45 = 5.0 * std::sqrt(0.5);
+  const std::vector<Eigen::Vector2d> holes = {{0, 10}, {-10, 0}, {0, -10}, {10, 0}, {105, 0}, {100 + r45, r45}};
+  // The first hole: up to Z+10, across, 4 cycle moves; after it: across, 4.
+  ASSERT_EQ(points.size(), 6u + 5u * (holes.size() - 1));
+  EXPECT_NEAR(z_mm(points[0]), 10.0, kTight);
+  expect_xy(xy_mm(points[0]), 0.0, 0.0);
+  std::size_t at = 1;
+  for (const Eigen::Vector2d& hole : holes) {
+    expect_xy(xy_mm(points[at]), hole.x(), hole.y());
+    EXPECT_NEAR(z_mm(points[at]), 10.0, kTight);
+    expect_moves({points.begin() + static_cast<std::ptrdiff_t>(at + 1), points.begin() + static_cast<std::ptrdiff_t>(at + 5)},
+                 hole.x(), hole.y(), {{2, true, 0}, {-3, false, 100}, {2, true, 0}, {10, true, 0}});
+    at += 5;
+  }
+}
+
+// Located errors of patterns: file:line:column, the word, what is wrong.
+TEST(HeidenhainPatterns, LocatedErrors) {
+  const std::string head =
+      "BEGIN PGM E MM\nTOOL CALL 1 Z\nL X+0 Y+0 Z+10 R0 FMAX\n"
+      "CYCL DEF 200 DRILLING Q200=2 Q201=-3 Q206=100 Q202=5 Q210=0 Q203=0 Q204=10 Q211=0\n";  // 1-4
+  const auto error = [&](const std::string& body) {
+    return input_error_of([&] { parse(head + body + "END PGM E MM\n"); });
+  };
+  const std::string no_pattern = error("CYCL CALL PAT\n");
+  EXPECT_NE(no_pattern.find("t.h:5:11: 'PAT': CYCL CALL PAT without a PATTERN DEF"), std::string::npos) << no_pattern;
+  const std::string no_num = error("PATTERN DEF\nROW1 (X+0 Y+0 D+5 ROT+0)\nCYCL CALL PAT\n");
+  EXPECT_NE(no_num.find("t.h:6:1: 'ROW1': NUM is missing"), std::string::npos) << no_num;
+  const std::string bad_word = error("PATTERN DEF\n  POS1 (X+1 Y+2 W+3)\n");
+  EXPECT_NE(bad_word.find("t.h:6:17: 'W+3': unsupported word in the pattern element POS1"), std::string::npos)
+      << bad_word;
+  const std::string open = error("PATTERN DEF POS1 (X+1 Y+2\n");
+  EXPECT_NE(open.find("t.h:5:18: 'POS1': '(' is not closed on its line"), std::string::npos) << open;
+  const std::string zero = error("PATTERN DEF PAT1 (X+0 Y+0 DX+5 DY+5 NUMX0 NUMY2)\n");
+  EXPECT_NE(zero.find("t.h:5:37: NUMX = 0: expected a whole number"), std::string::npos) << zero;
+  const std::string not_number = error("PATTERN DEF\nPOS1 (X+1 Y+abc)\n");
+  EXPECT_NE(not_number.find("t.h:6:11: 'Y+abc': expected a number"), std::string::npos) << not_number;
+  const std::string frame = error("PATTERN DEF\nFRAME1 (X+1 Y+2 Z+0 ROT+0)\n");
+  EXPECT_NE(frame.find("t.h:6:1: 'FRAME1': FRAME (a pattern frame) is not read"), std::string::npos) << frame;
+}
+
 // Cycle 201 (one stroke at Q206 = 80, out at Q208 = 0: at Q206) called by CYCL CALL POS (its Z
 // shifts the surface: Z-2 + Q203 0; the tool at Z+30 is above it: first in the plane), by M99
 // (once, at the block's end point) and M89 (after every positioning block until M99).

@@ -7,6 +7,7 @@
 #include <array>
 #include <cctype>
 #include <cmath>
+#include <cstdlib>
 #include <filesystem>
 #include <memory>
 #include <map>
@@ -764,6 +765,13 @@ class HeidenhainReader {
       return;
     }
     const std::string& k = head.upper;
+    if (defining_pattern_) {
+      if (pattern_element_name(k)) {
+        pattern_elements(line, static_cast<std::size_t>(head.column) - 1);
+        return;
+      }
+      defining_pattern_ = false;
+    }
     if (defining_cycle_ && !q_name(k)) close_cycle_definition();
     const auto next_is = [&](std::size_t at, const char* word) {
       return at < tokens.size() && tokens[at].upper == word;
@@ -791,6 +799,13 @@ class HeidenhainReader {
     }
     if (k == "CYCL") {
       cycle(tokens, first);
+      return;
+    }
+    if (k == "PATTERN") {
+      if (!next_is(first + 1, "DEF")) fail(head, "expected PATTERN DEF");
+      pattern_.clear();
+      defining_pattern_ = true;
+      pattern_elements(line, static_cast<std::size_t>(tokens[first + 1].column) + 2);
       return;
     }
     if (k == "PLANE") {
@@ -1273,7 +1288,10 @@ class HeidenhainReader {
     std::optional<Vec3> position;
     bool rapid = true;
     std::optional<double> feed;
-    if (at < tokens.size() && tokens[at].upper == "PAT") fail(tokens[at], "CYCL CALL PAT (PATTERN DEF) is not read: call the cycle at each point (CYCL CALL POS)");
+    if (at < tokens.size() && tokens[at].upper == "PAT") {
+      cycle_call_pattern(tokens, at + 1, head, tokens[at]);
+      return;
+    }
     if (at < tokens.size() && tokens[at].upper == "POS") {
       std::array<const Word*, 3> xyz{};
       const std::vector<Word> words = words_of(tokens, at + 1);
@@ -1315,7 +1333,7 @@ class HeidenhainReader {
   /// surface: the TNC's positioning logic, in the plane first where the tool is above the
   /// surface, else up to the 2nd set-up clearance first).
   void run_cycle(const Token& head, std::optional<Vec3> call_position, bool position_rapid,
-                 std::optional<double> position_feed) {
+                 std::optional<double> position_feed, std::optional<double> travel_height_mm = std::nullopt) {
     if (!cycle_definition_) fail(head, "cycle call without a machining cycle defined (CYCL DEF 200, 201, 203, 205)");
     close_cycle_definition();
     require_no_pending_corner(head);
@@ -1348,8 +1366,15 @@ class HeidenhainReader {
       p = to;
     };
     const auto at_level = [&](double z) { return Vec3(p.x(), p.y(), z); };
-    if (call_position) {
+    if (call_position && travel_height_mm) {
+      // CYCL CALL PAT: between the points at the higher of the tool's Z at the call and the
+      // 2nd set-up clearance.
+      const double height = std::max(*travel_height_mm, second);
+      if (p.z() < height) add(true, at_level(height), 0.0);
+    } else if (call_position) {
       if (p.z() < surface) add(true, at_level(second), 0.0);  // below the surface: up first
+    }
+    if (call_position) {
       add(position_rapid, Vec3(call_position->x(), call_position->y(), p.z()), position_feed.value_or(cutting));
     }
     add(true, at_level(clearance), 0.0);
@@ -1417,6 +1442,211 @@ class HeidenhainReader {
     }
     for (int k = 0; k < 3; ++k) pos_[static_cast<std::size_t>(k)] = p[k];
     last_.reset();
+  }
+
+  // --- PATTERN DEF and CYCL CALL PAT -------------------------------------------------------------
+  //
+  // PATTERN DEF, then its elements on the same line or the lines that follow (the TNC 640 writes
+  // one per line, "~" at the ends), each "NAMEn (words)", in the program's coordinates:
+  //  POSn (X Y [Z])                    one point (IX / IY: from the point before);
+  //  ROWn (X Y D NUM [ROT] [Z])         NUM points from (X, Y), D apart, along the direction ROT [deg];
+  //  PATn (X Y DX DY NUMX NUMY [ROT] [ROTX] [ROTY] [Z])  NUMY rows of NUMX points from (X, Y): the
+  //      rows along the main axis turned by ROTX, the columns along the minor axis turned by ROTY,
+  //      the whole turned by ROT about (X, Y); row after row, each from its first point;
+  //  CIRCn (X Y D START STEP NUM [Z])   NUM points on the circle of diameter D about (X, Y), from
+  //      START [deg] in steps of STEP; PITCHCIRCn the same with STEP = 360 / NUM (full circle).
+  // Z is the workpiece surface at the points: it adds to the cycle's Q203 (as CYCL CALL POS's Z).
+  // CYCL CALL PAT [F | FMAX] runs the cycle defined last at each point in the order defined,
+  // moving between them at the higher of the tool's Z at the call and the 2nd set-up clearance.
+
+  struct PatternPoint {
+    Vec3 p_mm;  ///< X Y of the hole, Z the surface shift [mm]
+  };
+
+  static bool pattern_element_name(std::string_view upper) {
+    for (std::string_view name : {"PITCHCIRC", "POS", "ROW", "PAT", "CIRC", "FRAME"}) {
+      if (upper.size() > name.size() && upper.substr(0, name.size()) == name &&
+          (std::isdigit(static_cast<unsigned char>(upper[name.size()])) || upper[name.size()] == '(')) {
+        return true;
+      }
+    }
+    return false;
+  }
+
+  /// The pattern elements in `line` from `from` (0-based).
+  void pattern_elements(std::string_view line, std::size_t from) {
+    std::size_t i = from;
+    const auto column = [](std::size_t at) { return static_cast<int>(at) + 1; };
+    while (i < line.size()) {
+      const char c = line[i];
+      if (c == ';') return;
+      if (std::isspace(static_cast<unsigned char>(c)) || c == '~') {
+        ++i;
+        continue;
+      }
+      const std::size_t name_start = i;
+      while (i < line.size() && std::isalpha(static_cast<unsigned char>(line[i]))) ++i;
+      const std::string name = detail::to_upper(std::string(line.substr(name_start, i - name_start)));
+      while (i < line.size() && std::isdigit(static_cast<unsigned char>(line[i]))) ++i;
+      const std::string element_text(line.substr(name_start, i - name_start));
+      while (i < line.size() && std::isspace(static_cast<unsigned char>(line[i]))) ++i;
+      if (name.empty() || !pattern_element_name(name + "(")) {
+        fail(column(name_start), "'" + (element_text.empty() ? std::string(1, c) : element_text) +
+                                     "': expected a pattern element POS, ROW, PAT, CIRC or PITCHCIRC");
+      }
+      if (i >= line.size() || line[i] != '(') fail(column(i), "'" + element_text + "': expected '(' after the element's name");
+      const std::size_t close = line.find(')', i);
+      if (close == std::string_view::npos) fail(column(i), "'" + element_text + "': '(' is not closed on its line");
+      if (name == "FRAME") fail(column(name_start), "'" + element_text + "': FRAME (a pattern frame) is not read");
+      pattern_element(name, element_text, line, i + 1, close, column(name_start));
+      i = close + 1;
+    }
+  }
+
+  /// One element "NAME (words)": its words between `begin` and `end` of `line`.
+  void pattern_element(const std::string& name, const std::string& element_text, std::string_view line,
+                       std::size_t begin, std::size_t end, int element_column) {
+    struct Value {
+      double v = 0.0;
+      bool incremental = false;
+      int column = 0;
+    };
+    std::map<std::string, Value> words;
+    std::size_t i = begin;
+    while (i < end) {
+      if (std::isspace(static_cast<unsigned char>(line[i]))) {
+        ++i;
+        continue;
+      }
+      const std::size_t start = i;
+      while (i < end && std::isalpha(static_cast<unsigned char>(line[i]))) ++i;
+      std::string address = detail::to_upper(std::string(line.substr(start, i - start)));
+      const std::size_t value_start = i;
+      while (i < end && !std::isspace(static_cast<unsigned char>(line[i]))) ++i;
+      const std::string word(line.substr(start, i - start));
+      const std::string value(line.substr(value_start, i - value_start));
+      Value parsed;
+      parsed.column = static_cast<int>(start) + 1;
+      if (address == "IX" || address == "IY") {
+        parsed.incremental = true;
+        address = address.substr(1);
+      }
+      static const std::vector<std::string> known = {"X", "Y", "Z", "D", "NUM", "ROT", "DX", "DY", "NUMX",
+                                                     "NUMY", "ROTX", "ROTY", "START", "STEP"};
+      if (std::find(known.begin(), known.end(), address) == known.end()) {
+        fail(parsed.column, "'" + word + "': unsupported word in the pattern element " + element_text);
+      }
+      char* parse_end = nullptr;
+      parsed.v = value.empty() ? 0.0 : std::strtod(value.c_str(), &parse_end);
+      if (value.empty() || parse_end != value.c_str() + value.size() || !std::isfinite(parsed.v)) {
+        fail(parsed.column, "'" + word + "': expected a number");
+      }
+      if (words.count(address)) fail(parsed.column, "'" + word + "': the address appears twice in one element");
+      words[address] = parsed;
+    }
+    const auto need = [&](const char* address) -> const Value& {
+      const auto it = words.find(address);
+      if (it == words.end()) fail(element_column, "'" + element_text + "': " + address + " is missing");
+      return it->second;
+    };
+    const auto optional = [&](const char* address) { return words.count(address) ? words.at(address).v : 0.0; };
+    const auto length = [&](const Value& value, const char* what) {
+      const double mm = value.v * mm_per_unit_;
+      if (!(std::abs(mm) <= detail::kMaxCoordinateMm)) {
+        fail(value.column, std::string(what) + " " + detail::format_number(mm) + " mm is outside +-1e6 mm");
+      }
+      return mm;
+    };
+    const auto count = [&](const char* address) {
+      const Value& value = need(address);
+      if (!(value.v >= 1.0 && value.v <= kMaxPatternPoints && value.v == std::trunc(value.v))) {
+        fail(value.column, std::string(address) + " = " + detail::format_number(value.v) +
+                               ": expected a whole number 1 .. " + std::to_string(static_cast<int>(kMaxPatternPoints)));
+      }
+      return static_cast<int>(value.v);
+    };
+    const double z_mm = words.count("Z") ? length(words.at("Z"), "Z") : 0.0;
+    const double rad = std::numbers::pi / 180.0;
+    std::vector<Vec3> points;
+    if (name == "POS") {
+      const Value& x = need("X");
+      const Value& y = need("Y");
+      const Vec3 previous = pattern_.empty() ? Vec3::Zero() : pattern_.back().p_mm;
+      if ((x.incremental || y.incremental) && pattern_.empty()) {
+        fail(element_column, "'" + element_text + "': IX / IY need a point before them in the pattern");
+      }
+      points.emplace_back((x.incremental ? previous.x() : 0.0) + length(x, "X"),
+                          (y.incremental ? previous.y() : 0.0) + length(y, "Y"), z_mm);
+    } else {
+      for (const auto& [address, value] : words) {
+        if (value.incremental) fail(value.column, "incremental IX / IY only in POS");
+      }
+      const Eigen::Vector2d origin(length(need("X"), "X"), length(need("Y"), "Y"));
+      const auto turn = [&](double deg) { return Eigen::Vector2d(std::cos(deg * rad), std::sin(deg * rad)); };
+      if (name == "ROW") {
+        const double spacing_mm = length(need("D"), "D");
+        const int n = count("NUM");
+        const Eigen::Vector2d along = turn(optional("ROT"));
+        for (int k = 0; k < n; ++k) {
+          const Eigen::Vector2d q = origin + k * spacing_mm * along;
+          points.emplace_back(q.x(), q.y(), z_mm);
+        }
+      } else if (name == "PAT") {
+        const double dx_mm = length(need("DX"), "DX");
+        const double dy_mm = length(need("DY"), "DY");
+        const int nx = count("NUMX");
+        const int ny = count("NUMY");
+        if (static_cast<double>(nx) * ny > kMaxPatternPoints) {
+          fail(element_column, "'" + element_text + "': more than " + std::to_string(static_cast<int>(kMaxPatternPoints)) + " points");
+        }
+        const Eigen::Vector2d main_axis = turn(optional("ROTX"));
+        const Eigen::Vector2d minor_axis = turn(90.0 + optional("ROTY"));
+        const double rot = optional("ROT") * rad;
+        Eigen::Matrix2d R;
+        R << std::cos(rot), -std::sin(rot), std::sin(rot), std::cos(rot);
+        for (int j = 0; j < ny; ++j) {
+          for (int k = 0; k < nx; ++k) {
+            const Eigen::Vector2d q = origin + R * (k * dx_mm * main_axis + j * dy_mm * minor_axis);
+            points.emplace_back(q.x(), q.y(), z_mm);
+          }
+        }
+      } else {  // CIRC, PITCHCIRC
+        const double diameter_mm = length(need("D"), "D");
+        if (!(diameter_mm > 0.0)) fail(need("D").column, "D (the circle's diameter) must be positive");
+        const int n = count("NUM");
+        const double start_deg = need("START").v;
+        const double step_deg = name == "CIRC" ? need("STEP").v : 360.0 / n;
+        for (int k = 0; k < n; ++k) {
+          const Eigen::Vector2d q = origin + 0.5 * diameter_mm * turn(start_deg + k * step_deg);
+          points.emplace_back(q.x(), q.y(), z_mm);
+        }
+      }
+    }
+    if (pattern_.size() + points.size() > static_cast<std::size_t>(kMaxPatternPoints)) {
+      fail(element_column, "'" + element_text + "': the pattern has more than " +
+                               std::to_string(static_cast<int>(kMaxPatternPoints)) + " points");
+    }
+    for (const Vec3& q : points) pattern_.push_back({q});
+  }
+
+  /// CYCL CALL PAT [F | FMAX] [M..]
+  void cycle_call_pattern(const std::vector<Token>& tokens, std::size_t at, const Token& head, const Token& pat) {
+    bool rapid = true;
+    std::optional<double> feed;
+    for (const Word& word : words_of(tokens, at)) {
+      if (word.address == "FMAX") {
+        rapid = true;
+      } else if (word.address == "F") {
+        feed = feed_from(word);
+        rapid = false;
+      } else if (word.address != "M" && word.token->upper != "~") {
+        fail(word, "unsupported word in CYCL CALL PAT");
+      }
+    }
+    if (pattern_.empty()) fail(pat, "CYCL CALL PAT without a PATTERN DEF (or one without points) before it");
+    if (!pos_[2]) fail(head, "CYCL CALL PAT before the tool's position is known: position it first");
+    const double height_mm = *pos_[2];
+    for (const PatternPoint& point : pattern_) run_cycle(head, point.p_mm, rapid, feed, height_mm);
   }
 
   // --- Frames ---------------------------------------------------------------------------------
@@ -3092,6 +3322,10 @@ class HeidenhainReader {
   std::optional<MachiningCycle> cycle_definition_;
   bool defining_cycle_ = false;  ///< its parameter lines may follow
   bool modal_cycle_call_ = false;  ///< M89
+  // PATTERN DEF: its points (program coordinates), its elements may follow on the next lines.
+  static constexpr double kMaxPatternPoints = 100000.0;
+  std::vector<PatternPoint> pattern_;
+  bool defining_pattern_ = false;
   // Programs and calls.
   std::vector<std::unique_ptr<Program>> programs_;
   std::map<std::string, std::size_t> program_index_;  ///< CALL PGM's files by path
