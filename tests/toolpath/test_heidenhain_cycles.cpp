@@ -228,6 +228,29 @@ TEST(HeidenhainPatterns, CirclesAndTheHigherOfTheCallHeightAndTheSecondClearance
   }
 }
 
+// CYCL CALL PAT F500: across at 500 mm/min. POS2's IX / IY count from POS1 (1, 1): (6, 2), its
+// Z-2 shifting the surface (Q203 = 0) to Z-2. The tool at Z+50: after POS1 up to Z+50, across.
+TEST(HeidenhainPatterns, IncrementalPointsAndAFeedBetweenThem) {
+  const Toolpath path = parse(
+      "BEGIN PGM P MM\nTOOL CALL 1 Z S2000\nL X+0 Y+0 Z+50 R0 FMAX\n"  // 1-3
+      "CYCL DEF 200 DRILLING Q200=2 Q201=-3 Q206=100 Q202=5 Q210=0 Q203=0 Q204=10 Q211=0\n"  // 4
+      "PATTERN DEF POS1 (X+1 Y+1 Z+0) ~\n"  // 5
+      "~\n"                                  // 6
+      "POS2 (IX+5 IY+1 Z-2)\n"               // 7
+      "CYCL CALL PAT F500\n"                 // 8
+      "END PGM P MM\n");
+  const std::vector<PathPoint> points = points_of_lines(path, 8, 8);
+  ASSERT_EQ(points.size(), 11u);
+  expect_xy(xy_mm(points[0]), 1.0, 1.0);
+  EXPECT_EQ(points[0].kind, MotionKind::linear);
+  EXPECT_NEAR(points[0].feed_m_per_s, per_min(500), 1e-15);
+  EXPECT_NEAR(z_mm(points[5]), 50.0, kTight);  // up after POS1
+  expect_xy(xy_mm(points[6]), 6.0, 2.0);
+  EXPECT_NEAR(points[6].feed_m_per_s, per_min(500), 1e-15);
+  expect_moves({points.begin() + 7, points.end()}, 6.0, 2.0,
+               {{0, true, 0}, {-5, false, 100}, {0, true, 0}, {8, true, 0}});
+}
+
 // Located errors of patterns: file:line:column, the word, what is wrong.
 TEST(HeidenhainPatterns, LocatedErrors) {
   const std::string head =

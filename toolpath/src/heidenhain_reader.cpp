@@ -766,6 +766,7 @@ class HeidenhainReader {
     }
     const std::string& k = head.upper;
     if (defining_pattern_) {
+      if (k == "~") return;  // a continuation mark alone on its line
       if (pattern_element_name(k)) {
         pattern_elements(line, static_cast<std::size_t>(head.column) - 1);
         return;
