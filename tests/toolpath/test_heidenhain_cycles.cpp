@@ -1,5 +1,5 @@
-// Heidenhain TNC machining cycles 200 / 201 / 203, their calls (CYCL CALL, CYCL CALL POS, M99,
-// M89), labels and calls (LBL, CALL LBL ... REP, CALL PGM) and the polar APPR / DEP forms
+// Heidenhain TNC machining cycles 200 / 201 / 203 / 205, their calls (CYCL CALL, CYCL CALL POS,
+// M99, M89, PATTERN DEF with CYCL CALL PAT), labels and calls (LBL, CALL LBL ... REP, CALL PGM) and the polar APPR / DEP forms
 // (toolpath/src/heidenhain_reader.cpp). The expected tool-tip points and feeds are worked out by
 // hand from the TNC 640 manual's description of each cycle (the comments give the arithmetic).
 #include <gtest/gtest.h>

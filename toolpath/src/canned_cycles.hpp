@@ -50,9 +50,9 @@ struct PeckDrilling {
   double retract_to_mm = 0.0;    ///< where a full retract goes (R, set-up clearance)
   bool retract_rapid = true;     ///< else at CycleFeed::retract
   double reapproach_clearance_mm = 0.1;  ///< the rapid back stops this far above the depth reached
-  /// TNC 205 (Q258 / Q259): where given (> 0 ... or any value, not NaN), the rapid back after
-  /// the last full retract stops this far above the depth reached, the ones between changing
-  /// linearly with the retract's index from reapproach_clearance_mm (the first); NaN: all alike.
+  /// TNC 205 (Q258 / Q259): where not NaN, the rapid back after the last full retract stops
+  /// this far above the depth reached, after the first reapproach_clearance_mm, the ones between
+  /// changing linearly with the retract's index; NaN: all at reapproach_clearance_mm.
   double reapproach_clearance_last_mm = std::numeric_limits<double>::quiet_NaN();
   /// TNC 205 (Q257): within a stroke, a chip break after each this much of cutting (0: none).
   double chip_break_every_mm = 0.0;
