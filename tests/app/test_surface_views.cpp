@@ -3,11 +3,13 @@
 // tool tips come near, and nowhere else.
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
 #include <numbers>
 
 #include "part_file.hpp"
 #include "surface_views.hpp"
+#include "vmsim/common/errors.hpp"
 
 namespace vmsim {
 namespace {
