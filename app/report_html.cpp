@@ -354,7 +354,7 @@ void images_section(std::ostringstream& html, const Json& report, const std::vec
       if (!labels["left_out"].empty()) {
         std::string ranks;
         for (const Json& rank : labels["left_out"]) ranks += (ranks.empty() ? "" : ", ") + std::to_string(rank.get<int>());
-        caption += " Not labelled (no room beside the others): mark" +
+        caption += " Not labelled (no room beside the others, or out of the picture): mark" +
                    std::string(labels["left_out"].size() > 1 ? "s " : " ") + ranks + ".";
       }
     }
