@@ -345,8 +345,21 @@ void images_section(std::ostringstream& html, const Json& report, const std::vec
   if (images.empty()) return;
   html << "<h2>Images</h2>\n";
   for (const std::string& image : images) {
-    html << "<figure><img src=\"" << html_escape(image) << "\" alt=\"" << html_escape(caption_of(image))
-         << "\"><figcaption>" << html_escape(caption_of(image)) << "</figcaption></figure>\n";
+    std::string caption = caption_of(image);
+    // The marks' numbers in a view (simulate_part.cpp's render_view_surfaces): those without room.
+    if (report.contains("renders") && report["renders"].contains("view_labels") &&
+        report["renders"]["view_labels"].contains(image)) {
+      const Json& labels = report["renders"]["view_labels"][image];
+      caption += " Numbers: the marks' ranks in the marks table.";
+      if (!labels["left_out"].empty()) {
+        std::string ranks;
+        for (const Json& rank : labels["left_out"]) ranks += (ranks.empty() ? "" : ", ") + std::to_string(rank.get<int>());
+        caption += " Not labelled (no room beside the others, or out of the picture): mark" +
+                   std::string(labels["left_out"].size() > 1 ? "s " : " ") + ranks + ".";
+      }
+    }
+    html << "<figure><img src=\"" << html_escape(image) << "\" alt=\"" << html_escape(caption)
+         << "\"><figcaption>" << html_escape(caption) << "</figcaption></figure>\n";
   }
 }
 

@@ -850,9 +850,13 @@ Json method_summary(const Context& context, planner::FeedrateMethod method, cons
 
 std::string view_file_suffix(const SurfaceView& view) { return view.zmap ? "" : "_" + view.id; }
 
+// Each view's deviation, marks outlined; the report's first marks on the view labelled with
+// their rank, placed without overlap (viz::SurfaceLabel); the ranks labelled and left out go to
+// report["renders"]["view_labels"][image] for the caption.
 void render_view_surfaces(const Context& context, const Run& production,
                           const std::vector<ViewComparison>& comparisons,
-                          const std::filesystem::path& folder, std::vector<std::string>& images) {
+                          const std::filesystem::path& folder, std::vector<std::string>& images, Json& report) {
+  constexpr std::size_t kLabelledMarks = 20;  // of the report's order (deepest first)
   for (const ViewComparison& comparison : comparisons) {
     const SurfaceView& view = *comparison.view;
     const removal::NBuffer& buffer = production.buffers[comparison.index];
@@ -865,9 +869,39 @@ void render_view_surfaces(const Context& context, const Run& production,
     options.region_mask = mark_mask(comparison, buffer, 0, (field.nx - 1) * stride, 0,
                                     (field.ny - 1) * stride, stride, -1);
     if (!view.zmap) options.camera = viz::CameraPreset::top;  // the wall seen along its normal
+    std::vector<int> ranks;
+    const std::size_t listed = report.contains("marks") ? std::min(report["marks"].size(), kLabelledMarks) : 0;
+    for (std::size_t m = 0; m < listed; ++m) {
+      const Json& entry = report["marks"][m];
+      const auto index = entry["view_mark_index"].get<std::size_t>();
+      if (entry["view"].get<std::string>() != view.id || index >= comparison.marks.marks.size()) continue;
+      // At the mark's deepest line (the bounding box's centre may lie off an L-shaped mark).
+      const removal::Mark& mark = comparison.marks.marks[index];
+      int deepest_iu = (mark.iu_min + mark.iu_max) / 2, deepest_iv = (mark.iv_min + mark.iv_max) / 2;
+      double deepest = -1.0;
+      for (int iv = mark.iv_min; iv <= mark.iv_max; ++iv) {
+        for (int iu = mark.iu_min; iu <= mark.iu_max; ++iu) {
+          const std::size_t line = static_cast<std::size_t>(iu) + static_cast<std::size_t>(buffer.nu()) * iv;
+          if (comparison.marks.label[line] != static_cast<int>(index)) continue;
+          if (std::abs(comparison.deviation_m[line]) > deepest) {
+            deepest = std::abs(comparison.deviation_m[line]);
+            deepest_iu = iu, deepest_iv = iv;
+          }
+        }
+      }
+      const int rank = entry.value("rank", static_cast<int>(m + 1));
+      options.labels.push_back({field.origin_x_m + deepest_iu * view.spacing_m,
+                                field.origin_y_m + deepest_iv * view.spacing_m, std::to_string(rank)});
+      ranks.push_back(rank);
+    }
     const std::string name = "surface_deviation" + view_file_suffix(view) + ".png";
-    viz::render_surface_png((folder / name).string(), field, options);
+    const viz::SurfaceRenderResult result = viz::render_surface_png((folder / name).string(), field, options);
     images.push_back(name);
+    if (!ranks.empty()) {
+      Json left_out = Json::array();
+      for (std::size_t k : result.labels_left_out) left_out.push_back(ranks[k]);
+      report["renders"]["view_labels"][name] = {{"labelled", ranks}, {"left_out", left_out}};
+    }
   }
 }
 
@@ -878,9 +912,11 @@ void render_mark(const Context& context, const Run& production, const ViewCompar
                  const std::filesystem::path& png_path) {
   const SurfaceView& view = *comparison.view;
   const removal::NBuffer& buffer = production.buffers[comparison.index];
-  const int margin = static_cast<int>(std::max(2e-3, 2 * context.tool.diameter_m) / view.spacing_m);
-  const int i0 = std::max(0, mark.iu_min - margin), i1 = std::min(buffer.nu() - 1, mark.iu_max + margin);
-  const int j0 = std::max(0, mark.iv_min - margin), j1 = std::min(buffer.nv() - 1, mark.iv_max + margin);
+  // The mark's whole bounding box and the tool's size around it, however large the mark.
+  const LineWindow window = mark_close_up_window(mark.iu_min, mark.iu_max, mark.iv_min, mark.iv_max, buffer.nu(),
+                                                 buffer.nv(), view.spacing_m,
+                                                 std::max(2e-3, 2 * context.tool.diameter_m));
+  const int i0 = window.iu_first, i1 = window.iu_last, j0 = window.iv_first, j1 = window.iv_last;
   const viz::HeightField whole = view_height_field(view, buffer, &comparison.deviation_m, 1);
   viz::HeightField crop;
   crop.origin_x_m = whole.origin_x_m + i0 * view.spacing_m;
@@ -947,7 +983,7 @@ void write_renders(const Context& context, const Run& production, const Run& ref
     context.progress("renders skipped: " + why_not);
     return;
   }
-  render_view_surfaces(context, production, comparisons, folder, images);
+  render_view_surfaces(context, production, comparisons, folder, images, report);
   const ViewComparison* worst = nullptr;
   for (const ViewComparison& comparison : comparisons) {
     if (comparison.marks.marks.empty()) continue;

@@ -8,6 +8,7 @@
 #include <limits>
 #include <numbers>
 
+#include "vmsim/common/errors.hpp"
 #include "vmsim/common/files.hpp"
 
 namespace vmsim::app {
@@ -405,6 +406,20 @@ viz::HeightField view_height_field(const SurfaceView& view, const removal::NBuff
     }
   }
   return field;
+}
+
+LineWindow mark_close_up_window(int iu_min, int iu_max, int iv_min, int iv_max, int nu, int nv,
+                                double spacing_m, double margin_m) {
+  if (!(spacing_m > 0.0) || iu_min < 0 || iv_min < 0 || iu_min > iu_max || iv_min > iv_max || iu_max >= nu ||
+      iv_max >= nv) {
+    throw InputError("mark close-up: lines [" + std::to_string(iu_min) + ", " + std::to_string(iu_max) + "] x [" +
+                     std::to_string(iv_min) + ", " + std::to_string(iv_max) + "] outside the grid of " +
+                     std::to_string(nu) + " x " + std::to_string(nv) + " lines or spacing " +
+                     format_double(spacing_m) + " m");
+  }
+  const int margin = static_cast<int>(std::max(0.0, margin_m) / spacing_m);
+  return {std::max(0, iu_min - margin), std::min(nu - 1, iu_max + margin), std::max(0, iv_min - margin),
+          std::min(nv - 1, iv_max + margin)};
 }
 
 }  // namespace vmsim::app

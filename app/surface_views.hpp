@@ -122,4 +122,18 @@ std::size_t exclude_steep_lines(const removal::NBuffer& reference, double spacin
 viz::HeightField view_height_field(const SurfaceView& view, const removal::NBuffer& buffer,
                                    const std::vector<double>* deviation_m, int stride);
 
+/// Inclusive range of a view's lines [iu_first, iu_last] x [iv_first, iv_last].
+struct LineWindow {
+  int iu_first = 0, iu_last = 0, iv_first = 0, iv_last = 0;
+};
+
+/// The lines a close-up of a mark shows: the mark's bounding box of lines [iu_min, iu_max] x
+/// [iv_min, iv_max] widened on every side by `margin_m` (whole lines at `spacing_m`, rounded
+/// down), clipped to the grid of nu x nv lines. The window holds the whole box whatever its size
+/// (a long mark is not cut to a fixed window), and its sides keep the box's proportions plus the
+/// margin (the render keeps x and y at one scale). Throws vmsim::InputError on a box outside
+/// the grid or a spacing <= 0.
+LineWindow mark_close_up_window(int iu_min, int iu_max, int iv_min, int iv_max, int nu, int nv,
+                                double spacing_m, double margin_m);
+
 }  // namespace vmsim::app

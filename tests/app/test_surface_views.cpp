@@ -3,11 +3,13 @@
 // tool tips come near, and nowhere else.
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
 #include <numbers>
 
 #include "part_file.hpp"
 #include "surface_views.hpp"
+#include "vmsim/common/errors.hpp"
 
 namespace vmsim {
 namespace {
@@ -139,6 +141,49 @@ TEST(SurfaceViews, ACylinderViewAllRoundABossLooksAwayFromTheAxis) {
     EXPECT_NEAR(direction.dot(Eigen::Vector3d(foot.x(), foot.y(), 0).normalized()), 1.0, 1e-12);
     EXPECT_NEAR(std::atan2(foot.y(), foot.x()), std::remainder(i * view.azimuth_step_rad, 2 * std::numbers::pi), 1e-9);
   }
+}
+
+}  // namespace
+}  // namespace vmsim
+
+namespace vmsim {
+namespace {
+
+// The close-up of a mark (simulate_part's render_mark) against its bounding box, checked here by
+// hand: a synthetic mark much wider than the margin (the mould's mark 1: a strip 30 mm long) is
+// shown whole, with the margin round it where the grid has room, and clipped at the grid's edge.
+TEST(MarkCloseUp, WindowHoldsTheMarksWholeBoundingBox) {
+  const double spacing_m = 40e-6, margin_m = 2e-3;  // 50 lines of margin
+  // A strip of 750 x 58 lines (30 mm x 2.3 mm) in the middle of a 2000 x 1000 grid.
+  const app::LineWindow strip = app::mark_close_up_window(600, 1349, 400, 457, 2000, 1000, spacing_m, margin_m);
+  EXPECT_EQ(strip.iu_first, 550);
+  EXPECT_EQ(strip.iu_last, 1399);
+  EXPECT_EQ(strip.iv_first, 350);
+  EXPECT_EQ(strip.iv_last, 507);
+  // Random boxes: the window always holds the box, stays in the grid, and is no wider than the
+  // box plus two margins.
+  for (int k = 0; k < 200; ++k) {
+    const int nu = 100 + (k * 37) % 900, nv = 100 + (k * 53) % 700;
+    const int iu_min = (k * 13) % nu, iv_min = (k * 7) % nv;
+    const int iu_max = std::min(nu - 1, iu_min + (k * 29) % 400), iv_max = std::min(nv - 1, iv_min + (k * 17) % 300);
+    const app::LineWindow window = app::mark_close_up_window(iu_min, iu_max, iv_min, iv_max, nu, nv, spacing_m, margin_m);
+    EXPECT_LE(window.iu_first, iu_min);
+    EXPECT_GE(window.iu_last, iu_max);
+    EXPECT_LE(window.iv_first, iv_min);
+    EXPECT_GE(window.iv_last, iv_max);
+    EXPECT_GE(window.iu_first, 0);
+    EXPECT_GE(window.iv_first, 0);
+    EXPECT_LT(window.iu_last, nu);
+    EXPECT_LT(window.iv_last, nv);
+    EXPECT_EQ(window.iu_first, std::max(0, iu_min - 50));
+    EXPECT_EQ(window.iv_last, std::min(nv - 1, iv_max + 50));
+  }
+}
+
+TEST(MarkCloseUp, ABoxOutsideTheGridIsAnInputError) {
+  EXPECT_THROW(app::mark_close_up_window(10, 120, 0, 5, 100, 100, 40e-6, 2e-3), InputError);
+  EXPECT_THROW(app::mark_close_up_window(10, 5, 0, 5, 100, 100, 40e-6, 2e-3), InputError);
+  EXPECT_THROW(app::mark_close_up_window(0, 5, 0, 5, 100, 100, 0.0, 2e-3), InputError);
 }
 
 }  // namespace

@@ -156,6 +156,24 @@ TEST(SurfaceImage, GaussianDentWithMaskOutlineMatchesBaseline) {
   expect_matches_baseline(png, "surface_dent_overall.png");
 }
 
+// Labels in a real render (no baseline: the layout is label_placement's, tested apart): twelve
+// labels at one point all find room; a label whose point lies out of the image is left out and
+// reported, not drawn at the border.
+TEST(SurfaceImage, LabelsCrowdedAtOnePointAreAllPlacedAndOneOutOfViewIsLeftOut) {
+  const HeightField field = gaussian_dent();
+  SurfaceRenderOptions options;
+  options.size = {800, 600};
+  options.camera = CameraPreset::top;
+  options.height_scale = 200.0;
+  for (int n = 1; n <= 12; ++n) options.labels.push_back({12e-3, 10e-3, std::to_string(n)});
+  options.labels.push_back({1.0, 1.0, "far"});  // 1 m away from a 24 mm surface
+  const auto png = output_folder() / "surface_labels.png";
+  const SurfaceRenderResult result = render_surface_png(png.string(), field, options);
+  ASSERT_EQ(result.labels_left_out.size(), 1u);
+  EXPECT_EQ(result.labels_left_out[0], 12u);
+  EXPECT_TRUE(std::filesystem::exists(png));
+}
+
 TEST(SurfaceImage, CloseUpWithPolylineOutlineMatchesBaseline) {
   const HeightField field = gaussian_dent();
   SurfaceRenderOptions options;

@@ -15,6 +15,7 @@
 #include <vtkPoints.h>
 #include <vtkPolyData.h>
 #include <vtkPolyDataMapper.h>
+#include <vtkPolyDataMapper2D.h>
 #include <vtkPolyDataNormals.h>
 #include <vtkProperty.h>
 #include <vtkProperty2D.h>
@@ -37,6 +38,7 @@
 #include "vmsim/common/errors.hpp"
 #include "vmsim/common/files.hpp"
 #include "vmsim/viz/display.hpp"
+#include "vmsim/viz/label_placement.hpp"
 
 namespace vmsim::viz {
 namespace {
@@ -290,8 +292,94 @@ void validate(const HeightField& field) {
   }
 }
 
-void render_surface_png(const std::string& png_path, const HeightField& field,
-                        const SurfaceRenderOptions& options) {
+// The labels of options.labels, placed without overlap (label_placement.hpp) in the image of
+// `renderer` (its camera set, its window sized): text boxes and leader lines as 2-D actors.
+// Returns the indices of the labels left out.
+static std::vector<std::size_t> add_labels(vtkRenderer* renderer, const HeightField& field,
+                                           const SurfaceRenderOptions& options) {
+  std::vector<std::size_t> left_out;
+  if (options.labels.empty()) return left_out;
+  const double width_px = options.size.width_px, height_px = options.size.height_px;
+  // Left of the colour bar and below the title.
+  const PixelBox area{0.0, 0.0, width_px * (options.colour_bar ? 0.8 : 1.0), height_px * 0.9};
+  constexpr int kFontPx = 13;
+  std::vector<LabelRequest> requests;
+  std::vector<std::size_t> requested;  // index into options.labels
+  std::vector<std::array<double, 2>> anchors_px;
+  for (std::size_t n = 0; n < options.labels.size(); ++n) {
+    const SurfaceLabel& label = options.labels[n];
+    const int i = std::clamp(static_cast<int>(std::lround((label.x_m - field.origin_x_m) / field.spacing_x_m)), 0,
+                             field.nx - 1);
+    const int j = std::clamp(static_cast<int>(std::lround((label.y_m - field.origin_y_m) / field.spacing_y_m)), 0,
+                             field.ny - 1);
+    renderer->SetWorldPoint(label.x_m, label.y_m, field.height_m[field.index(i, j)] * options.height_scale, 1.0);
+    renderer->WorldToDisplay();
+    double display[3];
+    renderer->GetDisplayPoint(display);
+    if (display[0] < area.x_min_px || display[0] > area.x_max_px || display[1] < area.y_min_px ||
+        display[1] > area.y_max_px) {
+      left_out.push_back(n);
+      continue;
+    }
+    // About 0.62 em a bold digit, and a margin round the text.
+    requests.push_back({display[0], display[1], 0.62 * kFontPx * static_cast<double>(label.text.size()) + 6.0,
+                        kFontPx + 4.0});
+    requested.push_back(n);
+  }
+  const std::vector<std::optional<PlacedLabel>> placed = place_labels(requests, area);
+  auto points = vtkSmartPointer<vtkPoints>::New();
+  auto lines = vtkSmartPointer<vtkCellArray>::New();
+  for (std::size_t k = 0; k < requests.size(); ++k) {
+    if (!placed[k]) {
+      left_out.push_back(requested[k]);
+      continue;
+    }
+    const LabelRequest& request = requests[k];
+    const double x0 = placed[k]->x_px, y0 = placed[k]->y_px;
+    auto text = vtkSmartPointer<vtkTextActor>::New();
+    text->SetInput(options.labels[requested[k]].text.c_str());
+    vtkTextProperty* property = text->GetTextProperty();
+    property->SetFontSize(kFontPx);
+    property->BoldOn();
+    property->SetColor(0.0, 0.0, 0.0);
+    property->SetBackgroundColor(1.0, 1.0, 1.0);
+    property->SetBackgroundOpacity(0.85);
+    property->SetFrame(1);
+    property->SetFrameColor(0.0, 0.0, 0.0);
+    detail::apply_font(property);
+    property->SetJustificationToCentered();
+    property->SetVerticalJustificationToCentered();
+    text->SetDisplayPosition(static_cast<int>(std::lround(x0 + 0.5 * request.width_px)),
+                             static_cast<int>(std::lround(y0 + 0.5 * request.height_px)));
+    renderer->AddActor2D(text);
+    // A leader line from the anchor to the nearest point of the box, when the box is away from it.
+    const double near_x = std::clamp(request.anchor_x_px, x0, x0 + request.width_px);
+    const double near_y = std::clamp(request.anchor_y_px, y0, y0 + request.height_px);
+    if (std::hypot(near_x - request.anchor_x_px, near_y - request.anchor_y_px) > 6.0) {
+      const vtkIdType a = points->InsertNextPoint(request.anchor_x_px, request.anchor_y_px, 0.0);
+      const vtkIdType b = points->InsertNextPoint(near_x, near_y, 0.0);
+      const vtkIdType ids[2] = {a, b};
+      lines->InsertNextCell(2, ids);
+    }
+  }
+  if (lines->GetNumberOfCells() > 0) {
+    auto leaders = vtkSmartPointer<vtkPolyData>::New();
+    leaders->SetPoints(points);
+    leaders->SetLines(lines);
+    auto mapper = vtkSmartPointer<vtkPolyDataMapper2D>::New();
+    mapper->SetInputData(leaders);
+    auto actor = vtkSmartPointer<vtkActor2D>::New();
+    actor->SetMapper(mapper);
+    actor->GetProperty()->SetColor(0.0, 0.0, 0.0);
+    actor->GetProperty()->SetLineWidth(1.5);
+    renderer->AddActor2D(actor);
+  }
+  std::sort(left_out.begin(), left_out.end());
+  return left_out;
+}
+
+SurfaceRenderResult render_surface_png(const std::string& png_path, const HeightField& field,
+                                       const SurfaceRenderOptions& options) {
   validate(field);
   check_options(field, options);
 
@@ -481,7 +569,10 @@ void render_surface_png(const std::string& png_path, const HeightField& field,
   window->SetOffScreenRendering(1);
   window->SetSize(options.size.width_px, options.size.height_px);
   window->AddRenderer(renderer);
+  SurfaceRenderResult result;
+  result.labels_left_out = add_labels(renderer, field, options);
   detail::write_window_png(window, png_path);
+  return result;
 }
 
 void write_surface_vtp(const std::string& vtp_path, const HeightField& field) {

@@ -53,6 +53,15 @@ struct BoxXY {
   double y_max_m = 0.0;
 };
 
+/// A text label at a point of the surface (x, y in W [m]; drawn at the surface's height there),
+/// e.g. a mark's number. Labels are placed so that none overlaps another (label_placement.hpp):
+/// one that cannot sit at its point gets a leader line, one with no room is left out.
+struct SurfaceLabel {
+  double x_m = 0.0;
+  double y_m = 0.0;
+  std::string text;
+};
+
 enum class CameraPreset {
   overall,   ///< the whole surface, oblique view (view_azimuth_deg, view_elevation_deg)
   top,       ///< the whole surface seen from +z, x to the right
@@ -81,10 +90,18 @@ struct SurfaceRenderOptions {
   /// Vertical exaggeration of the heights in the image (machined marks are um on mm): 1 = true.
   double height_scale = 1.0;
   bool colour_bar = true;
+  /// Labels in order of importance (the first are placed first); see SurfaceLabel.
+  std::vector<SurfaceLabel> labels;
+};
+
+/// What a render could not show: the indices into options.labels of the labels left out (no
+/// room without overlapping another, or their point out of the image), for a caption.
+struct SurfaceRenderResult {
+  std::vector<std::size_t> labels_left_out;
 };
 
 /// Renders the surface off-screen and writes a PNG of options.size to `png_path`.
-void render_surface_png(const std::string& png_path, const HeightField& field,
+SurfaceRenderResult render_surface_png(const std::string& png_path, const HeightField& field,
                         const SurfaceRenderOptions& options = {});
 
 /// Writes the surface as VTK XML PolyData (.vtp, binary appended, zlib): points in m (true
