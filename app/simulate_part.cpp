@@ -1301,7 +1301,7 @@ Json simulate_part(const SimulatePartOptions& options, const ProgressSink& progr
   chain_options.corner_tolerance_m = options.corner_tolerance_m;
   chain_options.corner_tolerance_override = options.corner_tolerance_override;
   const Ranks& ranks = Ranks::world();
-  Context context{options, progress, load_part(options.part_path), load_chain_inputs(chain_options), {}, {}, {}, {}, {}, {}, ranks, {}, {}, {}, false};
+  Context context{options, progress, load_part(options.part_path), load_chain_inputs(chain_options), {}, {}, {}, {}, {}, {}, ranks, {}, {}, {}, false, {}};
   NcModeCommandLine nc_command_line;
   nc_command_line.third_order = options.third_order;
   nc_command_line.third_order_option = options.third_order && *options.third_order ? "--third-order" : "--no-third-order";
