@@ -162,17 +162,9 @@ struct Context {
   std::vector<double> point_length_m;  ///< per point of inputs.path, its tool's length (gauge to tip)
 };
 
-// s of the plan at time t (linear interpolation in the set points).
-double plan_s_at(const planner::FeedratePlan& plan, double t_s) {
-  const auto& t = plan.setpoints.t_s;
-  const auto& s = plan.setpoints.s_m;
-  if (t_s <= t.front()) return s.front();
-  if (t_s >= t.back()) return s.back();
-  const auto it = std::upper_bound(t.begin(), t.end(), t_s);
-  const std::size_t k = static_cast<std::size_t>(it - t.begin());
-  const double f = (t_s - t[k - 1]) / (t[k] - t[k - 1]);
-  return s[k - 1] + f * (s[k] - s[k - 1]);
-}
+// s of the plan at time t (linear interpolation in the set points, made from the plan's law:
+// the reference run holds no set points).
+double plan_s_at(const planner::FeedratePlan& plan, double t_s) { return plan.law.s_at_time(t_s); }
 
 // The tool poses along the planner's path (its spline through the program's points and the ones
 // it added: the geometry both runs' set points follow), sampled as the servo samples a run (a
@@ -353,11 +345,14 @@ void stream_servo(const Context& context, Run& run, ChainSink& sink, double reco
   const kinematics::MachineModel& machine = context.inputs.machine;
   // FFWON / FFWOF: the servo runs the machine with its feedforward as the NC mode says.
   const kinematics::MachineModel& servo_machine = context.servo_machine ? *context.servo_machine : machine;
-  const planner::SetPoints& setpoints = run.plan.setpoints;
-  const std::vector<double>& t = setpoints.t_s;
-  const std::size_t n = t.size();
+  // The set points window by window from the plan (the reference run holds none).
+  planner::SetPointGenerator generator(run.plan);
+  planner::SetPoints setpoints;
+  const std::size_t n = generator.size();
   if (n < 2) throw InputError(run.name + " set points: at least two set points are needed, got " + std::to_string(n));
-  const double period = (t.back() - t.front()) / static_cast<double>(n - 1);
+  generator.fill(0, 1, setpoints);
+  const double t_front = setpoints.t_s.front();
+  const double period = (run.plan.law.sample_t_s(n - 1) - t_front) / static_cast<double>(n - 1);
   const std::size_t axes = machine.axes.size();
   std::vector<int> simulated(axes);
   std::vector<double> reference(axes), to_servo(axes), scale(axes);
@@ -372,7 +367,7 @@ void stream_servo(const Context& context, Run& run, ChainSink& sink, double reco
   }
   servo::SimulationOptions servo_options;
   servo_options.record_period_s = record_s;
-  servo::MachineSimulator simulator(servo_machine, simulated, reference, t.front(), period, servo_options);
+  servo::MachineSimulator simulator(servo_machine, simulated, reference, t_front, period, servo_options);
   double servo_seconds = 0.0, servo_cpu = 0.0, sink_seconds = 0.0, sink_cpu = 0.0;
   Eigen::VectorXd q_cmd(static_cast<Eigen::Index>(axes)), q_actual(static_cast<Eigen::Index>(axes));
   Eigen::VectorXd q_motor(elastic ? static_cast<Eigen::Index>(axes) : 0), current(static_cast<Eigen::Index>(axes));
@@ -405,10 +400,11 @@ void stream_servo(const Context& context, Run& run, ChainSink& sink, double reco
     const auto start = Clock::now();
     const double cpu_start = cpu_seconds();
     const std::size_t count = std::min(window, n - first);
+    generator.fill(first, count, setpoints);
     q_window.resize(static_cast<Eigen::Index>(axes), static_cast<Eigen::Index>(count));
     for (std::size_t k = 0; k < count; ++k) {
       for (std::size_t j = 0; j < axes; ++j) {
-        const double q = setpoints.q(static_cast<Eigen::Index>(j), static_cast<Eigen::Index>(first + k));
+        const double q = setpoints.q(static_cast<Eigen::Index>(j), static_cast<Eigen::Index>(k));
         q_window(static_cast<Eigen::Index>(j), static_cast<Eigen::Index>(k)) = to_trace_unit(machine.axes[j], q) * to_servo[j];
       }
     }
@@ -457,6 +453,9 @@ Run simulate_run(const Context& context, const std::string& name, const FeedSett
     plan_options.point_feed_m_per_s = point_feeds;
     plan_options.rapid_end = rapid_ends(context.inputs);
     plan_options.point_path_tolerance_m = context.inputs.contour_tolerance_m;
+    // The reference run holds no set points (issue 21): they are made again window by window
+    // from the plan (planner::SetPointGenerator) for the checks and the servo.
+    plan_options.keep_setpoints = keep_signals;
     try {
       run.plan = planner::plan_feedrate(machine, context.path, plan_options);
       if (!plan_options.third_order) {
@@ -479,15 +478,28 @@ Run simulate_run(const Context& context, const std::string& name, const FeedSett
   }
   // The set points are checked before anything is simulated on them: within the travel, and on
   // the programmed path (through the direct kinematics, independently of the planner's spline).
-  run.checks.push_back(check_setpoints_within_travel(machine, context.inputs.path, context.path.s_m,
-                                                     run.plan.setpoints, context.inputs.block_names, name));
-  const std::vector<bool> rapid_end = rapid_ends(context.inputs);
-  run.checks.push_back(check_setpoints_on_path(machine, context.inputs.path, rapid_end, context.path.s_m,
-                                               context.inputs.tool_length_m, run.plan.setpoints,
-                                               context.inputs.block_names, name,
-                                               context.options.setpoint_path_tolerance_m,
-                                               context.inputs.contour_tolerance_m,
-                                               context.options.setpoint_turning_path_tolerance_m));
+  {
+    const std::vector<bool> rapid_end = rapid_ends(context.inputs);
+    SetpointsWithinTravelCheck within_travel(machine, context.inputs.path, context.path.s_m,
+                                             context.inputs.block_names, name);
+    SetpointsOnPathCheck on_path(machine, context.inputs.path, rapid_end, context.path.s_m,
+                                 context.inputs.tool_length_m, context.inputs.block_names, name,
+                                 context.options.setpoint_path_tolerance_m, context.inputs.contour_tolerance_m,
+                                 context.options.setpoint_turning_path_tolerance_m);
+    planner::SetPointGenerator generator(run.plan);
+    planner::SetPoints window;
+    const auto window_count = static_cast<std::size_t>(
+        std::max(1.0, std::round(context.options.servo_window_s / run.plan.law.period_s)));
+    for (std::size_t first = 0; first < generator.size(); first += window_count) {
+      generator.fill(first, window_count, window);
+      for (std::size_t k = 0; k < window.t_s.size(); ++k) {
+        within_travel.add(window.s_m[k], window.q.col(static_cast<Eigen::Index>(k)));
+        on_path.add(window.s_m[k], window.q.col(static_cast<Eigen::Index>(k)));
+      }
+    }
+    run.checks.push_back(within_travel.result());
+    run.checks.push_back(on_path.result());
+  }
   for (const ValidityCheck& check : run.checks) {
     context.progress(check_line(check));
     if (check.status == CheckStatus::failed) {
@@ -501,7 +513,7 @@ Run simulate_run(const Context& context, const std::string& name, const FeedSett
     {
       StageTimer timer(run, "perfect drives", context.progress);
       const planner::PathSpline spline(run.plan.path);  // with the points the planner added
-      const double duration = run.plan.setpoints.t_s.back();
+      const double duration = run.plan.law.sample_t_s(run.plan.law.samples - 1);
       const auto n = static_cast<std::size_t>(std::ceil(duration / record_s)) + 1;
       run.q_cmd.resize(static_cast<Eigen::Index>(machine.axes.size()), static_cast<Eigen::Index>(n));
       for (std::size_t k = 0; k < n; ++k) {
@@ -525,8 +537,9 @@ Run simulate_run(const Context& context, const std::string& name, const FeedSett
                      format_double(context.options.servo_window_s) + " s ...");
     // The servo's records: one every record_s from the first set point to the last, and the one
     // there (an upper bound: a record period is a whole number of ticks).
-    const auto& t = run.plan.setpoints.t_s;
-    const auto expected = static_cast<std::size_t>(std::ceil((t.back() - t.front()) / record_s)) + 2;
+    const planner::SetPointLaw& law = run.plan.law;
+    const auto expected =
+        static_cast<std::size_t>(std::ceil((law.sample_t_s(law.samples - 1) - law.sample_t_s(0)) / record_s)) + 2;
     ChainSink sink(context, run, keep_signals, servo_has_motor_side(context), expected);
     stream_servo(context, run, sink, record_s, context.options.servo_window_s);
     const auto start = Clock::now();
@@ -535,9 +548,6 @@ Run simulate_run(const Context& context, const std::string& name, const FeedSett
     run.stage_seconds["direct kinematics"] += seconds_since(start);
     run.stage_cpu_seconds["direct kinematics"] += cpu_seconds() - cpu_start;
     run.stage_peak_rss_mib["direct kinematics"] = peak_rss_mib();
-    // The reference's axis set points served the servo (its poses are timed by t and s alone);
-    // the production run keeps them for the places of its marks.
-    if (!keep_signals) run.plan.setpoints.q.resize(0, 0);
   }
   {
     StageTimer timer(run, "removal", context.progress);
@@ -574,13 +584,6 @@ Run simulate_run(const Context& context, const std::string& name, const FeedSett
       run.buffers.push_back(gather_bands(std::move(share), context.uncut[v], context.bands[v], context.ranks));
       run.cuts.push_back(cut);
     }
-  }
-  if (!keep_signals) {
-    // The set points (one per interpolation period) served the servo and the times of the
-    // poses cut; nothing after needs them.
-    std::vector<double>().swap(run.plan.setpoints.t_s);
-    std::vector<double>().swap(run.plan.setpoints.s_m);
-    run.plan.setpoints.q.resize(0, 0);
   }
   return run;
 }

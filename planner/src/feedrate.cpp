@@ -554,6 +554,78 @@ struct Executed {
 
 }  // namespace
 
+void SetPointLaw::locate(std::size_t n, std::size_t& cursor, std::size_t& grid_segment, double& sigma_m) const {
+  const std::size_t segs = segments();
+  const double t = sample_t_s(n);
+  // The last grid segment starting at or before t (segments of zero duration are passed over):
+  // from the cursor when t is in its segment or the next, else by bisection.
+  if (cursor >= segs || t_s[cursor] > t || (cursor + 2 < segs && t_s[cursor + 2] <= t)) {
+    const auto it = std::upper_bound(t_s.begin(), t_s.begin() + static_cast<std::ptrdiff_t>(segs), t);
+    cursor = it == t_s.begin() ? 0 : static_cast<std::size_t>(it - t_s.begin()) - 1;
+  }
+  std::size_t k = cursor;
+  while (k + 1 < segs && t_s[k + 1] <= t) ++k;
+  cursor = k;
+  if (t >= duration_s) {
+    grid_segment = segs - 1;
+    sigma_m = grid_s_m[segs] - grid_s_m[segs - 1];
+    return;
+  }
+  const double tau = std::clamp(t - t_s[k], 0.0, dt_s[k]);
+  const double delta = grid_s_m[k + 1] - grid_s_m[k];
+  const double v0 = std::sqrt(x[k]);
+  const double position =
+      linear_law[k] ? detail::LinearAccelerationLaw{v0, sdd_start[k], (sdd_end[k] - sdd_start[k]) / delta}.position(tau)
+                    : quintic(delta, v0, sdd_start[k], std::sqrt(x[k + 1]), sdd_end[k], dt_s[k], tau);
+  grid_segment = k;
+  sigma_m = std::clamp(position, 0.0, delta);
+}
+
+double SetPointLaw::sample_s_m(std::size_t n, std::size_t& cursor) const {
+  std::size_t grid_segment = 0;
+  double sigma = 0.0;
+  locate(n, cursor, grid_segment, sigma);
+  // At and after the end: the last grid point itself (not its start plus its length).
+  return sample_t_s(n) >= duration_s ? grid_s_m.back() : grid_s_m[grid_segment] + sigma;
+}
+
+double SetPointLaw::s_at_time(double t) const {
+  std::size_t cursor = 0;
+  if (samples == 0) return 0.0;
+  if (t <= sample_t_s(0)) return sample_s_m(0, cursor);
+  if (t >= sample_t_s(samples - 1)) return sample_s_m(samples - 1, cursor);
+  // k: the first sample after t (as std::upper_bound on the samples' times).
+  auto k = static_cast<std::size_t>(std::max(0.0, std::floor(t / period_s))) + 1;
+  while (k > 1 && sample_t_s(k - 1) > t) --k;
+  while (sample_t_s(k) <= t) ++k;
+  const double t0 = sample_t_s(k - 1), t1 = sample_t_s(k);
+  const double s0 = sample_s_m(k - 1, cursor), s1 = sample_s_m(k, cursor);
+  const double f = (t - t0) / (t1 - t0);
+  return s0 + f * (s1 - s0);
+}
+
+SetPointGenerator::SetPointGenerator(const FeedratePlan& plan) : law_(plan.law), spline_(plan.path) {}
+
+void SetPointGenerator::fill(std::size_t first, std::size_t count, SetPoints& window) {
+  count = first < law_.samples ? std::min(count, law_.samples - first) : 0;
+  window.period_s = law_.period_s;
+  window.t_s.resize(count);
+  window.s_m.resize(count);
+  window.q.resize(static_cast<Index>(spline_.axis_count()), idx(count));
+  VectorXd qv;
+  for (std::size_t i = 0; i < count; ++i) {
+    const std::size_t n = first + i;
+    std::size_t grid_segment = 0;
+    double sigma = 0.0;
+    law_.locate(n, cursor_, grid_segment, sigma);
+    window.t_s[i] = law_.sample_t_s(n);
+    window.s_m[i] = window.t_s[i] >= law_.duration_s ? law_.grid_s_m.back() : law_.grid_s_m[grid_segment] + sigma;
+    spline_.evaluate(law_.spline_segment[grid_segment], law_.spline_sigma0_m[grid_segment] + sigma, &qv, nullptr,
+                     nullptr, nullptr);
+    window.q.col(idx(i)) = qv;
+  }
+}
+
 std::string_view constraint_name(ConstraintKind kind) {
   switch (kind) {
     case ConstraintKind::feed: return "feed";
@@ -826,6 +898,7 @@ FeedratePlan plan_feedrate(const kinematics::MachineModel& machine,
     }
   }
   plan.path = std::move(refined.path);
+  if (!options.keep_setpoints) plan.setpoints = SetPoints{plan.setpoints.period_s, {}, {}, {}};
   return plan;
 }
 
@@ -1215,7 +1288,7 @@ FeedratePlan plan_refined_path(const kinematics::MachineModel& machine, const ki
     ex.t.assign(points, 0.0);
     for (std::size_t k = 0; k < segments; ++k) ex.t[k + 1] = ex.t[k] + ex.dt[k];
 
-    // Set points.
+    // Set points: the law sampled at the period, q from the spline.
     SetPoints& sp = plan.setpoints;
     sp.period_s = period;
     const double total = ex.t.back();
@@ -1224,34 +1297,30 @@ FeedratePlan plan_refined_path(const kinematics::MachineModel& machine, const ki
                             format_double(total) + " s (a near stop inside a stretch)");
     }
     const auto samples = static_cast<std::size_t>(std::ceil(total / period - 1e-9)) + 1;
+    SetPointLaw& law = plan.law;
+    law.period_s = period;
+    law.duration_s = total;
+    law.samples = samples;
+    law.grid_s_m = p.s;
+    law.spline_segment = p.seg;
+    law.spline_sigma0_m = p.sigma0;
+    law.x = ex.x;
+    law.sdd_start = ex.sdd_l;
+    law.sdd_end = ex.sdd_r;
+    law.linear_law = ex.linear_law;
+    law.dt_s = ex.dt;
+    law.t_s = ex.t;
     sp.t_s.resize(samples);
     sp.s_m.resize(samples);
     sp.q.resize(idx(axes), idx(samples));
     VectorXd qv;
-    std::size_t k = 0;
+    std::size_t cursor = 0;
     for (std::size_t n = 0; n < samples; ++n) {
-      const double t = static_cast<double>(n) * period;
-      sp.t_s[n] = t;
-      while (k + 1 < segments && ex.t[k + 1] <= t) ++k;
-      double s = 0.0;
-      std::size_t grid_segment = k;
+      std::size_t grid_segment = 0;
       double sigma = 0.0;
-      if (t >= total) {
-        grid_segment = segments - 1;
-        sigma = p.delta(grid_segment);
-        s = p.s.back();
-      } else {
-        const double tau = std::clamp(t - ex.t[k], 0.0, ex.dt[k]);
-        const double delta = p.delta(k);
-        const double v0 = std::sqrt(ex.x[k]);
-        const double position =
-            ex.linear_law[k]
-                ? detail::LinearAccelerationLaw{v0, ex.sdd_l[k], (ex.sdd_r[k] - ex.sdd_l[k]) / delta}.position(tau)
-                : quintic(delta, v0, ex.sdd_l[k], std::sqrt(ex.x[k + 1]), ex.sdd_r[k], ex.dt[k], tau);
-        sigma = std::clamp(position, 0.0, delta);
-        s = p.s[k] + sigma;
-      }
-      sp.s_m[n] = s;
+      law.locate(n, cursor, grid_segment, sigma);
+      sp.t_s[n] = law.sample_t_s(n);
+      sp.s_m[n] = sp.t_s[n] >= total ? p.s.back() : p.s[grid_segment] + sigma;
       spline.evaluate(p.seg[grid_segment], p.sigma0[grid_segment] + sigma, &qv, nullptr, nullptr, nullptr);
       sp.q.col(idx(n)) = qv;
     }

@@ -211,6 +211,10 @@ struct FeedrateOptions {
   /// ... and the tool axis within this angle [rad] of the programmed one (great-circle
   /// interpolation between the points).
   double path_axis_tolerance_rad = PathFidelityOptions{}.axis_tolerance_rad;
+  /// Keep FeedratePlan::setpoints after planning. false: the planner still makes them (its
+  /// check rounds, the travel and path-fidelity checks run on the whole set) and drops them
+  /// before returning; SetPointGenerator makes them again window by window from the plan.
+  bool keep_setpoints = true;
   /// Throws vmsim::InputError naming the field and value.
   void validate() const;
 };
@@ -247,6 +251,52 @@ struct SetPoints {
   Eigen::MatrixXd q;  ///< axis positions, one column per sample (SI joint units)
 };
 
+/// The executed time law s(t) on the planning grid, which the set points sample: per grid
+/// segment sdd linear in s (LinearAccelerationLaw) or the quintic Hermite in t (see the header
+/// notes). s at a sample needs the law alone; q needs the plan's spline too (SetPointGenerator).
+struct SetPointLaw {
+  double period_s = 0.0;
+  double duration_s = 0.0;
+  std::size_t samples = 0;  ///< set points: k * period_s from 0 to the first multiple >= duration_s
+  std::vector<double> grid_s_m;           ///< the planning grid (points)
+  std::vector<std::size_t> spline_segment;  ///< per grid segment: the PathSpline segment holding it
+  std::vector<double> spline_sigma0_m;    ///< per grid segment: its start within that segment
+  std::vector<double> x;                  ///< sd^2 at the grid points [m^2/s^2]
+  std::vector<double> sdd_start, sdd_end;  ///< per grid segment: sdd at its ends [m/s^2]
+  std::vector<char> linear_law;           ///< per grid segment: sdd linear in s (else the quintic)
+  std::vector<double> dt_s;               ///< per grid segment: its duration
+  std::vector<double> t_s;                ///< at the grid points
+  std::size_t segments() const { return grid_s_m.empty() ? 0 : grid_s_m.size() - 1; }
+  double sample_t_s(std::size_t n) const { return static_cast<double>(n) * period_s; }
+  /// The grid segment and the distance sigma [m] into it of sample n. `cursor`: the grid segment
+  /// of the previous call (0 at first); calls in increasing n cost O(1) each.
+  void locate(std::size_t n, std::size_t& cursor, std::size_t& grid_segment, double& sigma_m) const;
+  /// s [m] of sample n (the value SetPoints::s_m holds there).
+  double sample_s_m(std::size_t n, std::size_t& cursor) const;
+  /// s [m] at time t: linear between the samples around t (the samples' first / last value
+  /// outside them).
+  double s_at_time(double t_s) const;
+};
+
+struct FeedratePlan;
+
+/// The set points of a plan, window by window, from its law and spline: the same values bit
+/// for bit as FeedratePlan::setpoints (which a plan planned with keep_setpoints = false does
+/// not hold). References the plan, which must outlive it.
+class SetPointGenerator {
+ public:
+  explicit SetPointGenerator(const FeedratePlan& plan);
+  std::size_t size() const { return law_.samples; }
+  /// Set points first .. first + count - 1 (count clamped to the end) into `window`
+  /// (t_s, s_m, q resized to them; period_s set).
+  void fill(std::size_t first, std::size_t count, SetPoints& window);
+
+ private:
+  const SetPointLaw& law_;
+  PathSpline spline_;
+  std::size_t cursor_ = 0;
+};
+
 /// The largest |value| / limit found on the set points, per constraint kind and axis.
 struct SetPointCheck {
   Eigen::MatrixXd ratio;  ///< rows = axes, cols = kConstraintKindCount (feed column: tip feed)
@@ -256,7 +306,8 @@ struct SetPointCheck {
 struct FeedratePlan {
   std::vector<AxisLimitValues> limits;  ///< per axis
   FeedrateProfile profile;
-  SetPoints setpoints;
+  SetPoints setpoints;  ///< empty when planned with FeedrateOptions::keep_setpoints = false
+  SetPointLaw law;      ///< what the set points sample (SetPointGenerator)
   SetPointCheck check;
   double duration_s = 0.0;     ///< T
   double lower_bound_s = 0.0;  ///< T_lb = integral ds / sd_lim(s) (trapezoid on the grid)
