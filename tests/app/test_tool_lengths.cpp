@@ -186,8 +186,8 @@ TEST_P(ToolLengthsThreeAxis, MachineZIsTheWorkOffsetPlusEachToolsLength) {
 }
 
 INSTANTIATE_TEST_SUITE_P(Readers, ToolLengthsThreeAxis, ::testing::Values(kGcode, kTnc, kSiemens),
-                         [](const ::testing::TestParamInfo<Program>& info) {
-                           const std::string file = info.param.file;
+                         [](const ::testing::TestParamInfo<Program>& program_info) {
+                           const std::string file = program_info.param.file;
                            return file == "program.nc" ? std::string("Gcode")
                                   : file == "program.h" ? std::string("Heidenhain")
                                                         : std::string("Siemens840d");
