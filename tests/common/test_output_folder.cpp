@@ -200,8 +200,15 @@ TEST(OutputFolder, AFolderWithAStagingNameThatIsNotVmsimsStays) {
 TEST(OutputFolder, ASignalRemovesTheStagingFolderAndEndsTheProcess) {
   const fs::path folder = test::fresh_temp_folder("output_signal");
   write_result(folder / "out", {{"a.txt", "old a"}});
+  int tested = 0;
   for (int signal_number : {SIGTERM, SIGINT, SIGHUP}) {
     SCOPED_TRACE(signal_number);
+    // A signal this process inherited as ignored (nohup; SIGINT in a background job of a shell
+    // without job control) is left ignored by vmsim on purpose: nothing to test for it here.
+    struct sigaction inherited {};
+    ASSERT_EQ(::sigaction(signal_number, nullptr, &inherited), 0);
+    if (inherited.sa_handler == SIG_IGN) continue;
+    ++tested;
     const pid_t child = ::fork();
     if (child == 0) {
       OutputFolder output((folder / "out").string(), {}, kOrigin);
@@ -219,6 +226,7 @@ TEST(OutputFolder, ASignalRemovesTheStagingFolderAndEndsTheProcess) {
     EXPECT_EQ(names_in(folder), std::set<std::string>{"out"});
     EXPECT_EQ(read_file((folder / "out" / "a.txt").string()), "old a");
   }
+  EXPECT_GT(tested, 0) << "every signal was inherited as ignored";
 }
 
 TEST(CheckOutputFile, RefusesAFolderAnInputAMissingFolderAndAcceptsAPreviousOutput) {
