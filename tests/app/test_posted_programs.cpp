@@ -269,7 +269,7 @@ TEST_P(PostedProgramSimulated, SimulatePartRunsThroughWithEveryCheckPassed) {
 }
 
 INSTANTIATE_TEST_SUITE_P(Corpus, PostedProgram, ::testing::ValuesIn(kCases),
-                         [](const ::testing::TestParamInfo<Case>& info) { return std::string(info.param.folder); });
+                         [](const ::testing::TestParamInfo<Case>& case_info) { return std::string(case_info.param.folder); });
 
 /// Every program of the corpus: kCases and the cutter compensation program (its own tests check
 /// its positions, which are offset from the programmed contour).
@@ -281,7 +281,7 @@ std::vector<std::string> simulated_folders() {
 }
 
 INSTANTIATE_TEST_SUITE_P(Corpus, PostedProgramSimulated, ::testing::ValuesIn(simulated_folders()),
-                         [](const ::testing::TestParamInfo<std::string>& info) { return info.param; });
+                         [](const ::testing::TestParamInfo<std::string>& folder_info) { return folder_info.param; });
 
 // Under G43.4 the rotary axes go to the programmed A and C words (the program chooses the
 // branch): every block with A and C gives those axis values.

@@ -62,7 +62,6 @@ double independent_inverse_condition(const MachineModel& robot, const Eigen::Vec
   auto frame = [&](const Eigen::VectorXd& x) {
     return Eigen::Isometry3d(workpiece_frame_B(robot, x).inverse() * spindle_frame_B(robot, x));
   };
-  const Eigen::Isometry3d X = frame(q);
   Eigen::Matrix<double, 6, 6> J;
   for (int j = 0; j < 6; ++j) {
     Eigen::VectorXd plus = q, minus = q;

@@ -17,27 +17,9 @@
 namespace vmsim::toolpath {
 namespace {
 
-Toolpath gcode(const std::string& text, const ReaderOptions& options = {}) {
-  return parse_gcode(text, "part.nc", options);
-}
-
-std::string gcode_error(const std::string& text, const ReaderOptions& options = {}) {
-  return test::input_error_of([&] { gcode(text, options); });
-}
-
-/// The same points (tip within 1e-12 m, axis, kind, feed) in the same order.
-void expect_same_points(const Toolpath& actual, const Toolpath& expected) {
-  ASSERT_EQ(actual.points.size(), expected.points.size());
-  for (std::size_t i = 0; i < actual.points.size(); ++i) {
-    const PathPoint& a = actual.points[i];
-    const PathPoint& e = expected.points[i];
-    EXPECT_LE((a.tip_W_m - e.tip_W_m).norm(), 1e-12)
-        << "point " << i << ": " << a.tip_W_m.transpose() << " vs " << e.tip_W_m.transpose();
-    EXPECT_LE((a.axis_W - e.axis_W).norm(), 1e-15) << "point " << i;
-    EXPECT_EQ(a.kind, e.kind) << "point " << i;
-    EXPECT_DOUBLE_EQ(a.feed_m_per_s, e.feed_m_per_s) << "point " << i;
-  }
-}
+using test::expect_same_points;
+using test::gcode;
+using test::gcode_error;
 
 /// The value [mm] an expression gives as the X word of a feed move (after `prelude` blocks).
 double x_of(const std::string& expression, const std::string& prelude = "") {

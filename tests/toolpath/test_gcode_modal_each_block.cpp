@@ -16,26 +16,9 @@
 namespace vmsim::toolpath {
 namespace {
 
-Toolpath gcode(const std::string& text, const ReaderOptions& options = {}) {
-  return parse_gcode(text, "part.nc", options);
-}
-
-std::string gcode_error(const std::string& text, const ReaderOptions& options = {}) {
-  return test::input_error_of([&] { gcode(text, options); });
-}
-
-/// The same points (tip, kind, feed) in the same order.
-void expect_same_points(const Toolpath& actual, const Toolpath& expected) {
-  ASSERT_EQ(actual.points.size(), expected.points.size());
-  for (std::size_t i = 0; i < actual.points.size(); ++i) {
-    const PathPoint& a = actual.points[i];
-    const PathPoint& e = expected.points[i];
-    EXPECT_LE((a.tip_W_m - e.tip_W_m).norm(), 1e-12)
-        << "point " << i << ": " << a.tip_W_m.transpose() << " vs " << e.tip_W_m.transpose();
-    EXPECT_EQ(a.kind, e.kind) << "point " << i;
-    EXPECT_DOUBLE_EQ(a.feed_m_per_s, e.feed_m_per_s) << "point " << i;
-  }
-}
+using test::expect_same_points;
+using test::gcode;
+using test::gcode_error;
 
 /// True when the path passes through the tip (x, y, z) in mm.
 bool passes_through(const Toolpath& path, double x_mm, double y_mm, double z_mm) {

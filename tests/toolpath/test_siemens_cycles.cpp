@@ -34,7 +34,9 @@ void expect_moves(const std::vector<PathPoint>& points, double x_mm, double y_mm
     expect_xy(xy_mm(points[i]), x_mm, y_mm);
     EXPECT_NEAR(z_mm(points[i]), expected[i].z_mm, kTight) << "move " << i;
     EXPECT_EQ(points[i].kind == MotionKind::rapid, expected[i].rapid) << "move " << i;
-    if (!expected[i].rapid) EXPECT_NEAR(points[i].feed_m_per_s, expected[i].feed_mm_per_min / 60000.0, 1e-15) << "move " << i;
+    if (!expected[i].rapid) {
+      EXPECT_NEAR(points[i].feed_m_per_s, expected[i].feed_mm_per_min / 60000.0, 1e-15) << "move " << i;
+    }
   }
 }
 
