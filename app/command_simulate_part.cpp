@@ -14,6 +14,7 @@
 #include "simulate_part.hpp"
 #include "vmsim/common/errors.hpp"
 #include "vmsim/common/files.hpp"
+#include "vmsim/removal/tile_store.hpp"
 
 namespace vmsim::app {
 namespace {
@@ -43,7 +44,26 @@ struct CommandOptions {
   int threads = 0;
   long long compact_zmap_above_lines = static_cast<long long>(SimulatePartOptions{}.compact_zmap_above_lines);
   double servo_window_s = SimulatePartOptions{}.servo_window_s;
+  double memory_budget_gb = std::numeric_limits<double>::quiet_NaN();  ///< NaN: half the physical memory
+  std::string spill_dir;           ///< "": the system's temporary directory
 };
+
+// The compact Z-maps' offsets in memory up to the budget, beyond it in files in the spill
+// directory (removal/tile_store.hpp). The default leaves half the memory to the rest of the run.
+void set_spill(const CommandOptions& command) {
+  removal::SpillSettings spill;
+  if (!std::isnan(command.memory_budget_gb)) {
+    if (!(command.memory_budget_gb >= 0.0 && command.memory_budget_gb <= 1e6)) {
+      throw InputError("--memory-budget-gb must be >= 0 and at most 1e6, got " + format_double(command.memory_budget_gb));
+    }
+    spill.memory_budget_bytes = static_cast<std::size_t>(command.memory_budget_gb * 1073741824.0);
+  } else {
+    const long pages = ::sysconf(_SC_PHYS_PAGES), page_bytes = ::sysconf(_SC_PAGE_SIZE);
+    if (pages > 0 && page_bytes > 0) spill.memory_budget_bytes = static_cast<std::size_t>(pages) * page_bytes / 2;
+  }
+  if (!command.spill_dir.empty()) spill.directory = command.spill_dir;  // checked by CLI11: a directory
+  removal::set_spill_settings(spill);
+}
 
 // The built-in sample: part 1 of the second paper on the Mikron sample, from the source tree
 // this program was built from, or from ./samples when run from a checkout.
@@ -112,6 +132,7 @@ int run(const CommandOptions& command, const CommandContext& context) {
   }
   options.tolerance_m = command.tolerance_um * 1e-6;
   options.command_line = context.command_line;
+  set_spill(command);
 
   const auto start = std::chrono::steady_clock::now();
   const bool terminal = ::isatty(STDOUT_FILENO) != 0;
@@ -241,6 +262,12 @@ void add_simulate_part_command(CLI::App& app, CommandContext& context) {
                       "the servo, direct kinematics and thinning run in windows of this much machine "
                       "time [s] (memory bounded by the window; the results do not depend on it)")
       ->capture_default_str();
+  command->add_option("--memory-budget-gb", options->memory_budget_gb,
+                      "compact Z-map heights held in memory [GiB]; beyond it they go to memory-mapped "
+                      "files in --spill-dir, removed at once (default: half the physical memory)");
+  command->add_option("--spill-dir", options->spill_dir,
+                      "directory of those files (default: the system's temporary directory)")
+      ->check(CLI::ExistingDirectory);
   command->callback([options, &context] { context.result = run(*options, context); });
 }
 

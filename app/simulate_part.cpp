@@ -1584,6 +1584,9 @@ Json simulate_part(const SimulatePartOptions& options, const ProgressSink& progr
                                ? "float offsets from a double base a tile: within 2^-24 of the depth below "
                                  "the tile's top (0.6 nm at 10 mm), exact where uncut"
                                : "one double a line: exact";
+    // Compact offsets past the memory budget went to memory-mapped files (removal/tile_store.hpp).
+    const removal::SpillFigures spill = removal::spill_figures();
+    heights["spilled_to_disk_peak_mib"] = static_cast<double>(spill.spilled_peak_bytes) / (1 << 20);
     surface["zmap_heights"] = heights;
   }
   end_stage("comparison");

@@ -186,7 +186,7 @@ void NBuffer::build_tiles() {
 
 double NBuffer::compact_length(std::size_t stored) const {
   const std::size_t tile = stored / (kTile * kTile);
-  const std::vector<float>& offsets = offsets_[tile];
+  const std::span<const float> offsets = offsets_.block(tile);
   if (offsets.empty()) return base_[tile];
   // Never below 0 (the float rounding of an offset of -base could reach just below).
   return std::max(0.0, base_[tile] + static_cast<double>(offsets[stored % (kTile * kTile)]));
@@ -198,7 +198,7 @@ void NBuffer::tile_lengths(std::size_t tile, double* out) const {
     std::copy_n(h_.begin() + static_cast<std::ptrdiff_t>((tile - band_tile_begin_) * n), n, out);
     return;
   }
-  const std::vector<float>& offsets = offsets_[tile];
+  const std::span<const float> offsets = offsets_.block(tile);
   const double base = base_[tile];
   if (offsets.empty()) {
     std::fill_n(out, n, base);
@@ -211,14 +211,13 @@ void NBuffer::make_compact() {
   if (compact_) return;
   constexpr std::size_t n = kTile * kTile;
   base_.assign(tiles_.size(), 0.0);
-  offsets_.assign(tiles_.size(), {});
+  offsets_.reset(tiles_.size());
   for (std::size_t t = band_tile_begin_; t < band_tile_end_; ++t) {
     const double* h = &h_[(t - band_tile_begin_) * n];
     const double base = *std::max_element(h, h + n);
     base_[t] = base;
     if (std::all_of(h, h + n, [&](double v) { return v == base; })) continue;
-    std::vector<float>& offsets = offsets_[t];
-    offsets.resize(n);
+    const std::span<float> offsets = offsets_.block_or_allocate(t, 0.0f);
     for (std::size_t k = 0; k < n; ++k) offsets[k] = static_cast<float>(h[k] - base);
   }
   compact_ = true;
@@ -234,15 +233,12 @@ void NBuffer::make_compact() {
 
 std::size_t NBuffer::allocated_tiles() const {
   if (!compact_) return tiles_.size();
-  std::size_t count = 0;
-  for (const std::vector<float>& offsets : offsets_) count += offsets.empty() ? 0 : 1;
-  return count;
+  return offsets_.allocated_blocks();
 }
 
 std::size_t NBuffer::length_bytes() const {
   if (!compact_) return h_.size() * sizeof(double);
-  return allocated_tiles() * kTile * kTile * sizeof(float) +
-         offsets_.size() * (sizeof(double) + sizeof(std::vector<float>));
+  return offsets_.bytes() + base_.size() * sizeof(double);
 }
 
 void NBuffer::refresh_tile(std::size_t tile, const double* h) {
@@ -1287,9 +1283,8 @@ CutStatistics NBuffer::cut(const Tool& tool, std::span<const Pose> trajectory, c
         if (compact_ && lowered != lowered_start) {
           // Encoded from the tile's base; a line's offset never rises (rounding is monotonic and
           // the old offset is a float), so a cut never adds material.
-          std::vector<float>& offsets = offsets_[tile];
+          const std::span<float> offsets = offsets_.block_or_allocate(tile, 0.0f);
           const double base = base_[tile];
-          if (offsets.empty()) offsets.assign(n_tile, 0.0f);
           for (std::size_t k = 0; k < n_tile; ++k) {
             if (scratch[k] != decoded[k]) offsets[k] = std::min(offsets[k], static_cast<float>(scratch[k] - base));
           }

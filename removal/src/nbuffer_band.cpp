@@ -32,8 +32,8 @@ NBuffer NBuffer::band(int tile_row_begin, int tile_row_end) const {
   out.band_tile_begin_ = begin, out.band_tile_end_ = end;
   if (compact_) {
     out.base_ = base_;
-    out.offsets_.resize(offsets_.size());
-    for (std::size_t t = begin; t < end; ++t) out.offsets_[t] = offsets_[t];
+    out.offsets_.reset(offsets_.size());
+    for (std::size_t t = begin; t < end; ++t) out.offsets_.assign(t, offsets_.block(t));
   } else {
     const auto first = h_.begin() + static_cast<std::ptrdiff_t>((begin - band_tile_begin_) * kTileLines);
     out.h_.assign(first, first + static_cast<std::ptrdiff_t>((end - begin) * kTileLines));
@@ -46,8 +46,9 @@ std::vector<double> NBuffer::pack_band() const {
   std::vector<double> packed;
   for (std::size_t t = band_tile_begin_; t < band_tile_end_; ++t) {
     packed.push_back(base_[t]);
-    packed.push_back(static_cast<double>(offsets_[t].size()));
-    for (float offset : offsets_[t]) packed.push_back(static_cast<double>(offset));  // exact
+    const std::span<const float> offsets = offsets_.block(t);
+    packed.push_back(static_cast<double>(offsets.size()));
+    for (float offset : offsets) packed.push_back(static_cast<double>(offset));  // exact
   }
   return packed;
 }
@@ -78,8 +79,9 @@ void NBuffer::unpack_band(int tile_row_begin, int tile_row_end, std::span<const 
     if ((count != 0 && count != kTileLines) || at + count > packed.size()) {
       throw std::invalid_argument("NBuffer::unpack_band: bad offset count in the pack");
     }
-    offsets_[t].assign(packed.begin() + static_cast<std::ptrdiff_t>(at),
-                       packed.begin() + static_cast<std::ptrdiff_t>(at + count));  // float: exact
+    std::vector<float> offsets(packed.begin() + static_cast<std::ptrdiff_t>(at),
+                               packed.begin() + static_cast<std::ptrdiff_t>(at + count));  // float: exact
+    offsets_.assign(t, offsets);
     at += count;
     tile_lengths(t, h);
     refresh_tile(t, h);

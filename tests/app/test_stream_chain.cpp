@@ -102,6 +102,40 @@ TEST(StreamChain, TheWindowChangesNoResult) {
   EXPECT_GT(compared, 1u);
 }
 
+// The compact Z-map's offsets spilled to memory-mapped files (--memory-budget-gb 0: all of them)
+// change no result, leave nothing in the spill directory, and the report says how much went
+// there; a budget that is no number of GiB is refused with exit 3 and nothing written.
+TEST(StreamChain, ZmapSpilledToDiskChangesNoResult) {
+  const auto folder = test::fresh_folder("stream_chain_spill");
+  const std::string part = three_passes(folder);
+  const auto spill_dir = folder / "spill";
+  std::filesystem::create_directories(spill_dir);
+  const std::string common = "-q simulate-part --part " + part + " --grid-um 25 --no-renders --compact-zmap-above-lines 0";
+  const test::RunResult in_memory = test::run_vmsim(common + " --out " + (folder / "memory").string());
+  ASSERT_EQ(in_memory.exit_code, 0) << in_memory.output;
+  const test::RunResult spilled = test::run_vmsim(common + " --memory-budget-gb 0 --spill-dir " + spill_dir.string() +
+                                                  " --out " + (folder / "spilled").string());
+  ASSERT_EQ(spilled.exit_code, 0) << spilled.output;
+  EXPECT_TRUE(std::filesystem::is_empty(spill_dir));
+  const auto report = nlohmann::json::parse(read_file((folder / "spilled" / "report.json").string()));
+  EXPECT_GT(report["surface"]["zmap_heights"]["spilled_to_disk_peak_mib"].get<double>(), 0.0);
+  const auto in_memory_report = nlohmann::json::parse(read_file((folder / "memory" / "report.json").string()));
+  EXPECT_EQ(in_memory_report["surface"]["zmap_heights"]["spilled_to_disk_peak_mib"].get<double>(), 0.0);
+  std::size_t compared = 0;
+  for (const auto& entry : std::filesystem::recursive_directory_iterator(folder / "memory")) {
+    if (entry.path().extension() != ".bin" && entry.path().filename() != "marks.csv") continue;
+    const auto other = folder / "spilled" / std::filesystem::relative(entry.path(), folder / "memory");
+    EXPECT_EQ(read_file(entry.path().string()), read_file(other.string())) << entry.path();
+    ++compared;
+  }
+  EXPECT_GT(compared, 1u);
+
+  const test::RunResult refused = test::run_vmsim(common + " --memory-budget-gb -2 --out " + (folder / "refused").string());
+  EXPECT_EQ(refused.exit_code, 3) << refused.output;
+  EXPECT_NE(refused.output.find("--memory-budget-gb"), std::string::npos) << refused.output;
+  EXPECT_FALSE(std::filesystem::exists(folder / "refused"));
+}
+
 // ---------------------------------------------------------------------------------------------
 // The whole-run summary of the following errors, written apart (all samples at once).
 

@@ -56,6 +56,7 @@
 #include <utility>
 #include <vector>
 
+#include "vmsim/removal/tile_store.hpp"
 #include "vmsim/removal/tool.hpp"
 
 namespace vmsim::removal {
@@ -166,7 +167,8 @@ class NBuffer {
   /// The cut is computed in double on the tile's lines as in plain storage (each tile is
   /// decoded, cut and encoded again); every decision is the tile's own, so the result does not
   /// depend on the thread count. Converting a plain buffer is exact for lines equal to their
-  /// tile's largest length and within the bound otherwise.
+  /// tile's largest length and within the bound otherwise. The offsets go to memory-mapped files
+  /// past the process's budget (tile_store.hpp, set_spill_settings).
   void make_compact();
   bool is_compact() const { return compact_; }
   /// Tiles holding offsets (compact storage); all tiles in plain storage.
@@ -226,7 +228,7 @@ class NBuffer {
   // Compact storage: per tile, its base length and its offsets (empty: every line at the base).
   bool compact_ = false;
   std::vector<double> base_;
-  std::vector<std::vector<float>> offsets_;
+  TileOffsetStore offsets_{kTile * kTile};
   std::vector<Eigen::Vector3d> o_, u_;  // general buffers only
   struct TileBounds {
     Eigen::Vector3d lo, hi;  // box of the material segments of the tile's lines
