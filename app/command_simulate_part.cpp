@@ -2,8 +2,10 @@
 #include <unistd.h>
 
 #include <chrono>
+#include <algorithm>
 #include <cmath>
 #include <cstdio>
+#include <cstdlib>
 #include <filesystem>
 #include <iostream>
 #include <limits>
@@ -49,7 +51,8 @@ struct CommandOptions {
 };
 
 // The compact Z-maps' offsets in memory up to the budget, beyond it in files in the spill
-// directory (removal/tile_store.hpp). The default leaves half the memory to the rest of the run.
+// directory (removal/tile_store.hpp). The default leaves half the memory to the rest of the run,
+// split between the ranks on this machine.
 void set_spill(const CommandOptions& command) {
   removal::SpillSettings spill;
   if (!std::isnan(command.memory_budget_gb)) {
@@ -58,8 +61,14 @@ void set_spill(const CommandOptions& command) {
     }
     spill.memory_budget_bytes = static_cast<std::size_t>(command.memory_budget_gb * 1073741824.0);
   } else {
+    // Shared by the ranks mpirun started on this machine (OpenMPI names their count).
+    const char* local_ranks_text = std::getenv("OMPI_COMM_WORLD_LOCAL_SIZE");
+    const long local_ranks = local_ranks_text ? std::max(1L, std::strtol(local_ranks_text, nullptr, 10)) : 1L;
     const long pages = ::sysconf(_SC_PHYS_PAGES), page_bytes = ::sysconf(_SC_PAGE_SIZE);
-    if (pages > 0 && page_bytes > 0) spill.memory_budget_bytes = static_cast<std::size_t>(pages) * page_bytes / 2;
+    if (pages > 0 && page_bytes > 0) {
+      spill.memory_budget_bytes = static_cast<std::size_t>(pages) * static_cast<std::size_t>(page_bytes) / 2 /
+                                  static_cast<std::size_t>(local_ranks);
+    }
   }
   if (!command.spill_dir.empty()) spill.directory = command.spill_dir;  // checked by CLI11: a directory
   removal::set_spill_settings(spill);
