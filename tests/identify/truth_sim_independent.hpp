@@ -60,6 +60,10 @@ struct IndependentDrive {
   double pitch_amplitude_m = 0.0, pitch_period_m = 0.0, pitch_phase_rad = 0.0;
   double setpoint_delay_s = 0.0;
   double offset_force_N = 0.0;          ///< constant force resisting +x
+  /// Gravity on a tilting rotary axis: a torque resisting +q of gravity_cos_N cos(q) +
+  /// gravity_sin_N sin(q), q the load's angle [N m] (for a body whose centre of mass lies at
+  /// (c_y, c_z) in the joint's frame about x: m g c_y and -m g c_z).
+  double gravity_cos_N = 0.0, gravity_sin_N = 0.0;
   /// Unmodelled external force: `bump_force_N` acting between these times (smooth edges).
   double bump_force_N = 0.0, bump_start_s = 0.0, bump_end_s = 0.0;
   // Measurement.
