@@ -28,6 +28,7 @@
 #include "mikron_truth.hpp"
 #include "truth_sim_independent.hpp"
 #include "vmsim/common/trace.hpp"
+#include "vmsim/identify/identify.hpp"
 #include "vmsim/kinematics/machine_loader.hpp"
 
 namespace vmsim::identify::test {
@@ -191,8 +192,10 @@ TEST(DiagnoseFiveAxisProgram, ControlFindsNothingOnAnyAxis) {
 }
 
 // The hidden effect on `axis_name` is found there and named first (one of `names`), nothing is
-// found on the other axes, and what the model misses of the tip's contour error falls.
-void expect_found_on(const Json& d, const std::string& axis_name, const std::vector<std::string>& names) {
+// found on the other axes, and what the model misses of the tip's contour error at least halves
+// (`tip_changes`; else, for an effect the loops hold off the tip, it does not grow).
+void expect_found_on(const Json& d, const std::string& axis_name, const std::vector<std::string>& names,
+                     bool tip_changes = true) {
   for (const Json& axis : d["axes"]) {
     if (axis["axis"] == axis_name) continue;
     EXPECT_TRUE(axis["found"].empty()) << axis["axis"] << axis["found"].dump(1);
@@ -212,8 +215,8 @@ void expect_found_on(const Json& d, const std::string& axis_name, const std::vec
               tip["contour_error_measured"]["rms_um"].get<double>(),
               tip["contour_error_measured"]["peak_um"].get<double>(), tip["residual_before"]["rms_um"].get<double>(),
               tip["residual_after"]["rms_um"].get<double>());
-  EXPECT_LT(tip["residual_after"]["rms_um"].get<double>(), tip["residual_before"]["rms_um"].get<double>())
-      << tip.dump(1);
+  const double before_um = tip["residual_before"]["rms_um"].get<double>();
+  EXPECT_LT(tip["residual_after"]["rms_um"].get<double>(), (tip_changes ? 0.5 : 1.01) * before_um) << tip.dump(1);
 }
 
 TEST(DiagnoseFiveAxisProgram, DryFrictionOnTheRotaryTableIsFoundOnC) {
@@ -235,20 +238,40 @@ TEST(DiagnoseFiveAxisProgram, InertiaOfTheTiltingCradleIsFoundOnA) {
   });
   expect_found_on(d, "A", {"inertia"});
 
-  // identify on the same trace: A's equivalent inertia comes out near the truth's (the model's
-  // gravity taken at every sample's angle: the cradle's torque changes by 0.8 A over the sweep).
+  // identify on the same trace: A's equivalent inertia near the truth's, and its inverse model
+  // at the current's noise (0.02 A): the model's gravity is taken at every sample's angle (the
+  // cradle's torque changes by 0.8 A over the sweep; a constant at the mean angle left 0.155 A).
   const PlannedProgram& p = planned_program();
-  const auto identify = vmsim::test::run_vmsim("identify --machine " + (p.folder / "nominal.yaml").string() +
-                                               " --trace " + (p.folder / "a_inertia.csv").string() + " --out " +
-                                               (p.folder / "a_identified.yaml").string());
-  ASSERT_EQ(identify.exit_code, 0) << identify.output;
-  std::printf("%s\n", identify.output.c_str());
-  const kinematics::MachineModel identified = kinematics::load_machine((p.folder / "a_identified.yaml").string());
-  for (std::size_t k = 0; k < p.machine.axes.size(); ++k) {
-    if (p.machine.axes[k].name != "A") continue;
-    const double truth_kg_m2 = 1.3 * p.machine.axes[k].drive.equivalent_inertia_kg_m2;
-    EXPECT_NEAR(identified.axes[k].drive.equivalent_inertia_kg_m2, truth_kg_m2, 0.03 * truth_kg_m2);
+  const Trace trace = read_trace((p.folder / "a_inertia.csv").string());
+  const auto identified = identify_axes(p.machine, extract_measurements(p.machine, trace, "a_inertia.csv"));
+  bool a_identified = false;
+  for (const AxisIdentification& axis : identified) {
+    if (axis.axis_name != "A") continue;
+    a_identified = true;
+    const double truth_kg_m2 = 1.3 * p.machine.axes[static_cast<std::size_t>(axis.axis_index)].drive.equivalent_inertia_kg_m2;
+    std::printf("identify A: J_eq %.5f kg m^2 (truth %.5f), inverse model residual %.4f A RMS\n",
+                axis.equivalent_inertia_kg_m2, truth_kg_m2, axis.residual_rms_A);
+    EXPECT_NEAR(axis.equivalent_inertia_kg_m2, truth_kg_m2, 0.03 * truth_kg_m2);
+    EXPECT_LT(axis.residual_rms_A, 0.05);
   }
+  EXPECT_TRUE(a_identified);
+}
+
+// A gravity-related effect on the tilting axis: the cradle's load hangs 20 % lower than the
+// file says (a fixture below the table), so gravity's torque on A is 20 % above the model's at
+// every angle: 0.12 to 0.27 A over the sweep. A static torque the position loop's integrator
+// takes up: it hardly reaches the tip (nothing to halve there).
+TEST(DiagnoseFiveAxisProgram, HeavierUnbalanceOfTheCradleIsFoundOnA) {
+  ASSERT_TRUE(planned_program().error.empty()) << planned_program().error;
+  const Json d = diagnose_case("a_gravity", [](std::vector<IndependentDrive>& drives) {
+    for (IndependentDrive& drive : drives) {
+      if (drive.axis_name == "A") drive.gravity_sin_N *= 1.2;
+    }
+  });
+  expect_found_on(d, "A", {"gravity"}, false);
+  const Json* a = axis_of(d, "A");
+  ASSERT_NE(a, nullptr);
+  EXPECT_FALSE((*a)["unexplained"]["present"].get<bool>()) << (*a)["unexplained"].dump(1);
 }
 
 }  // namespace
