@@ -1581,6 +1581,14 @@ kinematics::MachineModel extended_machine(const kinematics::MachineModel& machin
                        "constant effort offset " + format_double(axis.extended.offset_A) +
                            " A found (gravity or offset): the machine file has no key for it"});
     }
+    for (const CandidateResult& c : axis.found) {
+      const auto scale = c.parameters.find("gravity_scale");
+      if (c.effect == "gravity" && scale != c.parameters.end()) {
+        notes.push_back({axis.axis_name, "gravity torque of the axis's own angle " + format_double(scale->second) +
+                                             " x the model's found (the load's first moment about the axis): "
+                                             "the machine file has no key for it"});
+      }
+    }
   }
   return result;
 }

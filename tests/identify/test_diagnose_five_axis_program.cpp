@@ -272,6 +272,12 @@ TEST(DiagnoseFiveAxisProgram, HeavierUnbalanceOfTheCradleIsFoundOnA) {
   const Json* a = axis_of(d, "A");
   ASSERT_NE(a, nullptr);
   EXPECT_FALSE((*a)["unexplained"]["present"].get<bool>()) << (*a)["unexplained"].dump(1);
+  ASSERT_FALSE((*a)["found"].empty());
+  const double scale = (*a)["found"][0]["parameters"].value("gravity_scale", 0.0);
+  EXPECT_NEAR(scale, 1.2, 0.02) << (*a)["found"][0].dump(1);
+  // No machine-file key for it: a comment line in the extended machine file says so.
+  const std::string extended = read(planned_program().folder / "a_gravity" / "machine_extended.yaml");
+  EXPECT_NE(extended.find("gravity torque of the axis's own angle"), std::string::npos) << extended.substr(0, 600);
 }
 
 }  // namespace
