@@ -14,6 +14,8 @@
 // - Mechanics: motor inertia and load mass, rigid or two-mass (compliance) or with a play
 //   between them (backlash as a dead zone of a stiff contact); friction without stiction:
 //   viscous + tanh-regularised Coulomb (+ an optional Gaussian low-speed hump), on the load.
+//   External loads on the load: a constant force (a lifted mass), gravity's sinusoid of a
+//   tilting axis's angle, an optional bump.
 // - Measurement every trace period: set point, scale (quantised), motor encoder in joint units
 //   (quantised), actual current with white noise and quantisation.
 // - The record window starts and ends while the axis moves (the run is longer than the trace).
