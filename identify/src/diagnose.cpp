@@ -652,17 +652,43 @@ Fit fit_delay(const Context& ctx, const DriveModel& base, double trace_period_s)
 }
 
 Fit fit_gravity(const Context& ctx, const DriveModel& base, const Evaluation& ev) {
+  const double kt = base.servo.axis.drive.torque_constant_N_m_per_A;
+  // A tilting rotary axis carries gravity as a sinusoid of its own angle: its load's first
+  // moment about the axis may differ from the file's (a fixture, a heavier part), which scales
+  // that sinusoid; a constant alone leaves the rest of it over a swept angle. Linear axes and
+  // rotary ones without it: the constant only.
+  const bool sinusoid = base.servo.axis.type == kinematics::AxisType::rotary &&
+                        (base.servo.gravity_cos_N_m != 0.0 || base.servo.gravity_sin_N_m != 0.0);
+  auto sinusoid_A = [&](const DriveModel& m, double q) {
+    return (m.servo.gravity_cos_N_m * std::cos(q) + m.servo.gravity_sin_N_m * std::sin(q)) / kt;
+  };
+  const int k = sinusoid ? 2 : 1;
   const Eigen::VectorXd c = regress(
-      ctx, ev, [&](const Dataset&, std::size_t, double* x) { x[0] = 1.0; }, 1, false);
+      ctx, ev,
+      [&](const Dataset& d, std::size_t i, double* x) {
+        x[0] = 1.0;
+        if (sinusoid) x[1] = sinusoid_A(base, d.m->pos[i]);
+      },
+      k, false);
   auto apply = [&](const std::vector<double>& th) {
     DriveModel m = base;
     m.offset_A = th[0];
+    if (th.size() > 1) {
+      m.servo.gravity_cos_N_m *= 1.0 + th[1];
+      m.servo.gravity_sin_N_m *= 1.0 + th[1];
+    }
     return m;
   };
-  const std::vector<double> th = gauss_newton(ctx, apply, {base.offset_A + c(0)}, {0.1});
-  const double kt = base.servo.axis.drive.torque_constant_N_m_per_A;
-  Fit f{true, apply(th), {{"offset_A", th[0]}, {"offset_N_m", th[0] * kt}}, 1, "", ""};
+  const std::vector<double> th =
+      sinusoid ? gauss_newton(ctx, apply, {base.offset_A + c(0), c(1)}, {0.1, 0.02})
+               : gauss_newton(ctx, apply, {base.offset_A + c(0)}, {0.1});
+  Fit f{true, apply(th), {{"offset_A", th[0]}, {"offset_N_m", th[0] * kt}}, k, "", ""};
   f.evidence = "constant effort offset of " + fmt(th[0]) + " A, the same in both directions";
+  if (sinusoid) {
+    f.parameters["gravity_scale"] = 1.0 + th[1];
+    f.evidence += "; gravity's torque of the axis's own angle " + fmt(1.0 + th[1]) +
+                  " x the model's (the load's first moment about the axis)";
+  }
   return f;
 }
 
@@ -1554,6 +1580,14 @@ kinematics::MachineModel extended_machine(const kinematics::MachineModel& machin
       notes.push_back({axis.axis_name,
                        "constant effort offset " + format_double(axis.extended.offset_A) +
                            " A found (gravity or offset): the machine file has no key for it"});
+    }
+    for (const CandidateResult& c : axis.found) {
+      const auto scale = c.parameters.find("gravity_scale");
+      if (c.effect == "gravity" && scale != c.parameters.end()) {
+        notes.push_back({axis.axis_name, "gravity torque of the axis's own angle " + format_double(scale->second) +
+                                             " x the model's found (the load's first moment about the axis): "
+                                             "the machine file has no key for it"});
+      }
     }
   }
   return result;

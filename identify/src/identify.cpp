@@ -110,7 +110,15 @@ std::vector<AxisIdentification> identify_axes(const kinematics::MachineModel& ma
     const double kt = axis.drive.torque_constant_N_m_per_A;
     const double r = axis.drive.ratio;
     DriveModel model = make_drive_model(machine, a, reference);
-    const double gravity_A = model.servo.gravity_constant_N_m / kt;
+    // The model's gravity at each sample's own position: a tilting rotary axis moves through a
+    // sinusoid of its angle (servo::AxisServoModel), which a constant would leave to the fit.
+    const bool rotary = axis.type == kinematics::AxisType::rotary;
+    auto gravity_A_at = [&](double q) {
+      double torque = model.servo.gravity_constant_N_m;
+      if (rotary) torque += model.servo.gravity_cos_N_m * std::cos(q) + model.servo.gravity_sin_N_m * std::sin(q);
+      return torque / kt;
+    };
+    const double gravity_A = gravity_A_at(reference[static_cast<std::size_t>(a)]);
 
     // Rows of the inverse model: [q''/(Kt r), q', sign(q'), 1] theta = effort.
     std::vector<Eigen::Vector4d> rows;
@@ -133,7 +141,7 @@ std::vector<AxisIdentification> identify_axes(const kinematics::MachineModel& ma
         if (std::abs(v[i]) <= band || std::abs(vc[i]) <= band) continue;
         if ((v[i] > 0.0) != (vc[i] > 0.0)) continue;
         rows.emplace_back(acc[i] / (kt * r), v[i], v[i] > 0.0 ? 1.0 : -1.0, 1.0);
-        targets.push_back(effort[i]);
+        targets.push_back(effort[i] - gravity_A_at(q[i]));
       }
     }
     if (rows.size() < 20) {
@@ -167,7 +175,7 @@ std::vector<AxisIdentification> identify_axes(const kinematics::MachineModel& ma
     id.friction_viscous_A_per_joint_unit_per_s = std::max(0.0, theta(1));
     id.friction_dry_A = std::max(0.0, theta(2));
     id.gravity_A = gravity_A;
-    id.offset_A = theta(3) - gravity_A;
+    id.offset_A = theta(3);
     id.r2 = sst > 0.0 ? 1.0 - fit_residual.squaredNorm() / sst : 0.0;
     id.residual_rms_A = std::sqrt(fit_residual.squaredNorm() / static_cast<double>(rows.size()));
     if (!(id.equivalent_inertia_kg_m2 > 0.0)) {

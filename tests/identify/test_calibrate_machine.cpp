@@ -17,7 +17,6 @@
 // truth machine (nominal + the delay, through simulate-part) leaves within 2 um, where the
 // nominal machine's miss by more.
 #include <gtest/gtest.h>
-#include <yaml-cpp/yaml.h>
 
 #include <nlohmann/json.hpp>
 
@@ -27,6 +26,7 @@
 #include <sstream>
 
 #include "../app/cli_runner.hpp"
+#include "mikron_truth.hpp"
 #include "truth_sim_independent.hpp"
 #include "vmsim/common/trace.hpp"
 #include "vmsim/identify/diagnose.hpp"
@@ -47,62 +47,6 @@ std::string read(const fs::path& path) {
   std::stringstream text;
   text << in.rdbuf();
   return text.str();
-}
-
-// The Mikron sample with its drives as the truth simulator implements them; `y_delay_s` > 0
-// gives the truth machine (nominal + the hidden effect) for simulate-part.
-std::string machine_yaml(double y_delay_s) {
-  YAML::Node m = YAML::LoadFile(std::string(VMSIM_SOURCE_DIR) + "/samples/machines/mikron_ucp710.yaml");
-  m.remove("interpolation_period_ms");
-  m["interpolation_period_s"] = 0.002;  // the set points reach the 2 ms position loop directly
-  for (YAML::Node axis : m["axes"]) {
-    const bool linear = axis["type"].as<std::string>() == "linear";
-    YAML::Node old = axis["controller"];
-    YAML::Node c;
-    c["position"]["kv_per_s"] = 50.0;  // 3 (m/min)/mm
-    c["position"]["period_s"] = 0.002;
-    c["position"]["output_dead_time_s"] = 0.000125;
-    if (linear) {
-      c["position"]["load_encoder_resolution_nm"] = 5.0;
-    } else {  // 5 nm at a 200 mm radius
-      c["position"]["load_encoder_resolution_arcsec"] = 5e-9 / 0.2 * 180.0 / kPi * 3600.0;
-    }
-    c["velocity"]["type"] = "PI";
-    c["velocity"]["gain_N_m_s_per_rad"] = old["velocity"]["gain_N_m_s_per_rad"];
-    c["velocity"]["integral_time_s"] = 0.004;
-    c["velocity"]["period_s"] = 0.000125;
-    c["velocity"]["output_delay_samples"] = 1;
-    c["current"]["model"] = "first_order";
-    c["current"]["bandwidth_hz"] = 800.0;
-    c["feedforward"]["velocity"] = true;
-    c["feedforward"]["torque"] = false;
-    c["feedforward"]["timing"] = "held_backward";
-    c["delay_s"] = axis["name"].as<std::string>() == "Y" ? y_delay_s : 0.0;
-    c["saturation"]["current_A"] = 32.5;
-    c["encoder_counts_per_rev"] = 4194304;
-    axis["controller"] = c;
-    if (linear) {
-      axis["effects"]["smooth_friction"]["speed_mm_per_s"] = 0.2;
-    } else {
-      axis["effects"]["smooth_friction"]["speed_deg_per_s"] = 0.2;
-    }
-  }
-  YAML::Emitter out;
-  out << m;
-  return std::string("# Mikron UCP710 sample, drives as the independent truth simulator has them\n") +
-         out.c_str() + "\n";
-}
-
-// The mass the Z drive lifts [kg]: the bodies of the tool chain from joint Z on.
-double z_lifted_mass_kg() {
-  const YAML::Node m = YAML::LoadFile(std::string(VMSIM_SOURCE_DIR) + "/samples/machines/mikron_ucp710.yaml");
-  double mass = 0.0;
-  bool from_z = false;
-  for (const YAML::Node& link : m["structure"]["tool_chain"]) {
-    if (link["joint"] && link["joint"].as<std::string>() == "Z") from_z = true;
-    if (from_z && link["body"]) mass += link["body"]["mass_kg"].as<double>();
-  }
-  return mass;
 }
 
 // A boss of radius 20 mm flank-milled by a D10 flat end mill in one turn at 5 m/min (two
@@ -134,43 +78,6 @@ void write_part(const fs::path& folder, const std::string& machine_file, const s
         "feeds: {production_mm_per_min: 5000, reference_mm_per_min: 100}\n");
 }
 
-// The truth drive of each machine axis from the nominal machine file's values.
-std::vector<IndependentDrive> truth_drives(const kinematics::MachineModel& machine, double y_delay_s) {
-  std::vector<IndependentDrive> drives;
-  for (const auto& axis : machine.axes) {
-    IndependentDrive d;
-    d.axis_name = axis.name;
-    d.rotary = axis.type == kinematics::AxisType::rotary;
-    d.ratio_joint_per_rad = axis.drive.ratio;
-    d.motor_inertia_kg_m2 = axis.drive.rotor_inertia_kg_m2;
-    d.load_mass_kg = (axis.drive.equivalent_inertia_kg_m2 - axis.drive.rotor_inertia_kg_m2) /
-                     (axis.drive.ratio * axis.drive.ratio);
-    d.kt_N_m_per_A = axis.drive.torque_constant_N_m_per_A;
-    d.viscous_A_s_per_m = axis.drive.friction_viscous_A_per_joint_unit_per_s;
-    d.coulomb_A = axis.drive.friction_dry_A;
-    d.smooth_speed_m_per_s = d.rotary ? 0.2 * kPi / 180.0 : 0.2e-3;
-    d.kv_per_s = 50.0;
-    d.position_period_s = 0.002;
-    d.velocity_period_s = 0.000125;
-    d.velocity_gain_N_m_s_per_rad = axis.controller.velocity_gain_N_m_s_per_rad;
-    d.velocity_integral_time_s = 0.004;
-    d.current_bandwidth_hz = 800.0;
-    d.current_max_A = 32.5;
-    d.velocity_feedforward = true;
-    d.torque_feedforward = false;
-    d.substeps = 8;
-    d.position_output_delay_cycles = 1;
-    d.motor_counts_per_rev = 4194304.0;
-    d.scale_quantum_m = d.rotary ? 5e-9 / 0.2 : 5e-9;  // 5 nm; a 200 mm radius on a table
-    d.loop_on_motor_encoder = true;
-    d.trace_period_s = 0.002;
-    if (axis.name == "Z") d.offset_force_N = z_lifted_mass_kg() * 9.81;  // resists +z
-    if (axis.name == "Y") d.setpoint_delay_s = y_delay_s;
-    drives.push_back(d);
-  }
-  return drives;
-}
-
 // The part program's set points (vmsim plan, nominal machine) driven through the truth, with
 // 0.4 s of standstill before (the drives settle under gravity) of which the last 0.1 s is logged.
 void write_truth_trace(const fs::path& folder, const kinematics::MachineModel& machine,
@@ -185,7 +92,7 @@ void write_truth_trace(const fs::path& folder, const kinematics::MachineModel& m
     sp.push_back(q);
   }
   const std::size_t n = sp.front().size();
-  const Trace trace = simulate_independent_machine(truth_drives(machine, y_delay_s), sp, settle - 50, n - 2, 7);
+  const Trace trace = simulate_independent_machine(mikron_truth_drives(machine, y_delay_s), sp, settle - 50, n - 2, 7);
   write_trace(trace_file.string(), trace);
 }
 
@@ -213,8 +120,8 @@ double deepest_um(const Json& marks) {
 
 TEST(CalibrateMachine, HiddenDelayOnYFoundThereOnlyAndTheCalibratedMarksMatchTheTruth) {
   const fs::path folder = vmsim::test::fresh_folder("calibrate_machine");
-  write(folder / "nominal.yaml", machine_yaml(0.0));
-  write(folder / "truth.yaml", machine_yaml(kHiddenDelayS));
+  write(folder / "nominal.yaml", mikron_truth_machine_yaml(0.0));
+  write(folder / "truth.yaml", mikron_truth_machine_yaml(kHiddenDelayS));
   write_part(folder, "nominal.yaml", "part.yaml");
   write_part(folder, "truth.yaml", "part_truth.yaml");
   const kinematics::MachineModel machine = kinematics::load_machine((folder / "nominal.yaml").string());
@@ -314,7 +221,7 @@ namespace {
 // (exit 3), before anything is computed, and no output folder is left.
 TEST(CalibrateMachine, BadTraceIsRefusedWithItsFileAndNothingIsWritten) {
   const fs::path folder = vmsim::test::fresh_folder("calibrate_bad_input");
-  write(folder / "nominal.yaml", machine_yaml(0.0));
+  write(folder / "nominal.yaml", mikron_truth_machine_yaml(0.0));
   write_part(folder, "nominal.yaml", "part.yaml");
   write(folder / "trace.csv", "t,X.cmd,X.pos,X.cur,W.cmd\n0,0,0,0,0\n0.002,0,0,0,0\n");
   const auto run = vmsim::test::run_vmsim(
@@ -350,11 +257,11 @@ namespace {
 // other axes held. The control gives nothing; a dry friction on C three times the file's is
 // named first on C.
 Diagnosis diagnose_rotary_case(double coulomb_factor) {
-  const kinematics::MachineModel machine = kinematics::parse_machine(machine_yaml(0.0), "mikron_truth.yaml");
+  const kinematics::MachineModel machine = kinematics::parse_machine(mikron_truth_machine_yaml(0.0), "mikron_truth.yaml");
   std::size_t from = 0, to = 0;
   const std::vector<double> excitation = independent_excitation(0.002, from, to);
   to = std::min(to, from + 3000);  // 6 s at 2 ms
-  std::vector<IndependentDrive> drives = truth_drives(machine, 0.0);
+  std::vector<IndependentDrive> drives = mikron_truth_drives(machine, 0.0);
   std::vector<std::vector<double>> setpoints;
   for (const IndependentDrive& d : drives) {
     std::vector<double> q(excitation.size(), 0.0);

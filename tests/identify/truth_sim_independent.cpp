@@ -116,8 +116,8 @@ Trace simulate_independent(const IndependentDrive& p, const std::vector<double>&
                ? p.pitch_amplitude_m * std::sin(2.0 * kPi * x / p.pitch_period_m + p.pitch_phase_rad)
                : 0.0;
   };
-  auto external_N = [&](double t) {
-    double f = p.offset_force_N;
+  auto external_N = [&](double t, double x) {
+    double f = p.offset_force_N + p.gravity_cos_N * std::cos(x) + p.gravity_sin_N * std::sin(x);
     if (p.bump_force_N != 0.0) {
       const double edge = 0.02;  // smooth on and off over 20 ms
       const double on = 0.5 * (std::tanh((t - p.bump_start_s) / edge) - std::tanh((t - p.bump_end_s) / edge));
@@ -212,7 +212,7 @@ Trace simulate_independent(const IndependentDrive& p, const std::vector<double>&
       const double nut = r * theta + pitch(r * theta);
       if (!two_mass && !play) {
         // Rigid: one body; the load follows the nut.
-        const double force = friction_N(r * omega) + external_N(ts);
+        const double force = friction_N(r * omega) + external_N(ts, xl);
         omega += h * (motor_torque - r * force) / j_true;
         theta += h * omega;
         xl = r * theta + pitch(r * theta);
@@ -233,7 +233,7 @@ Trace simulate_independent(const IndependentDrive& p, const std::vector<double>&
           }
         }
         omega += h * (motor_torque - r * f) / jm;
-        vl += h * (f - friction_N(vl) - external_N(ts)) / m_load;
+        vl += h * (f - friction_N(vl) - external_N(ts, xl)) / m_load;
         theta += h * omega;
         xl += h * vl;
         delta = 0.0;

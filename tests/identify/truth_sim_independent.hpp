@@ -14,6 +14,8 @@
 // - Mechanics: motor inertia and load mass, rigid or two-mass (compliance) or with a play
 //   between them (backlash as a dead zone of a stiff contact); friction without stiction:
 //   viscous + tanh-regularised Coulomb (+ an optional Gaussian low-speed hump), on the load.
+//   External loads on the load: a constant force (a lifted mass), gravity's sinusoid of a
+//   tilting axis's angle, an optional bump.
 // - Measurement every trace period: set point, scale (quantised), motor encoder in joint units
 //   (quantised), actual current with white noise and quantisation.
 // - The record window starts and ends while the axis moves (the run is longer than the trace).
@@ -60,6 +62,10 @@ struct IndependentDrive {
   double pitch_amplitude_m = 0.0, pitch_period_m = 0.0, pitch_phase_rad = 0.0;
   double setpoint_delay_s = 0.0;
   double offset_force_N = 0.0;          ///< constant force resisting +x
+  /// Gravity on a tilting rotary axis: a torque resisting +q of gravity_cos_N cos(q) +
+  /// gravity_sin_N sin(q), q the load's angle [N m] (for a body whose centre of mass lies at
+  /// (c_y, c_z) in the joint's frame about x: m g c_y and -m g c_z).
+  double gravity_cos_N = 0.0, gravity_sin_N = 0.0;
   /// Unmodelled external force: `bump_force_N` acting between these times (smooth edges).
   double bump_force_N = 0.0, bump_start_s = 0.0, bump_end_s = 0.0;
   // Measurement.

@@ -109,7 +109,9 @@ struct AxisIdentification {
   double friction_viscous_A_per_joint_unit_per_s = 0.0;  ///< a [A s/m or A s/rad]
   double friction_dry_A = 0.0;                           ///< b [A]
   double offset_A = 0.0;  ///< constant effort beyond the model's gravity [A]
-  double gravity_A = 0.0; ///< the model's gravity torque / Kt at the start [A] (not fitted)
+  /// The model's gravity torque / Kt at the trace's mean position [A] (not fitted; the fit
+  /// takes it at every sample's own position).
+  double gravity_A = 0.0;
   double delay_s = 0.0;   ///< the controller's set-point delay
   std::size_t samples_used = 0;  ///< rows of the least-squares fit
   double r2 = 0.0;               ///< R^2 of the inverse-model fit (filtered effort)
