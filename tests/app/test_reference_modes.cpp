@@ -10,6 +10,7 @@
 #include <cmath>
 #include <cstring>
 #include <fstream>
+#include <iostream>
 #include <sstream>
 
 #include "cli_runner.hpp"
@@ -208,6 +209,8 @@ TEST(ReferenceModes, ThePlannedPathsSurfaceIsTheSimulatedReferenceWithinTheState
   EXPECT_GT(assessed, a.length_m.size() / 2);
   EXPECT_GT(differing, 0u);  // two different surfaces, not one file twice
   EXPECT_LE(largest_m, allowed_m) << "bound " << bound_um << " um";
+  std::cout << "surface bound " << bound_um << " um; largest difference of the two references' lines "
+            << largest_m * 1e6 << " um over " << assessed << " lines (" << differing << " differing)\n";
   // The marks: each one of either report deeper than the threshold by more than the allowance
   // is in the other at the same deepest line, its depth within the allowance (shallower ones
   // may fall either side of the threshold).
