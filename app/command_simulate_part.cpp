@@ -35,6 +35,8 @@ struct CommandOptions {
   double turning_path_tolerance_um = SimulatePartOptions{}.setpoint_turning_path_tolerance_m * 1e6;
   bool no_renders = false;
   bool no_commanded_check = false;
+  std::string reference = "auto";  ///< commanded, simulated or auto
+  double commanded_reference_fraction = SimulatePartOptions{}.commanded_reference_fraction;
   bool perfect_drives = false;
   bool third_order = false;
   bool no_third_order = false;
@@ -113,6 +115,14 @@ int run(const CommandOptions& command, const CommandContext& context) {
   options.setpoint_turning_path_tolerance_m = command.turning_path_tolerance_um * 1e-6;
   options.renders = !command.no_renders;
   options.commanded_check = !command.no_commanded_check;
+  options.reference_mode = command.reference == "commanded"   ? ReferenceMode::commanded
+                           : command.reference == "simulated" ? ReferenceMode::simulated
+                                                              : ReferenceMode::automatic;
+  if (!(command.commanded_reference_fraction > 0) || !(command.commanded_reference_fraction <= 1)) {
+    throw InputError("--commanded-reference-fraction must be > 0 and at most 1, got " +
+                     format_double(command.commanded_reference_fraction));
+  }
+  options.commanded_reference_fraction = command.commanded_reference_fraction;
   if (command.compact_zmap_above_lines < 0) {
     throw InputError("--compact-zmap-above-lines must be >= 0, got " + std::to_string(command.compact_zmap_above_lines));
   }
@@ -263,6 +273,17 @@ void add_simulate_part_command(CLI::App& app, CommandContext& context) {
                       "G5.1), exact stop where it says nothing");
   command->add_flag("--no-commanded-check", options->no_commanded_check,
                     "skip cutting the commanded path to check the reference run");
+  command->add_option("--reference", options->reference,
+                      "the surface production is compared with: commanded (the planned tool path's, valid "
+                      "within the bound the reference run's path stages measure: one removal less), "
+                      "simulated (the reference run cut), or auto: commanded where the bound is within "
+                      "--commanded-reference-fraction of the mark threshold")
+      ->check(CLI::IsMember({"commanded", "simulated", "auto"}))
+      ->capture_default_str();
+  command->add_option("--commanded-reference-fraction", options->commanded_reference_fraction,
+                      "--reference auto: the largest bound on the line heights, as a fraction of the mark "
+                      "threshold, at which the planned tool path's surface is the reference")
+      ->capture_default_str();
   command->add_option("--compact-zmap-above-lines", options->compact_zmap_above_lines,
                       "Z-maps with more lines store heights compactly (float offsets from a base a "
                       "tile, within 2^-24 of the depth; tiles only where a tool reaches); 0 = always")

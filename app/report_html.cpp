@@ -134,6 +134,20 @@ void checks_section(std::ostringstream& html, const Json& report) {
          << html_escape(check.value("detail", "")) << "</td></tr>\n";
   }
   html << "</table>\n";
+  if (report.contains("reference")) {
+    // Which surface the marks are measured against, and how far it may be from the other.
+    const Json& reference = report["reference"];
+    const bool commanded = reference.value("used", "") == "commanded";
+    html << "<p><b>Reference surface:</b> "
+         << (commanded ? "the planned tool path's own surface (the reference run's servo simulated to bound "
+                         "it, its surface not cut)"
+                       : "the reference run's simulated surface")
+         << " (" << html_escape(reference.value("why", "")) << "). The reference run's tool stays within "
+         << fixed(reference.value("path_deviation_um", 0.0), 3)
+         << " um of the planned tool path, so the two surfaces' line heights differ by at most "
+         << fixed(reference.value("surface_bound_um", 0.0), 3) << " um (x "
+         << fixed(reference.value("steep_factor", 0.0), 3) << ", on lines that are not steep).</p>\n";
+  }
 }
 
 std::string anchor_of(int line) { return "line-" + std::to_string(line); }

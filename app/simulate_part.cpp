@@ -90,12 +90,19 @@ struct Run {
   std::vector<removal::Pose> trajectory;  ///< actual tool poses, thinned
   std::vector<double> trajectory_t_s;   ///< the time of each kept pose
   std::size_t samples = 0;              ///< servo samples before thinning
+  std::size_t poses_cut = 0;            ///< poses its removal cut (the planned path's, for that reference)
   std::vector<removal::NBuffer> buffers;  ///< one per surface view (Context::views)
   std::vector<removal::CutStatistics> cuts;  ///< one per surface view
   std::map<std::string, double> stage_seconds;
   std::map<std::string, double> stage_cpu_seconds;   ///< user + system, all threads
   std::map<std::string, double> stage_peak_rss_mib;  ///< the process's peak so far, at the stage's end
   std::vector<ValidityCheck> checks;    ///< set points on the path and within travel, actual positions
+  /// The reference run: how far its actual tool strays from its commanded path (an upper bound
+  /// of the Hausdorff distance of the swept volumes, CommandedPathDeviation) [m], where (time)
+  /// and how many poses were matched.
+  double path_deviation_m = 0.0;
+  double path_deviation_t_s = 0.0;
+  std::size_t path_deviation_poses = 0;
 };
 
 // The servo samples a chord of at most `max_chord_m` at the feed, at a whole multiple of every
@@ -207,6 +214,25 @@ void commanded_poses(const Context& context, const kinematics::PathKinematics& p
   thinner.finish();
 }
 
+// The planned tool path's surface in view v: each rank cuts its band, rank 0 gathers the whole
+// view (the others keep their band). `statistics` (optional): the cut's, summed over the ranks.
+removal::NBuffer cut_commanded_view(const Context& context, const std::vector<removal::Pose>& poses,
+                                    const std::vector<std::size_t>& pose_point, std::size_t v,
+                                    removal::CutStatistics* statistics) {
+  removal::CutOptions cut_options;
+  cut_options.threads = context.options.threads;
+  removal::NBuffer commanded = rank_share(context.uncut[v], context.bands[v], context.ranks);
+  removal::CutStatistics cut =
+      cut_with_tools(commanded, context.point_tools, poses, pose_point, cut_options, context.point_length_m,
+                     [&](removal::NBuffer& buffer) { exchange_tile_bounds(buffer, context.bands[v], context.ranks); });
+  if (statistics) {
+    cut.tiles_visited = context.ranks.sum(cut.tiles_visited);
+    cut.lines_lowered = context.ranks.sum(cut.lines_lowered);
+    *statistics = cut;
+  }
+  return gather_bands(std::move(commanded), context.uncut[v], context.bands[v], context.ranks);
+}
+
 std::string method_name(planner::FeedrateMethod method) {
   return method == planner::FeedrateMethod::kinematic ? "kinematic" : "dynamic";
 }
@@ -237,8 +263,13 @@ class ChainSink {
  public:
   // `expected_samples`: about how many samples will come (with keep_signals, the kept ones are
   // written in place: no copy of the whole run at the end).
-  ChainSink(const Context& context, Run& run, bool keep_signals, bool motor_side, std::size_t expected_samples)
+  // `deviation_window_samples` > 0: measure the actual tool's deviation from the commanded path
+  // (the reference run), searched that many samples either side; `thin`: thin the actual poses
+  // into run.trajectory (what a removal cuts).
+  ChainSink(const Context& context, Run& run, bool keep_signals, bool motor_side, std::size_t expected_samples,
+            std::size_t deviation_window_samples = 0, bool thin = true)
       : context_(context),
+        thin_(thin),
         run_(run),
         keep_(keep_signals),
         travel_(context.inputs.machine, run.name),
@@ -254,6 +285,15 @@ class ChainSink {
       run_.t_s.reserve(expected_samples);
       run_.q_cmd.resize(static_cast<Eigen::Index>(context.inputs.machine.axes.size()), static_cast<Eigen::Index>(expected_samples));
       run_.q_actual.resize(run_.q_cmd.rows(), run_.q_cmd.cols());
+    }
+    if (deviation_window_samples > 0) {
+      // The largest cutting body over the program's tools.
+      double radius = context.tool.diameter_m / 2, length = context.tool.length_m;
+      for (const removal::Tool& tool : context.point_tools) {
+        radius = std::max(radius, tool.diameter_m / 2);
+        length = std::max(length, tool.length_m);
+      }
+      deviation_.emplace(std::hypot(radius, length), radius, length, context.stock.bounds, deviation_window_samples);
     }
   }
 
@@ -277,11 +317,21 @@ class ChainSink {
       run_.q_cmd.col(k) = q_cmd;
       run_.q_actual.col(k) = q_actual;
     }
+    if (deviation_) {
+      const std::vector<double>& lengths = context_.point_length_m;
+      const double length_m = lengths.empty()            ? 0.0
+                              : tool_poses_.one_length() ? lengths.front()
+                                                         : lengths[motion_point_at(context_.path.s_m, plan_s_at(run_.plan, t_s))];
+      const kinematics::ToolPose commanded = kinematics::forward_kinematics(context_.inputs.machine, q_cmd, length_m);
+      const kinematics::ToolPose actual = kinematics::forward_kinematics(context_.inputs.machine, q_actual, length_m);
+      deviation_->add(t_s, {commanded.tip_W_m, commanded.axis_W}, {actual.tip_W_m, actual.axis_W});
+    }
+    ++run_.samples;
+    if (!thin_) return;
     // The thinning holds a window of poses: the times of the samples it may still keep.
     sample_t_s_.push_back(t_s);
     // The tool in the spindle at this sample (its length: the path point its motion runs to).
     tool_poses_.push(q_actual, tool_poses_.one_length() ? 0.0 : plan_s_at(run_.plan, t_s));
-    ++run_.samples;
     if (sample_t_s_.size() > 4096) {
       // Beyond the thinner's window (at most 257 poses) no sample is kept any more.
       const std::size_t drop = sample_t_s_.size() - 1024;
@@ -294,6 +344,12 @@ class ChainSink {
   // kept, the samples.
   void finish(bool drive_check) {
     thinner_.finish();
+    if (deviation_) {
+      deviation_->finish();
+      run_.path_deviation_m = deviation_->deviation_m();
+      run_.path_deviation_t_s = deviation_->worst_t_s();
+      run_.path_deviation_poses = deviation_->poses_matched();
+    }
     run_.checks.push_back(travel_.result());
     context_.progress(check_line(run_.checks.back()));
     if (drive_check) {
@@ -310,8 +366,10 @@ class ChainSink {
 
  private:
   const Context& context_;
+  bool thin_;
   Run& run_;
   bool keep_;
+  std::optional<CommandedPathDeviation> deviation_;
   ActualTravelCheck travel_;
   DriveSaturationCheck saturation_;
   FollowingErrorSummary errors_;
@@ -428,8 +486,19 @@ void stream_servo(const Context& context, Run& run, ChainSink& sink, double reco
   run.stage_cpu_seconds["direct kinematics"] += sink_cpu;
 }
 
-Run simulate_run(const Context& context, const std::string& name, const FeedSetting& feed,
-                 planner::FeedrateMethod method, bool keep_signals) {
+// How far either way (machine time) the reference run's actual tool is matched with its
+// commanded path: the drives' lag along the path (1 / Kv, some 30 ms without feedforward) and
+// their settling at a stop lie well within it; a nearest point beyond it only makes the bound
+// larger (CommandedPathDeviation).
+constexpr double kDeviationSearch_s = 0.2;
+constexpr std::size_t kDeviationSearchMaxSamples = 512;
+
+// A run's plan, set-point checks, servo (or perfect drives) and direct kinematics, streamed;
+// `measure_deviation`: the actual tool's deviation from the commanded path (Run::path_deviation_m);
+// `thin`: the actual poses thinned into run.trajectory (for cut_run).
+Run simulate_path_stages(const Context& context, const std::string& name, const FeedSetting& feed,
+                         planner::FeedrateMethod method, bool keep_signals, bool measure_deviation = false,
+                         bool thin = true) {
   const kinematics::MachineModel& machine = context.inputs.machine;
   Run run(name, feed);
   const std::vector<double> point_feeds = point_feeds_m_per_s(context.inputs, context.path, feed);
@@ -508,6 +577,10 @@ Run simulate_run(const Context& context, const std::string& name, const FeedSett
     }
   }
   const double record_s = record_period_s(machine, feed_m_per_s, context.options.max_sample_chord_m);
+  const std::size_t deviation_window =
+      measure_deviation ? std::clamp<std::size_t>(static_cast<std::size_t>(std::ceil(kDeviationSearch_s / record_s)), 2,
+                                                  kDeviationSearchMaxSamples)
+                        : 0;
   if (context.options.perfect_drives) {
     std::optional<ChainSink> sink;
     {
@@ -526,7 +599,7 @@ Run simulate_run(const Context& context, const std::string& name, const FeedSett
     const Eigen::MatrixXd q = std::move(run.q_cmd);
     run.t_s.clear();
     run.q_cmd.resize(0, 0);
-    sink.emplace(context, run, keep_signals, false, t_s.size());
+    sink.emplace(context, run, keep_signals, false, t_s.size(), deviation_window, thin);
     for (std::size_t k = 0; k < t_s.size(); ++k) {
       sink->add(t_s[k], q.col(static_cast<Eigen::Index>(k)), q.col(static_cast<Eigen::Index>(k)), Eigen::VectorXd(),
                 Eigen::VectorXd());
@@ -540,7 +613,7 @@ Run simulate_run(const Context& context, const std::string& name, const FeedSett
     const planner::SetPointLaw& law = run.plan.law;
     const auto expected =
         static_cast<std::size_t>(std::ceil((law.sample_t_s(law.samples - 1) - law.sample_t_s(0)) / record_s)) + 2;
-    ChainSink sink(context, run, keep_signals, servo_has_motor_side(context), expected);
+    ChainSink sink(context, run, keep_signals, servo_has_motor_side(context), expected, deviation_window, thin);
     stream_servo(context, run, sink, record_s, context.options.servo_window_s);
     const auto start = Clock::now();
     const double cpu_start = cpu_seconds();
@@ -549,6 +622,12 @@ Run simulate_run(const Context& context, const std::string& name, const FeedSett
     run.stage_cpu_seconds["direct kinematics"] += cpu_seconds() - cpu_start;
     run.stage_peak_rss_mib["direct kinematics"] = peak_rss_mib();
   }
+  return run;
+}
+
+// The run's thinned actual poses cut into every view (each rank its band, gathered on rank 0).
+void cut_run(const Context& context, Run& run) {
+  const std::string& name = run.name;
   {
     StageTimer timer(run, "removal", context.progress);
     // Per kept pose, the path point its motion runs towards (for the tool in the spindle).
@@ -559,6 +638,7 @@ Run simulate_run(const Context& context, const std::string& name, const FeedSett
       const auto i = static_cast<std::size_t>(std::lower_bound(s_points.begin(), s_points.end(), s) - s_points.begin());
       trajectory_point[k] = std::min(i, s_points.size() - 1);
     }
+    run.poses_cut = run.trajectory.size();
     removal::CutOptions cut_options;
     cut_options.threads = context.options.threads;
     for (const SurfaceView& view : context.views) {
@@ -585,6 +665,12 @@ Run simulate_run(const Context& context, const std::string& name, const FeedSett
       run.cuts.push_back(cut);
     }
   }
+}
+
+Run simulate_run(const Context& context, const std::string& name, const FeedSetting& feed,
+                 planner::FeedrateMethod method, bool keep_signals) {
+  Run run = simulate_path_stages(context, name, feed, method, keep_signals);
+  cut_run(context, run);
   return run;
 }
 
@@ -763,7 +849,7 @@ Json run_summary(const Run& run) {
   summary["lower_bound_s"] = run.plan.lower_bound_s;
   summary["setpoint_check_worst_ratio"] = run.plan.check.worst();
   summary["servo_samples"] = run.samples;
-  summary["trajectory_poses_cut"] = run.trajectory.size();
+  summary["trajectory_poses_cut"] = run.poses_cut;
   summary["stage_seconds"] = stage_times(run);
   Json cuts = Json::array();
   for (const removal::CutStatistics& cut : run.cuts) {
@@ -1399,16 +1485,102 @@ Json simulate_part(const SimulatePartOptions& options, const ProgressSink& progr
   }
   end_stage("stock");
 
-  Run reference = simulate_run(context, "reference", reference_feed, options.method, false);
+  // The reference run's path stages (plan, servo, direct kinematics: streamed, a few per cent
+  // of the job), its actual tool's deviation from the commanded path measured on the way
+  // (README, "A cheaper reference"). Where that bounds the line heights closely enough, the
+  // planned tool path's surface is the reference and the reference run is never cut.
+  const ReferenceMode mode = options.reference_mode;
+  Run reference = simulate_path_stages(context, "reference", reference_feed, options.method, false, true,
+                                       mode != ReferenceMode::commanded);
   // Its traces and set points are gone: their memory goes back to the system, or it would
   // stay under every later stage (vmsim keeps freed memory in the process, common/memory.hpp).
   return_freed_memory_to_system();
+  {
+    // Rank 0's figures on every rank (the same stages give the same figures; all decide alike).
+    std::vector<double> figures{reference.path_deviation_m, reference.path_deviation_t_s};
+    ranks.broadcast(figures);
+    reference.path_deviation_m = figures[0], reference.path_deviation_t_s = figures[1];
+  }
+  const double steep_factor = steep_line_factor(kSteepStepPerSpacing);
+  const double surface_bound_m = steep_factor * reference.path_deviation_m;
+  const double commanded_limit_m = options.commanded_reference_fraction * options.mark_threshold_m;
+  const bool use_commanded = mode == ReferenceMode::commanded ||
+                             (mode == ReferenceMode::automatic && surface_bound_m <= commanded_limit_m);
+  const auto um_text = [](double metres) { return format_double(std::round(metres * 1e9) / 1e3); };
+  const std::string bound_text =
+      "the reference run's tool stays within " + um_text(reference.path_deviation_m) +
+      " um of the planned tool path (tip, and axis turn x tool reach; largest at s = " +
+      format_double(std::round(plan_s_at(reference.plan, reference.path_deviation_t_s) * 1e6) / 1e3) +
+      " mm): line heights within " + format_double(std::round(steep_factor * 1e3) / 1e3) + " x that = " +
+      um_text(surface_bound_m) + " um where not steep";
+  std::string why = mode == ReferenceMode::commanded   ? "--reference commanded"
+                    : mode == ReferenceMode::simulated ? "--reference simulated"
+                    : use_commanded ? "bound " + um_text(surface_bound_m) + " um within " +
+                                          format_double(options.commanded_reference_fraction * 100) +
+                                          " % of the mark threshold (" + um_text(commanded_limit_m) + " um)"
+                                    : "bound " + um_text(surface_bound_m) + " um above " +
+                                          format_double(options.commanded_reference_fraction * 100) +
+                                          " % of the mark threshold (" + um_text(commanded_limit_m) +
+                                          " um): the reference run is cut";
+  report["reference"] = {{"used", use_commanded ? "commanded" : "simulated"},
+                         {"option", mode == ReferenceMode::commanded   ? "commanded"
+                                    : mode == ReferenceMode::simulated ? "simulated"
+                                                                       : "auto"},
+                         {"why", why},
+                         {"path_deviation_um", reference.path_deviation_m * 1e6},
+                         {"path_deviation_at_s_mm", plan_s_at(reference.plan, reference.path_deviation_t_s) * 1e3},
+                         {"poses_matched", reference.path_deviation_poses},
+                         {"steep_factor", steep_factor},
+                         {"surface_bound_um", surface_bound_m * 1e6},
+                         {"commanded_limit_um", commanded_limit_m * 1e6},
+                         {"commanded_limit_fraction", options.commanded_reference_fraction}};
+  progress("reference: " + std::string(use_commanded ? "the planned tool path's surface" : "the simulated run") +
+           " (" + why + "); " + bound_text);
   // The reference is checked at once, before the production run: a reference that is no valid
   // reference stops the job before the rest is computed, and the commanded path's buffers are
   // gone before the production run's are made (two Z-maps alive at once, not three).
   ValidityCheck reference_check;
   Json commanded_figures = Json::object();
-  if (options.commanded_check) {
+  if (!use_commanded) cut_run(context, reference);
+  if (use_commanded) {
+    // One removal: the planned tool path's, which is the reference (within the bound) and so
+    // needs no check against itself; the bound is the check.
+    reference.trajectory = {};
+    reference.trajectory_t_s = {};
+    {
+      StageTimer timer(reference, "removal", progress);
+      std::vector<removal::Pose> poses;
+      std::vector<std::size_t> pose_point;
+      commanded_poses(context, reference.plan.path, poses, pose_point);
+      reference.poses_cut = poses.size();
+      for (std::size_t v = 0; v < context.views.size(); ++v) {
+        removal::CutStatistics cut;
+        reference.buffers.push_back(cut_commanded_view(context, poses, pose_point, v, &cut));
+        reference.cuts.push_back(cut);
+      }
+    }
+    reference_check = check_reference_by_bound(
+        surface_bound_m, options.mark_threshold_m, "the planned tool path's surface is the reference: " + bound_text);
+    if (reference_check.status == CheckStatus::passed && surface_bound_m > commanded_limit_m) {
+      reference_check.status = CheckStatus::warning;
+      reference_check.detail += "; above " + format_double(options.commanded_reference_fraction * 100) +
+                                " % of the threshold: marks within the bound of it may be misjudged "
+                                "(--reference simulated cuts the reference run)";
+    }
+    commanded_figures["reference_vs_commanded_max_um"] = surface_bound_m * 1e6;
+    progress(check_line(reference_check));
+    if (reference_check.status == CheckStatus::failed) {
+      throw InfeasibleError("the planned tool path's surface is no valid reference: " + check_line(reference_check) +
+                            ". Lower the reference feed (--reference-feed-mm-per-min) or cut the reference run "
+                            "(--reference simulated or auto)");
+    }
+  } else if (options.commanded_check && surface_bound_m <= options.mark_threshold_m) {
+    // The bound settles the check: no removal of the planned path.
+    reference_check = check_reference_by_bound(surface_bound_m, options.mark_threshold_m,
+                                               "from the bound, the planned path not cut: " + bound_text);
+    commanded_figures["reference_vs_commanded_max_um"] = surface_bound_m * 1e6;
+    progress(check_line(reference_check));
+  } else if (options.commanded_check) {
     // The reference against the planned tool path's own surface: what the low feed changes.
     // A reference that differs from it by more than the mark threshold is no reference: marks
     // (or a path error common to both runs) could hide in it.
@@ -1424,8 +1596,6 @@ Json simulate_part(const SimulatePartOptions& options, const ProgressSink& progr
     std::vector<removal::Pose> poses;
     std::vector<std::size_t> pose_point;
     commanded_poses(context, reference.plan.path, poses, pose_point);
-    removal::CutOptions cut_options;
-    cut_options.threads = options.threads;
     // Judged as marks are: regions of at least MarkOptions::min_lines connected lines beyond the
     // threshold; lines beyond it on their own (a tool grazing a line's end) are counted apart.
     removal::MarkOptions mark_options;
@@ -1434,10 +1604,7 @@ Json simulate_part(const SimulatePartOptions& options, const ProgressSink& progr
     std::size_t isolated_lines = 0;
     Eigen::Vector3d worst_at = Eigen::Vector3d::Zero();
     for (std::size_t v = 0; v < context.views.size(); ++v) {
-      removal::NBuffer commanded = rank_share(context.uncut[v], context.bands[v], ranks);
-      cut_with_tools(commanded, context.point_tools, poses, pose_point, cut_options, context.point_length_m,
-                     [&](removal::NBuffer& buffer) { exchange_tile_bounds(buffer, context.bands[v], ranks); });
-      commanded = gather_bands(std::move(commanded), context.uncut[v], context.bands[v], ranks);
+      removal::NBuffer commanded = cut_commanded_view(context, poses, pose_point, v, nullptr);
       if (!ranks.root()) continue;  // (rank 0 compares: it alone holds the whole buffers)
       std::vector<double> reference_vs_commanded = removal::difference(reference.buffers[v], commanded);
       // Steep in either surface: a line in the plane of a tool face (a wall view's row at the

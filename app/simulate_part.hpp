@@ -20,6 +20,12 @@
 
 namespace vmsim::app {
 
+/// Which surface the production run is compared with (issue 21): the planned tool path's own
+/// surface (no reference removal: valid within the bound the reference run's path stages
+/// measure, README "A cheaper reference"), the simulated reference run's, or the first where the
+/// bound is small enough.
+enum class ReferenceMode { automatic, commanded, simulated };
+
 struct SimulatePartOptions {
   std::string part_path;
   std::string out_dir;
@@ -65,6 +71,10 @@ struct SimulatePartOptions {
   /// FeedrateOptions::turning_path_tolerance_m).
   double setpoint_turning_path_tolerance_m = planner::FeedrateOptions{}.turning_path_tolerance_m;
   bool commanded_check = true;  ///< also cut the commanded tool path and compare the reference
+  ReferenceMode reference_mode = ReferenceMode::automatic;
+  /// automatic: the planned path's surface is the reference when the bound on its line heights'
+  /// difference from the simulated reference's is at most this fraction of mark_threshold_m.
+  double commanded_reference_fraction = 0.1;
   /// Also run the production feed with the other planning method (kinematic <-> dynamic) against
   /// the same reference: the report's "method_comparison" gives each method's cycle time and
   /// marks side by side (first paper's dynamic limits against the NC's kinematic ones).

@@ -342,6 +342,105 @@ ValidityCheck check_reference_against_commanded(double worst_m, const Eigen::Vec
   return check;
 }
 
+double steep_line_factor(double steep_step_per_spacing) {
+  return std::sqrt(1.0 + steep_step_per_spacing * steep_step_per_spacing);
+}
+
+CommandedPathDeviation::CommandedPathDeviation(double tool_reach_m, double tool_radius_m, double tool_length_m,
+                                               const removal::Box& stock, std::size_t window_samples)
+    : reach_m_(tool_reach_m),
+      radius_m_(tool_radius_m),
+      length_m_(tool_length_m),
+      stock_(stock),
+      window_(std::max<std::size_t>(1, window_samples)) {}
+
+bool CommandedPathDeviation::clear_of_stock(const removal::Pose& pose) const {
+  // The box around the cutting body (tip to tip + L axis, widened by the radius) holds the tool.
+  const Eigen::Vector3d top = pose.tip_W_m + length_m_ * pose.axis_W;
+  const Eigen::Vector3d low = pose.tip_W_m.cwiseMin(top).array() - radius_m_;
+  const Eigen::Vector3d high = pose.tip_W_m.cwiseMax(top).array() + radius_m_;
+  return (low.array() > stock_.max_W_m.array()).any() || (high.array() < stock_.min_W_m.array()).any();
+}
+
+void CommandedPathDeviation::add(double t_s, const removal::Pose& commanded, const removal::Pose& actual) {
+  commanded_.push_back({commanded, clear_of_stock(commanded)});
+  actual_.push_back({actual, clear_of_stock(actual)});
+  t_s_.push_back(t_s);
+  ++count_;
+  // Sample n is matched once the samples up to n + window are known.
+  while (next_ + window_ < count_) process(next_++, count_);
+  const std::size_t keep_from = next_ > window_ ? next_ - window_ : 0;
+  if (keep_from - dropped_ > 4096 && keep_from - dropped_ > t_s_.size() / 2) {
+    const auto drop = static_cast<std::ptrdiff_t>(keep_from - dropped_);
+    commanded_.erase(commanded_.begin(), commanded_.begin() + drop);
+    actual_.erase(actual_.begin(), actual_.begin() + drop);
+    t_s_.erase(t_s_.begin(), t_s_.begin() + drop);
+    dropped_ = keep_from;
+  }
+}
+
+void CommandedPathDeviation::finish() {
+  while (next_ < count_) process(next_++, count_);
+}
+
+double CommandedPathDeviation::nearest(const removal::Pose& query, const std::vector<Entry>& path, std::size_t first,
+                                       std::size_t last, std::size_t& best) const {
+  // The nearest tip on the segments; the axis there (interpolated as the removal sweeps it)
+  // then adds its turn: the pose distance at a point of the path, so an upper bound of the
+  // nearest.
+  const auto at = [&](std::size_t i) -> const removal::Pose& { return path[i - dropped_].pose; };
+  double best_squared = std::numeric_limits<double>::infinity(), best_f = 0.0;
+  best = first;
+  for (std::size_t i = first; i < last; ++i) {
+    const Eigen::Vector3d segment = at(i + 1).tip_W_m - at(i).tip_W_m;
+    const double length_squared = segment.squaredNorm();
+    const double f = length_squared > 0.0 ? std::clamp((query.tip_W_m - at(i).tip_W_m).dot(segment) / length_squared, 0.0, 1.0) : 0.0;
+    const double squared = (at(i).tip_W_m + f * segment - query.tip_W_m).squaredNorm();
+    if (squared < best_squared) best_squared = squared, best_f = f, best = i;
+  }
+  if (last <= first) best_squared = (at(first).tip_W_m - query.tip_W_m).squaredNorm();  // a single pose
+  Eigen::Vector3d axis = at(best).axis_W;
+  if (last > first) {
+    const Eigen::Vector3d blend = (1.0 - best_f) * at(best).axis_W + best_f * at(best + 1).axis_W;
+    if (blend.norm() > 1e-12) axis = blend.normalized();
+  }
+  const double turn_rad = std::atan2(axis.cross(query.axis_W).norm(), axis.dot(query.axis_W));
+  return std::sqrt(best_squared) + turn_rad * reach_m_;
+}
+
+void CommandedPathDeviation::process(std::size_t n, std::size_t known) {
+  // Segments [i, i + 1] from the previous match (the paths go on together) or n - window, up
+  // to n + window.
+  const std::size_t last = std::min(n + window_, known - 1);
+  const auto first_from = [&](std::size_t previous) {
+    std::size_t first = std::min(previous, n);
+    first = first >= 2 ? first - 2 : 0;
+    first = std::max(first, n > window_ ? n - window_ : std::size_t{0});
+    return std::min(first, last > 0 ? last - 1 : 0);
+  };
+  const auto record = [&](double distance_m, bool from_actual) {
+    ++matched_;
+    if (distance_m > worst_m_) worst_m_ = distance_m, worst_t_s_ = t_s_[n - dropped_], worst_actual_ = from_actual;
+  };
+  const Entry& actual = actual_[n - dropped_];
+  const Entry& commanded = commanded_[n - dropped_];
+  if (!actual.clear) {
+    record(nearest(actual.pose, commanded_, first_from(best_commanded_), last, best_commanded_), true);
+  }
+  if (!commanded.clear) {
+    record(nearest(commanded.pose, actual_, first_from(best_actual_), last, best_actual_), false);
+  }
+}
+
+ValidityCheck check_reference_by_bound(double surface_bound_m, double limit_m, const std::string& detail) {
+  ValidityCheck check{"reference_vs_commanded",
+                      "reference surface against the surface of the planned tool path (the set points' geometry), "
+                      "bounded by the reference run's deviation from that path",
+                      surface_bound_m * 1e6, limit_m * 1e6, "um", CheckStatus::passed, detail};
+  if (!(surface_bound_m <= limit_m)) check.status = CheckStatus::failed;
+  return check;
+}
+
 const char* status_name(CheckStatus status) {
   switch (status) {
     case CheckStatus::passed: return "ok";

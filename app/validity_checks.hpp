@@ -16,6 +16,7 @@
 #include "vmsim/kinematics/machine_model.hpp"
 #include "vmsim/kinematics/path_kinematics.hpp"
 #include "vmsim/planner/feedrate.hpp"
+#include "vmsim/removal/tool.hpp"
 
 namespace vmsim::app {
 
@@ -189,6 +190,70 @@ class DriveSaturationCheck {
 /// not differ from it by more than `limit_m` (the mark threshold), or marks could hide in it.
 ValidityCheck check_reference_against_commanded(double worst_m, const Eigen::Vector3d& where_W_m,
                                                 double limit_m);
+
+/// Neighbouring lines whose heights differ by at most k line spacings (the steep-line rule,
+/// surface_views.hpp: k = kSteepStepPerSpacing) lie on a surface of slope at most atan(k) for
+/// the view; on such a surface two swept volumes d apart (Hausdorff) give line heights at most
+/// d / cos(slope) <= d * sqrt(1 + k^2) apart (the offset by d along the normal, measured along
+/// the line). sqrt(10) = 3.16 for k = 3.
+double steep_line_factor(double steep_step_per_spacing);
+
+/// How far the reference run's actual tool strays from its commanded path (issue 21: where it
+/// stays close enough, the commanded path's surface is the reference and the reference run is
+/// not cut). Fed sample by sample with the commanded and the actual tool pose (direct
+/// kinematics of the set point and of the simulated position at the same time), it measures in
+/// both directions the distance from each pose to the other path's polyline, searched within
+/// `window_samples` samples either side of the same time (the drives follow with a delay along
+/// the path, which leaves no trace in the swept volume): every actual pose lies within
+/// deviation_m() of a commanded one and every commanded pose within it of an actual one, so
+/// the two swept volumes are within that Hausdorff distance. The distance between two poses is
+/// |tip difference| + (angle between the axes) x tool_reach_m: no point of an axisymmetric tool
+/// (its cutting body: length L, radius R from the tip, reach = sqrt(L^2 + R^2)) moves further.
+/// A search that misses the nearest point only overestimates: the figure is an upper bound (up
+/// to the chord sagitta between samples, nanometres at a reference feed). Poses whose tool's
+/// box is clear of `stock` (rapids above the part) remove nothing in either run and are not
+/// matched.
+class CommandedPathDeviation {
+ public:
+  CommandedPathDeviation(double tool_reach_m, double tool_radius_m, double tool_length_m,
+                         const removal::Box& stock, std::size_t window_samples);
+  void add(double t_s, const removal::Pose& commanded, const removal::Pose& actual);
+  /// After the last sample.
+  void finish();
+  double deviation_m() const { return worst_m_; }
+  double worst_t_s() const { return worst_t_s_; }  ///< where it was found
+  bool worst_actual() const { return worst_actual_; }  ///< from an actual pose (else a commanded one)
+  std::size_t poses_matched() const { return matched_; }  ///< poses not clear of the stock, both paths
+
+ private:
+  struct Entry {
+    removal::Pose pose;
+    bool clear = false;
+  };
+  bool clear_of_stock(const removal::Pose& pose) const;
+  // Smallest pose distance from `query` to the segments [i, i + 1] of `path` for i in [first,
+  // last) (absolute indices); returns it and sets `best` to the segment's index.
+  double nearest(const removal::Pose& query, const std::vector<Entry>& path, std::size_t first, std::size_t last,
+                 std::size_t& best) const;
+  void process(std::size_t n, std::size_t known);
+  double reach_m_, radius_m_, length_m_;
+  removal::Box stock_;
+  std::size_t window_;
+  std::vector<Entry> commanded_, actual_;
+  std::vector<double> t_s_;
+  std::size_t dropped_ = 0;  ///< entries dropped at the front (same for all three vectors)
+  std::size_t count_ = 0, next_ = 0;
+  std::size_t best_commanded_ = 0, best_actual_ = 0;  ///< previous matches (the search starts there)
+  double worst_m_ = 0.0, worst_t_s_ = 0.0;
+  bool worst_actual_ = true;
+  std::size_t matched_ = 0;
+};
+
+/// The reference's validity from that bound (the commanded path's surface is the reference, or
+/// the simulated reference needs no cut of the commanded path to be checked): passed when the
+/// line-height bound `surface_bound_m` is within `limit_m` (the mark threshold), failed beyond.
+/// `detail`: what was used and why.
+ValidityCheck check_reference_by_bound(double surface_bound_m, double limit_m, const std::string& detail);
 
 /// One line for the terminal: "check ok|WARNING|FAILED|not done: <title>: <value> <unit> (limit ...); <where>".
 std::string check_line(const ValidityCheck& check);
