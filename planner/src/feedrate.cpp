@@ -1490,6 +1490,8 @@ FeedratePlan plan_refined_path(const kinematics::MachineModel& machine, const ki
         spline.evaluate(p.seg[grid_segment], p.sigma0[grid_segment] + sigma, &qv, nullptr, nullptr, nullptr);
         sp.q.col(idx(n)) = qv;
       }
+      // Checked as a whole (check_samples runs a SampleChecker of its own); its results go
+      // where the windowed branch leaves them.
       const SampleCheck sc = check_samples(machine, dyn_model.get(), plan.limits, options, sp);
       checker.check = sc.check;
       checker.worst_axis = sc.worst_axis;
