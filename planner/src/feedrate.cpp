@@ -604,26 +604,37 @@ double SetPointLaw::s_at_time(double t) const {
   return s0 + f * (s1 - s0);
 }
 
-SetPointGenerator::SetPointGenerator(const FeedratePlan& plan) : law_(plan.law), spline_(plan.path) {}
+namespace {
 
-void SetPointGenerator::fill(std::size_t first, std::size_t count, SetPoints& window) {
-  count = first < law_.samples ? std::min(count, law_.samples - first) : 0;
-  window.period_s = law_.period_s;
+/// Set points first .. first + count - 1 (count clamped to the end) of `law` on `spline` into
+/// `window` (SetPointGenerator::fill; the planner's windowed checks).
+void fill_setpoints(const SetPointLaw& law, const PathSpline& spline, std::size_t& cursor, std::size_t first,
+                    std::size_t count, SetPoints& window) {
+  count = first < law.samples ? std::min(count, law.samples - first) : 0;
+  window.period_s = law.period_s;
   window.t_s.resize(count);
   window.s_m.resize(count);
-  window.q.resize(static_cast<Index>(spline_.axis_count()), idx(count));
+  window.q.resize(static_cast<Index>(spline.axis_count()), idx(count));
   VectorXd qv;
   for (std::size_t i = 0; i < count; ++i) {
     const std::size_t n = first + i;
     std::size_t grid_segment = 0;
     double sigma = 0.0;
-    law_.locate(n, cursor_, grid_segment, sigma);
-    window.t_s[i] = law_.sample_t_s(n);
-    window.s_m[i] = window.t_s[i] >= law_.duration_s ? law_.grid_s_m.back() : law_.grid_s_m[grid_segment] + sigma;
-    spline_.evaluate(law_.spline_segment[grid_segment], law_.spline_sigma0_m[grid_segment] + sigma, &qv, nullptr,
-                     nullptr, nullptr);
+    law.locate(n, cursor, grid_segment, sigma);
+    window.t_s[i] = law.sample_t_s(n);
+    window.s_m[i] = window.t_s[i] >= law.duration_s ? law.grid_s_m.back() : law.grid_s_m[grid_segment] + sigma;
+    spline.evaluate(law.spline_segment[grid_segment], law.spline_sigma0_m[grid_segment] + sigma, &qv, nullptr,
+                    nullptr, nullptr);
     window.q.col(idx(i)) = qv;
   }
+}
+
+}  // namespace
+
+SetPointGenerator::SetPointGenerator(const FeedratePlan& plan) : law_(plan.law), spline_(plan.path) {}
+
+void SetPointGenerator::fill(std::size_t first, std::size_t count, SetPoints& window) {
+  fill_setpoints(law_, spline_, cursor_, first, count, window);
 }
 
 std::string_view constraint_name(ConstraintKind kind) {
@@ -645,6 +656,7 @@ void FeedrateOptions::validate() const {
   if (!(feed_m_per_s >= 0.0) || !std::isfinite(feed_m_per_s)) bad("feed_m_per_s", feed_m_per_s, "must be >= 0");
   if (!(max_grid_step_m >= 0.0)) bad("max_grid_step_m", max_grid_step_m, "must be >= 0");
   if (!(period_s >= 0.0)) bad("period_s", period_s, "must be >= 0");
+  if (check_window_samples < 1) bad("check_window_samples", 0.0, "must be >= 1");
   if (!(path_tolerance_m > 0.0) || !std::isfinite(path_tolerance_m)) bad("path_tolerance_m", path_tolerance_m, "must be > 0");
   if (!(turning_path_tolerance_m > 0.0) || !std::isfinite(turning_path_tolerance_m)) {
     bad("turning_path_tolerance_m", turning_path_tolerance_m, "must be > 0");
@@ -684,7 +696,127 @@ std::vector<AxisLimitValues> limit_values(const kinematics::MachineModel& machin
 
 namespace {
 
-/// Per sample: the worst ratio and the order of the constraint that gave it.
+/// The set-point check one sample after another (see the header notes): sample k from q at
+/// k - 2 .. k + 2, clamped to the run (the motion held at rest before the first and after the
+/// last sample). The whole set and the windows (keep_setpoints = false) run the same code.
+class SampleChecker {
+ public:
+  SampleChecker(const kinematics::DynamicsModel* dynamics, const std::vector<AxisLimitValues>& limits,
+                const FeedrateOptions& options, double period_s, Index axes, std::size_t samples)
+      : dynamics_(dynamics), limits_(limits), options_(options), T_(period_s), axes_(axes), n_(samples),
+        dynamic_(options.method == FeedrateMethod::dynamic), qd_(axes), qdd_(axes), qddd_(axes) {
+    check.ratio = Eigen::MatrixXd::Zero(axes, kConstraintKindCount);
+    if (dynamic_ && dynamics != nullptr) data_ = std::make_unique<kinematics::DynamicsData>(*dynamics);
+  }
+
+  /// Checks sample k at s [m] and t [s]. column(i) gives q of sample i for every i in
+  /// [k - 2, k + 2] clamped to [0, samples - 1]. Sets sample_worst and sample_order.
+  template <class Column>
+  void check_sample(std::size_t k, const Column& column, double s_m, double t_s) {
+    auto q = [&](long i) { return column(static_cast<std::size_t>(std::clamp(i, 0L, static_cast<long>(n_) - 1))); };
+    const double T = T_;
+    sample_worst = 0.0;
+    sample_order = 0;
+    auto note = [&](Index axis, ConstraintKind kind, double value, double limit, int order) {
+      if (!(limit > 0.0)) return;
+      const double r = std::abs(value) / limit;
+      double& cell = check.ratio(axis, static_cast<Index>(kind));
+      if (r > largest_) {
+        largest_ = r;
+        worst_sample = k;
+        worst_axis = axis;
+        worst_kind = kind;
+        worst_s_m = s_m;
+        worst_t_s = t_s;
+      }
+      cell = std::max(cell, r);
+      if (r > sample_worst) {
+        sample_worst = r;
+        sample_order = order;
+      }
+    };
+    const long i = static_cast<long>(k);
+    for (Index j = 0; j < axes_; ++j) {
+      const auto& l = limits_[static_cast<std::size_t>(j)];
+      note(j, ConstraintKind::velocity, (q(i)(j) - q(i - 1)(j)) / T, l.velocity, 1);
+      if (k + 1 == n_) note(j, ConstraintKind::velocity, (q(i + 1)(j) - q(i)(j)) / T, l.velocity, 1);
+      if (!dynamic_) {
+        note(j, ConstraintKind::acceleration,
+             (q(i + 1)(j) - 2.0 * q(i)(j) + q(i - 1)(j)) / (T * T), l.acceleration, 2);
+        if (options_.third_order) {
+          note(j, ConstraintKind::jerk,
+               (q(i + 1)(j) - 3.0 * q(i)(j) + 3.0 * q(i - 1)(j) - q(i - 2)(j)) / (T * T * T),
+               l.jerk, 3);
+          if (k + 1 == n_) {
+            note(j, ConstraintKind::jerk,
+                 (q(i + 2)(j) - 3.0 * q(i + 1)(j) + 3.0 * q(i)(j) - q(i - 1)(j)) / (T * T * T),
+                 l.jerk, 3);
+          }
+        }
+      }
+    }
+    if (!(dynamic_ && data_)) return;
+    qd_ = (q(i + 1) - q(i - 1)) / (2.0 * T);
+    qdd_ = (q(i + 1) - 2.0 * q(i) + q(i - 1)) / (T * T);
+    qddd_ = (q(i + 2) - 2.0 * q(i + 1) + 2.0 * q(i - 1) - q(i - 2)) / (2.0 * T * T * T);
+    kinematics::actuator_torque_terms(*dynamics_, *data_, q(i), qd_, qdd_, qddd_, options_.effects);
+    for (Index j = 0; j < axes_; ++j) {
+      const auto& l = limits_[static_cast<std::size_t>(j)];
+      double torque = data_->terms.total_torque_N_m(j);
+      const double before = q(i)(j) - q(i - 1)(j), after = q(i + 1)(j) - q(i)(j);
+      if (options_.effects.contains(kinematics::Effect::friction) && (before == 0.0) != (after == 0.0)) {
+        // A stop or a start inside the stencil (path ends, exact stops at corners): the
+        // difference mixes motion at the torque limit with rest, where the dry friction
+        // vanishes (sign(0) = 0); the torque there is checked by the rows at the stop itself.
+        continue;
+      }
+      if (options_.effects.contains(kinematics::Effect::friction) && before * after < 0.0) {
+        // A velocity reversal inside the stencil: the dry friction jumps there (Sec. 3.3).
+        // The second difference is the mean of the acceleration under the hat kernel
+        // (1 - |t|/T)/T on [-T, T]; the dry friction term is given the same mean, with the
+        // reversal placed where the linearly interpolated velocity crosses zero.
+        const double rest = torque - data_->terms.torque_N_m(j, static_cast<Index>(kinematics::Effect::friction));
+        const double viscous = dynamics_->friction_viscous_N_m_s(j) * qd_(j);
+        const double dry = dynamics_->friction_dry_N_m(j);
+        const double f = before / (before - after);  // in [0, 1]
+        const double tc = (f - 0.5);                    // crossing time / T, in [-1/2, 1/2]
+        const double H = tc <= 0.0 ? 0.5 * (1.0 + tc) * (1.0 + tc) : 1.0 - 0.5 * (1.0 - tc) * (1.0 - tc);
+        const double sign_before = before > 0 ? 1.0 : (before < 0 ? -1.0 : (after > 0 ? -1.0 : 1.0));
+        torque = rest + viscous + dry * sign_before * (2.0 * H - 1.0);
+      }
+      note(j, ConstraintKind::torque, torque, l.torque_N_m, 2);
+      if (options_.third_order) {
+        note(j, ConstraintKind::torque_rate, data_->terms.total_torque_rate_N_m_per_s(j),
+             l.torque_rate_N_m_per_s, 3);
+      }
+    }
+  }
+
+  SetPointCheck check;
+  /// The last checked sample's worst ratio and the order of the constraint that gave it (1
+  /// velocity, 2 acceleration / torque, 3 jerk / torque rate; 0: none).
+  double sample_worst = 0.0;
+  int sample_order = 0;
+  /// Where the largest ratio of all is (for error messages): the first sample that reached it.
+  std::size_t worst_sample = 0;
+  Index worst_axis = 0;
+  ConstraintKind worst_kind = ConstraintKind::velocity;
+  double worst_s_m = 0.0, worst_t_s = 0.0;
+
+ private:
+  const kinematics::DynamicsModel* dynamics_;
+  const std::vector<AxisLimitValues>& limits_;
+  const FeedrateOptions& options_;
+  double T_;
+  Index axes_;
+  std::size_t n_;
+  bool dynamic_;
+  double largest_ = 0.0;
+  std::unique_ptr<kinematics::DynamicsData> data_;
+  VectorXd qd_, qdd_, qddd_;
+};
+
+/// Per sample of a whole set: the worst ratio and the order of the constraint that gave it.
 struct SampleCheck {
   SetPointCheck check;
   std::vector<double> worst;  // per sample
@@ -700,99 +832,56 @@ SampleCheck check_samples(const kinematics::MachineModel& machine,
                           const std::vector<AxisLimitValues>& limits, const FeedrateOptions& options,
                           const SetPoints& sp) {
   const std::size_t n = sp.t_s.size();
-  const Index axes = sp.q.rows();
-  const double T = sp.period_s;
+  SampleChecker checker(dynamics, limits, options, sp.period_s, sp.q.rows(), n);
   SampleCheck out;
-  out.check.ratio = Eigen::MatrixXd::Zero(axes, kConstraintKindCount);
   out.worst.assign(n, 0.0);
   out.order.assign(n, 0);
-  if (n == 0) return out;
-  auto q = [&](long k) {
-    const long clamped = std::clamp(k, 0L, static_cast<long>(n) - 1);
-    return sp.q.col(static_cast<Index>(clamped));
-  };
-  double largest = 0.0;
-  auto note = [&](std::size_t k, Index axis, ConstraintKind kind, double value, double limit, int order) {
-    if (!(limit > 0.0)) return;
-    const double r = std::abs(value) / limit;
-    double& cell = out.check.ratio(axis, static_cast<Index>(kind));
-    if (r > largest) {
-      largest = r;
-      out.worst_sample = k;
-      out.worst_axis = axis;
-      out.worst_kind = kind;
-    }
-    cell = std::max(cell, r);
-    if (r > out.worst[k]) {
-      out.worst[k] = r;
-      out.order[k] = order;
-    }
-  };
-  const bool dynamic = options.method == FeedrateMethod::dynamic;
-  std::unique_ptr<kinematics::DynamicsData> data;
-  if (dynamic && dynamics != nullptr) data = std::make_unique<kinematics::DynamicsData>(*dynamics);
-  VectorXd qd(axes), qdd(axes), qddd(axes);
+  const auto column = [&](std::size_t i) { return sp.q.col(idx(i)); };
   for (std::size_t k = 0; k < n; ++k) {
-    const long i = static_cast<long>(k);
-    for (Index j = 0; j < axes; ++j) {
-      const auto& l = limits[static_cast<std::size_t>(j)];
-      note(k, j, ConstraintKind::velocity, (q(i)(j) - q(i - 1)(j)) / T, l.velocity, 1);
-      if (k + 1 == n) note(k, j, ConstraintKind::velocity, (q(i + 1)(j) - q(i)(j)) / T, l.velocity, 1);
-      if (!dynamic) {
-        note(k, j, ConstraintKind::acceleration,
-             (q(i + 1)(j) - 2.0 * q(i)(j) + q(i - 1)(j)) / (T * T), l.acceleration, 2);
-        if (options.third_order) {
-          note(k, j, ConstraintKind::jerk,
-               (q(i + 1)(j) - 3.0 * q(i)(j) + 3.0 * q(i - 1)(j) - q(i - 2)(j)) / (T * T * T),
-               l.jerk, 3);
-          if (k + 1 == n) {
-            note(k, j, ConstraintKind::jerk,
-                 (q(i + 2)(j) - 3.0 * q(i + 1)(j) + 3.0 * q(i)(j) - q(i - 1)(j)) / (T * T * T),
-                 l.jerk, 3);
-          }
-        }
-      }
-    }
-    if (dynamic && data) {
-      qd = (q(i + 1) - q(i - 1)) / (2.0 * T);
-      qdd = (q(i + 1) - 2.0 * q(i) + q(i - 1)) / (T * T);
-      qddd = (q(i + 2) - 2.0 * q(i + 1) + 2.0 * q(i - 1) - q(i - 2)) / (2.0 * T * T * T);
-      kinematics::actuator_torque_terms(*dynamics, *data, q(i), qd, qdd, qddd, options.effects);
-      for (Index j = 0; j < axes; ++j) {
-        const auto& l = limits[static_cast<std::size_t>(j)];
-        double torque = data->terms.total_torque_N_m(j);
-        const double before = q(i)(j) - q(i - 1)(j), after = q(i + 1)(j) - q(i)(j);
-        if (options.effects.contains(kinematics::Effect::friction) && (before == 0.0) != (after == 0.0)) {
-          // A stop or a start inside the stencil (path ends, exact stops at corners): the
-          // difference mixes motion at the torque limit with rest, where the dry friction
-          // vanishes (sign(0) = 0); the torque there is checked by the rows at the stop itself.
-          continue;
-        }
-        if (options.effects.contains(kinematics::Effect::friction) && before * after < 0.0) {
-          // A velocity reversal inside the stencil: the dry friction jumps there (Sec. 3.3).
-          // The second difference is the mean of the acceleration under the hat kernel
-          // (1 - |t|/T)/T on [-T, T]; the dry friction term is given the same mean, with the
-          // reversal placed where the linearly interpolated velocity crosses zero.
-          const double rest = torque - data->terms.torque_N_m(j, static_cast<Index>(kinematics::Effect::friction));
-          const double viscous = dynamics->friction_viscous_N_m_s(j) * qd(j);
-          const double dry = dynamics->friction_dry_N_m(j);
-          const double f = before / (before - after);  // in [0, 1]
-          const double tc = (f - 0.5);                    // crossing time / T, in [-1/2, 1/2]
-          const double H = tc <= 0.0 ? 0.5 * (1.0 + tc) * (1.0 + tc) : 1.0 - 0.5 * (1.0 - tc) * (1.0 - tc);
-          const double sign_before = before > 0 ? 1.0 : (before < 0 ? -1.0 : (after > 0 ? -1.0 : 1.0));
-          torque = rest + viscous + dry * sign_before * (2.0 * H - 1.0);
-        }
-        note(k, j, ConstraintKind::torque, torque, l.torque_N_m, 2);
-        if (options.third_order) {
-          note(k, j, ConstraintKind::torque_rate, data->terms.total_torque_rate_N_m_per_s(j),
-               l.torque_rate_N_m_per_s, 3);
-        }
-      }
-    }
+    checker.check_sample(k, column, sp.s_m[k], sp.t_s[k]);
+    out.worst[k] = checker.sample_worst;
+    out.order[k] = checker.sample_order;
   }
+  out.check = checker.check;
+  out.worst_sample = checker.worst_sample;
+  out.worst_axis = checker.worst_axis;
+  out.worst_kind = checker.worst_kind;
   (void)machine;
   return out;
 }
+
+/// The slow-down the set-point check drives: around every sample over the allowance, the
+/// admissible speed of the grid points from s 5 samples before to 4 after is scaled down (the
+/// smallest factor wins). Samples are given in increasing order.
+class SlowDownSpans {
+ public:
+  SlowDownSpans(const std::vector<double>& grid_s_m, bool dynamic)
+      : factor(grid_s_m.size(), 1.0), grid_s_m_(grid_s_m), dynamic_(dynamic) {}
+  /// Sample with worst ratio `worst` of order `order`; s_before_m, s_after_m: s of the samples 5
+  /// before and 4 after it (clamped to the run).
+  void add(double worst, int order, double s_before_m, double s_after_m) {
+    const double allowed = dynamic_ && order >= 2 ? kTorqueCheckTolerance : kCheckTolerance;
+    if (!(worst > 1.0 + allowed)) return;
+    violated = true;
+    const std::size_t points = grid_s_m_.size();
+    const double f = std::clamp(std::pow(worst, -2.0 / order) * 0.99, 0.5, 0.99);
+    while (g_ > 0 && grid_s_m_[g_] > s_before_m) --g_;
+    while (g_ + 1 < points && grid_s_m_[g_ + 1] <= s_before_m) ++g_;
+    for (std::size_t i = g_; i < points && grid_s_m_[i] <= s_after_m; ++i) {
+      factor[i] = std::min(factor[i], f);
+      if (i + 1 < points) factor[i + 1] = std::min(factor[i + 1], f);
+    }
+  }
+  /// The span's sample offsets (before, after) around the violating sample.
+  static constexpr std::size_t kBefore = 5, kAfter = 4;
+  std::vector<double> factor;  ///< per grid point
+  bool violated = false;
+
+ private:
+  const std::vector<double>& grid_s_m_;
+  bool dynamic_;
+  std::size_t g_ = 0;
+};
 
 }  // namespace
 
@@ -808,7 +897,26 @@ namespace {
 /// The largest step [joint unit] a set point may stand beyond an end stop: rounding only.
 constexpr double kTravelRounding = 1e-9;
 
-/// Throws vmsim::InfeasibleError for the set point farthest beyond an axis's travel.
+/// The InfeasibleError for a set point (at s [m], t [s]) whose axis `axis` stands at `value`
+/// outside its travel.
+[[noreturn]] void throw_outside_travel(const kinematics::MachineModel& machine,
+                                       const kinematics::PathKinematics& path, std::size_t axis_index,
+                                       double value, double s, double t) {
+  const kinematics::Axis& axis = machine.axes[axis_index];
+  const bool rotary = axis.type == kinematics::AxisType::rotary;
+  const double f = rotary ? 180.0 / std::numbers::pi : 1e3;
+  const std::string unit = rotary ? " deg" : " mm";
+  const auto it = std::upper_bound(path.s_m.begin(), path.s_m.end(), s);
+  std::size_t point = static_cast<std::size_t>(it - path.s_m.begin());
+  point = std::clamp<std::size_t>(point, 1, path.s_m.size() - 1);
+  throw InfeasibleError("set point at t = " + format_double(t) + " s, s = " + format_double(s * 1e3) + " mm (" +
+                        path_point_label(path, point) + "): axis " + axis.name + " at " + format_double(value * f) +
+                        unit + ", outside its travel [" + format_double(axis.travel_min * f) + ", " +
+                        format_double(axis.travel_max * f) + "]" + unit);
+}
+
+/// Throws vmsim::InfeasibleError for the set point farthest beyond an axis's travel (the first
+/// axis, then the first sample, where several are as far).
 void check_travel(const kinematics::MachineModel& machine, const kinematics::PathKinematics& path,
                   const SetPoints& sp) {
   double worst_excess = 0.0;
@@ -825,20 +933,47 @@ void check_travel(const kinematics::MachineModel& machine, const kinematics::Pat
     }
   }
   if (worst_excess == 0.0) return;
-  const kinematics::Axis& axis = machine.axes[worst_axis];
-  const bool rotary = axis.type == kinematics::AxisType::rotary;
-  const double f = rotary ? 180.0 / std::numbers::pi : 1e3;
-  const std::string unit = rotary ? " deg" : " mm";
-  const double s = sp.s_m[worst_sample];
-  const auto it = std::upper_bound(path.s_m.begin(), path.s_m.end(), s);
-  std::size_t point = static_cast<std::size_t>(it - path.s_m.begin());
-  point = std::clamp<std::size_t>(point, 1, path.s_m.size() - 1);
-  throw InfeasibleError("set point at t = " + format_double(sp.t_s[worst_sample]) + " s, s = " +
-                        format_double(s * 1e3) + " mm (" + path_point_label(path, point) + "): axis " +
-                        axis.name + " at " + format_double(sp.q(idx(worst_axis), idx(worst_sample)) * f) + unit +
-                        ", outside its travel [" + format_double(axis.travel_min * f) + ", " +
-                        format_double(axis.travel_max * f) + "]" + unit);
+  throw_outside_travel(machine, path, worst_axis, sp.q(idx(worst_axis), idx(worst_sample)),
+                       sp.s_m[worst_sample], sp.t_s[worst_sample]);
 }
+
+/// check_travel window by window (windows in the order of the samples): per axis the first
+/// sample farthest beyond its travel, then the first such axis.
+class TravelCheck {
+ public:
+  explicit TravelCheck(const kinematics::MachineModel& machine) : machine_(machine), worst_(machine.axes.size()) {}
+  void add(const SetPoints& window) {
+    for (std::size_t j = 0; j < machine_.axes.size(); ++j) {
+      const kinematics::Axis& axis = machine_.axes[j];
+      if (axis.type == kinematics::AxisType::rotary && axis.continuous) continue;
+      Worst& worst = worst_[j];
+      for (Index n = 0; n < window.q.cols(); ++n) {
+        const double value = window.q(idx(j), n);
+        const double excess = std::max(axis.travel_min - value, value - axis.travel_max);
+        if (excess > kTravelRounding && excess > worst.excess) {
+          worst = {excess, value, window.s_m[static_cast<std::size_t>(n)], window.t_s[static_cast<std::size_t>(n)]};
+        }
+      }
+    }
+  }
+  /// Throws as check_travel on the set points added.
+  void finish(const kinematics::PathKinematics& path) const {
+    std::size_t worst_axis = 0;
+    for (std::size_t j = 1; j < worst_.size(); ++j) {
+      if (worst_[j].excess > worst_[worst_axis].excess) worst_axis = j;
+    }
+    if (worst_.empty() || worst_[worst_axis].excess == 0.0) return;
+    const Worst& w = worst_[worst_axis];
+    throw_outside_travel(machine_, path, worst_axis, w.value, w.s_m, w.t_s);
+  }
+
+ private:
+  struct Worst {
+    double excess = 0.0, value = 0.0, s_m = 0.0, t_s = 0.0;
+  };
+  const kinematics::MachineModel& machine_;
+  std::vector<Worst> worst_;
+};
 
 FeedratePlan plan_refined_path(const kinematics::MachineModel& machine, const kinematics::PathKinematics& path,
                                const FeedrateOptions& options);
@@ -876,16 +1011,43 @@ FeedratePlan plan_feedrate(const kinematics::MachineModel& machine,
   }
   plan.points_added = added;
   if (!refined.unmet.empty()) plan.notes.push_back(refined.unmet);
+  plan.path = std::move(refined.path);
   if (!options.profile_only) {
-    check_travel(machine, refined.path, plan.setpoints);
-    if (refined.path.derivatives_fitted && refined.path.s_m.size() >= 3) {
-      // Rapids are not held to their line (no point is added on them: their end is an input point).
-      std::vector<bool> free_end;
-      if (options.rapid_end.size() == path.s_m.size()) {
-        free_end.resize(refined.source_point.size());
-        for (std::size_t k = 0; k < free_end.size(); ++k) free_end[k] = options.rapid_end[refined.source_point[k]];
+    const kinematics::PathKinematics& planned = plan.path;
+    // Path fidelity on the set points: paths with fitted derivatives only. Rapids are not held
+    // to their line (no point is added on them: their end is an input point).
+    const bool check_fidelity = planned.derivatives_fitted && planned.s_m.size() >= 3;
+    std::vector<bool> free_end;
+    if (check_fidelity && options.rapid_end.size() == path.s_m.size()) {
+      free_end.resize(refined.source_point.size());
+      for (std::size_t k = 0; k < free_end.size(); ++k) free_end[k] = options.rapid_end[refined.source_point[k]];
+    }
+    PathDeviation d;
+    if (options.keep_setpoints) {
+      check_travel(machine, planned, plan.setpoints);
+      if (check_fidelity) d = pose_deviation(machine, planned, plan.setpoints.s_m, plan.setpoints.q, free_end);
+    } else {
+      // One pass over the set points, window by window from the plan (neither check needs
+      // neighbours).
+      TravelCheck travel(machine);
+      std::optional<PoseDeviationTracker> deviation;
+      if (check_fidelity) deviation.emplace(machine, planned, free_end);
+      SetPointGenerator generator(plan);
+      SetPoints window;
+      VectorXd column;
+      for (std::size_t first = 0; first < generator.size(); first += options.check_window_samples) {
+        generator.fill(first, options.check_window_samples, window);
+        travel.add(window);
+        if (!deviation) continue;
+        for (std::size_t k = 0; k < window.s_m.size(); ++k) {
+          column = window.q.col(idx(k));
+          deviation->add(window.s_m[k], column);
+        }
       }
-      PathDeviation d = pose_deviation(machine, refined.path, plan.setpoints.s_m, plan.setpoints.q, free_end);
+      travel.finish(planned);
+      if (deviation) d = deviation->result();
+    }
+    if (check_fidelity) {
       if (refined.deviation.tip_m > d.tip_m) {
         d.tip_m = refined.deviation.tip_m, d.tip_s_m = refined.deviation.tip_s_m, d.tip_point = refined.deviation.tip_point;
       }
@@ -893,11 +1055,10 @@ FeedratePlan plan_feedrate(const kinematics::MachineModel& machine,
       plan.path_fidelity_checked = true;
       plan.path_deviation_max_m = d.tip_m;
       plan.path_deviation_s_m = d.tip_s_m;
-      plan.path_deviation_block = path_point_label(refined.path, d.tip_point);
+      plan.path_deviation_block = path_point_label(planned, d.tip_point);
       plan.path_axis_deviation_max_rad = d.axis_rad;
     }
   }
-  plan.path = std::move(refined.path);
   if (!options.keep_setpoints) plan.setpoints = SetPoints{plan.setpoints.period_s, {}, {}, {}};
   return plan;
 }
@@ -1310,53 +1471,70 @@ FeedratePlan plan_refined_path(const kinematics::MachineModel& machine, const ki
     law.linear_law = ex.linear_law;
     law.dt_s = ex.dt;
     law.t_s = ex.t;
-    sp.t_s.resize(samples);
-    sp.s_m.resize(samples);
-    sp.q.resize(idx(axes), idx(samples));
-    VectorXd qv;
-    std::size_t cursor = 0;
-    for (std::size_t n = 0; n < samples; ++n) {
-      std::size_t grid_segment = 0;
-      double sigma = 0.0;
-      law.locate(n, cursor, grid_segment, sigma);
-      sp.t_s[n] = law.sample_t_s(n);
-      sp.s_m[n] = sp.t_s[n] >= total ? p.s.back() : p.s[grid_segment] + sigma;
-      spline.evaluate(p.seg[grid_segment], p.sigma0[grid_segment] + sigma, &qv, nullptr, nullptr, nullptr);
-      sp.q.col(idx(n)) = qv;
-    }
     plan.duration_s = total;
-
-    const SampleCheck sc = check_samples(machine, dyn_model.get(), plan.limits, options, sp);
-    plan.check = sc.check;
-    std::vector<double> factor(points, 1.0);
-    bool violated = false;
-    std::size_t g = 0;
-    for (std::size_t n = 0; n < samples; ++n) {
-      const double allowed = options.method == FeedrateMethod::dynamic && sc.order[n] >= 2
-                                 ? kTorqueCheckTolerance
-                                 : kCheckTolerance;
-      if (!(sc.worst[n] > 1.0 + allowed)) continue;
-      violated = true;
-      const double s_lo = sp.s_m[n >= 5 ? n - 5 : 0];
-      const double s_hi = sp.s_m[std::min(n + 4, samples - 1)];
-      const double f = std::clamp(std::pow(sc.worst[n], -2.0 / sc.order[n]) * 0.99, 0.5, 0.99);
-      while (g > 0 && p.s[g] > s_lo) --g;
-      while (g + 1 < points && p.s[g + 1] <= s_lo) ++g;
-      for (std::size_t i = g; i < points && p.s[i] <= s_hi; ++i) {
-        factor[i] = std::min(factor[i], f);
-        if (i + 1 < points) factor[i + 1] = std::min(factor[i + 1], f);
+    SampleChecker checker(dyn_model.get(), plan.limits, options, period, idx(axes), samples);
+    SlowDownSpans slowdown(p.s, dynamic);
+    if (options.keep_setpoints) {
+      // The whole set, kept in the plan.
+      sp.t_s.resize(samples);
+      sp.s_m.resize(samples);
+      sp.q.resize(idx(axes), idx(samples));
+      VectorXd qv;
+      std::size_t cursor = 0;
+      for (std::size_t n = 0; n < samples; ++n) {
+        std::size_t grid_segment = 0;
+        double sigma = 0.0;
+        law.locate(n, cursor, grid_segment, sigma);
+        sp.t_s[n] = law.sample_t_s(n);
+        sp.s_m[n] = sp.t_s[n] >= total ? p.s.back() : p.s[grid_segment] + sigma;
+        spline.evaluate(p.seg[grid_segment], p.sigma0[grid_segment] + sigma, &qv, nullptr, nullptr, nullptr);
+        sp.q.col(idx(n)) = qv;
+      }
+      // Checked as a whole (check_samples runs a SampleChecker of its own); its results go
+      // where the windowed branch leaves them.
+      const SampleCheck sc = check_samples(machine, dyn_model.get(), plan.limits, options, sp);
+      checker.check = sc.check;
+      checker.worst_axis = sc.worst_axis;
+      checker.worst_kind = sc.worst_kind;
+      checker.worst_s_m = sp.s_m[sc.worst_sample];
+      checker.worst_t_s = sp.t_s[sc.worst_sample];
+      for (std::size_t n = 0; n < samples; ++n) {
+        slowdown.add(sc.worst[n], sc.order[n], sp.s_m[n >= SlowDownSpans::kBefore ? n - SlowDownSpans::kBefore : 0],
+                     sp.s_m[std::min(n + SlowDownSpans::kAfter, samples - 1)]);
+      }
+    } else {
+      // Window by window from the law: each window of check_window_samples set points with the
+      // neighbours the slow-down span needs (5 before, 4 after; they cover the differences'
+      // 2 on either side), generated again for the next window.
+      const std::size_t window = options.check_window_samples;
+      SetPoints part;
+      std::size_t cursor = 0;
+      for (std::size_t first = 0; first < samples; first += window) {
+        const std::size_t last = std::min(first + window, samples);  // checked: [first, last)
+        const std::size_t lo = first >= SlowDownSpans::kBefore ? first - SlowDownSpans::kBefore : 0;
+        const std::size_t hi = std::min(last + SlowDownSpans::kAfter, samples);
+        fill_setpoints(law, spline, cursor, lo, hi - lo, part);
+        const auto column = [&](std::size_t i) { return part.q.col(idx(i - lo)); };
+        for (std::size_t n = first; n < last; ++n) {
+          checker.check_sample(n, column, part.s_m[n - lo], part.t_s[n - lo]);
+          slowdown.add(checker.sample_worst, checker.sample_order,
+                       part.s_m[(n >= SlowDownSpans::kBefore ? n - SlowDownSpans::kBefore : 0) - lo],
+                       part.s_m[std::min(n + SlowDownSpans::kAfter, samples - 1) - lo]);
+        }
       }
     }
-    if (!violated) break;
+    plan.check = checker.check;
+    if (!slowdown.violated) break;
     if (round + 1 >= options.max_verification_rounds) {
       throw InfeasibleError("feedrate interpolation: the set points still exceed a limit by " +
-                            format_double((sc.check.worst() - 1.0) * 100.0) + " % after " +
+                            format_double((checker.check.worst() - 1.0) * 100.0) + " % after " +
                             std::to_string(round + 1) + " slow-down rounds (axis " +
-                            machine.axes[static_cast<std::size_t>(sc.worst_axis)].name + ", " +
-                            std::string(constraint_name(sc.worst_kind)) + ", at s = " +
-                            format_double(sp.s_m[sc.worst_sample] * 1e3) + " mm, t = " +
-                            format_double(sp.t_s[sc.worst_sample]) + " s)");
+                            machine.axes[static_cast<std::size_t>(checker.worst_axis)].name + ", " +
+                            std::string(constraint_name(checker.worst_kind)) + ", at s = " +
+                            format_double(checker.worst_s_m * 1e3) + " mm, t = " +
+                            format_double(checker.worst_t_s) + " s)");
     }
+    const std::vector<double>& factor = slowdown.factor;
     for (std::size_t i = 0; i < points; ++i) slow[i] *= factor[i];
     ++plan.slowdown_rounds;
   }

@@ -4,6 +4,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <memory>
 #include <numeric>
 #include <string>
 #include <utility>
@@ -49,9 +50,15 @@ double distance_to_segment(const Vector3d& p, const Vector3d& a, const Vector3d&
 /// IKT solved from the programmed poses), each with the tool of the motion that ends there;
 /// start_tip[i]: where segment i (to point i + 1) starts, the tip of its own tool at q of point
 /// i (tip[i] unless the tool changes there: PathKinematics::point_tool_length_m).
-struct Polyline {
+}  // namespace
+
+struct detail::ProgrammedPolyline {
   std::vector<Vector3d> tip, axis, start_tip;
 };
+
+namespace {
+
+using Polyline = detail::ProgrammedPolyline;
 
 Polyline programmed_polyline(const kinematics::MachineModel& machine, const kinematics::PathKinematics& path) {
   Polyline out;
@@ -548,27 +555,42 @@ RefinedPath refine_path(const kinematics::MachineModel& machine, const kinematic
   return result;
 }
 
+PoseDeviationTracker::PoseDeviationTracker(const kinematics::MachineModel& machine,
+                                           const kinematics::PathKinematics& path, std::vector<bool> free_end)
+    : machine_(machine), path_(path), free_end_(std::move(free_end)) {
+  if (path.s_m.size() >= 2) programmed_ = std::make_unique<const Polyline>(programmed_polyline(machine, path));
+}
+
+PoseDeviationTracker::~PoseDeviationTracker() = default;
+
+void PoseDeviationTracker::add(double s_m, const Eigen::VectorXd& q) {
+  if (!programmed_) return;
+  const kinematics::PathKinematics& path = path_;
+  const Polyline& programmed = *programmed_;
+  const auto it = std::upper_bound(path.s_m.begin(), path.s_m.end(), s_m);
+  std::size_t i = it == path.s_m.begin() ? 0 : static_cast<std::size_t>(it - path.s_m.begin()) - 1;
+  i = std::min(i, path.s_m.size() - 2);
+  const bool turns_in_place = i + 1 < path.turns_in_place.size() && path.turns_in_place[i + 1];
+  if (i + 1 < free_end_.size() && free_end_[i + 1] && !turns_in_place) return;
+  const kinematics::ToolPose pose = kinematics::forward_kinematics(machine_, q, path.length_into(i + 1));
+  const double d = distance_to_segment(pose.tip_W_m, programmed.start_tip[i], programmed.tip[i + 1]);
+  if (d > out_.tip_m) out_.tip_m = d, out_.tip_s_m = s_m, out_.tip_point = i + 1;
+  const double h = path.s_m[i + 1] - path.s_m[i];
+  const double f = h > 0.0 ? std::clamp((s_m - path.s_m[i]) / h, 0.0, 1.0) : 0.0;
+  const double a = angle_between(pose.axis_W, slerp(programmed.axis[i], programmed.axis[i + 1], f));
+  if (a > out_.axis_rad) out_.axis_rad = a, out_.axis_s_m = s_m, out_.axis_point = i + 1;
+}
+
 PathDeviation pose_deviation(const kinematics::MachineModel& machine, const kinematics::PathKinematics& path,
                              const std::vector<double>& s_m, const Eigen::MatrixXd& q,
                              const std::vector<bool>& free_end) {
-  PathDeviation out;
-  if (path.s_m.size() < 2) return out;
-  const Polyline programmed = programmed_polyline(machine, path);
+  PoseDeviationTracker tracker(machine, path, free_end);
+  Eigen::VectorXd column;
   for (std::size_t k = 0; k < s_m.size(); ++k) {
-    const auto it = std::upper_bound(path.s_m.begin(), path.s_m.end(), s_m[k]);
-    std::size_t i = it == path.s_m.begin() ? 0 : static_cast<std::size_t>(it - path.s_m.begin()) - 1;
-    i = std::min(i, path.s_m.size() - 2);
-    const bool turns_in_place = i + 1 < path.turns_in_place.size() && path.turns_in_place[i + 1];
-    if (i + 1 < free_end.size() && free_end[i + 1] && !turns_in_place) continue;
-    const kinematics::ToolPose pose = kinematics::forward_kinematics(machine, q.col(idx(k)), path.length_into(i + 1));
-    const double d = distance_to_segment(pose.tip_W_m, programmed.start_tip[i], programmed.tip[i + 1]);
-    if (d > out.tip_m) out.tip_m = d, out.tip_s_m = s_m[k], out.tip_point = i + 1;
-    const double h = path.s_m[i + 1] - path.s_m[i];
-    const double f = h > 0.0 ? std::clamp((s_m[k] - path.s_m[i]) / h, 0.0, 1.0) : 0.0;
-    const double a = angle_between(pose.axis_W, slerp(programmed.axis[i], programmed.axis[i + 1], f));
-    if (a > out.axis_rad) out.axis_rad = a, out.axis_s_m = s_m[k], out.axis_point = i + 1;
+    column = q.col(idx(k));
+    tracker.add(s_m[k], column);
   }
-  return out;
+  return tracker.result();
 }
 
 }  // namespace vmsim::planner

@@ -211,10 +211,18 @@ struct FeedrateOptions {
   /// ... and the tool axis within this angle [rad] of the programmed one (great-circle
   /// interpolation between the points).
   double path_axis_tolerance_rad = PathFidelityOptions{}.axis_tolerance_rad;
-  /// Keep FeedratePlan::setpoints after planning. false: the planner still makes them (its
-  /// check rounds, the travel and path-fidelity checks run on the whole set) and drops them
-  /// before returning; SetPointGenerator makes them again window by window from the plan.
+  /// Keep FeedratePlan::setpoints after planning. false: the planner never holds the whole set:
+  /// its check rounds (check_setpoints and the slow-down spans), the travel and the
+  /// path-fidelity checks take the set points window by window from the plan's law
+  /// (check_window_samples at a time, with the few neighbours each check's stencil needs), with
+  /// the same results bit for bit (the same plan, worst values and places, errors);
+  /// SetPointGenerator makes them again for the caller. Memory then grows with the program
+  /// (grid, path), not with its duration.
   bool keep_setpoints = true;
+  /// Set points per window of those checks when keep_setpoints is false (>= 1): each window
+  /// holds this many plus 9 set points (2 before and after for the finite differences, 5 before
+  /// and 4 after for the slow-down span).
+  std::size_t check_window_samples = 4096;
   /// Throws vmsim::InputError naming the field and value.
   void validate() const;
 };

@@ -32,6 +32,7 @@
 // by hand carries the exact derivatives of a smooth curve, not a polyline.
 #include <Eigen/Core>
 #include <cstddef>
+#include <memory>
 #include <string>
 #include <vector>
 
@@ -119,6 +120,32 @@ PathDeviation pose_deviation(const kinematics::MachineModel& machine,
                              const kinematics::PathKinematics& path,
                              const std::vector<double>& s_m, const Eigen::MatrixXd& q,
                              const std::vector<bool>& free_end = {});
+
+namespace detail {
+struct ProgrammedPolyline;
+}
+
+/// pose_deviation pose after pose (set points taken window by window): add the poses in the
+/// order of pose_deviation's columns and result() is what pose_deviation gives on them all, bit
+/// for bit. References machine and path, which must outlive it.
+class PoseDeviationTracker {
+ public:
+  PoseDeviationTracker(const kinematics::MachineModel& machine, const kinematics::PathKinematics& path,
+                       std::vector<bool> free_end = {});
+  ~PoseDeviationTracker();
+  PoseDeviationTracker(const PoseDeviationTracker&) = delete;
+  PoseDeviationTracker& operator=(const PoseDeviationTracker&) = delete;
+  /// The pose of axis positions q at arc length s [m].
+  void add(double s_m, const Eigen::VectorXd& q);
+  const PathDeviation& result() const { return out_; }
+
+ private:
+  const kinematics::MachineModel& machine_;
+  const kinematics::PathKinematics& path_;
+  std::vector<bool> free_end_;
+  std::unique_ptr<const detail::ProgrammedPolyline> programmed_;
+  PathDeviation out_;
+};
 
 /// "block 'file:line N..'" (or "block #k", or "no block") of path point `point`.
 std::string path_point_label(const kinematics::PathKinematics& path, std::size_t point);
