@@ -169,6 +169,17 @@ const std::map<std::string, Keys>& patch_keys() {
 
 // The plane, sphere and cylinder patches of `design.surfaces`; the height-function patches are
 // checked (keys, numbers) but read by the sample tests only.
+// `tolerance_um` of the part or of a design patch [m]: the depth of mark it can take (the
+// report's verdict). Beyond 10 mm it is no surface tolerance but a unit mistake.
+double read_tolerance_m(const PartReader& reader, const YAML::Node& map, const std::string& path) {
+  const double tolerance_m = reader.positive_number(map, "tolerance_um", path) * 1e-6;
+  if (tolerance_m > 10e-3) {
+    reader.fail(map["tolerance_um"], PartReader::join(path, "tolerance_um") + ": " + map["tolerance_um"].Scalar() +
+                                         " um is not a plausible surface tolerance (more than 10 mm)");
+  }
+  return tolerance_m;
+}
+
 void read_design(const PartReader& reader, const YAML::Node& design, PartDescription& part) {
   if (!design) return;
   reader.require_map(design, "design", {"surfaces", "corner_mm"});
@@ -188,10 +199,18 @@ void read_design(const PartReader& reader, const YAML::Node& design, PartDescrip
                                      kinematics::nearest_key_hint(type, types));
     }
     Keys keys = known->second;
-    keys.insert(keys.end(), {"type", "x_range_mm", "y_range_mm", "z_range_mm"});
+    keys.insert(keys.end(), {"type", "x_range_mm", "y_range_mm", "z_range_mm", "name", "tolerance_um"});
     reader.require_map(patch, path, keys);
+    DesignPatch common;
+    common.type = type;
+    common.name = patch["name"] ? reader.text(patch, "name", path)
+                                : "design surface " + std::to_string(k + 1) + " (" + type + ")";
+    if (patch["tolerance_um"]) common.tolerance_m = read_tolerance_m(reader, patch, path);
+    patch_ranges(reader, patch, path, common.min_W_m, common.max_W_m);
+    part.design_patches.push_back(common);
     if (type == "plane") {
       DesignPlane plane;
+      plane.patch_index = k;
       plane.point_W_m = reader.vector3(patch, "point_mm", path, 1e-3);
       plane.normal_W = direction(reader, patch, "normal", path);
       if (patch["role"]) reader.text(patch, "role", path);
@@ -199,12 +218,14 @@ void read_design(const PartReader& reader, const YAML::Node& design, PartDescrip
       part.design_planes.push_back(plane);
     } else if (type == "sphere") {
       DesignSphere sphere;
+      sphere.patch_index = k;
       sphere.centre_W_m = reader.vector3(patch, "center_mm", path, 1e-3);
       sphere.radius_m = reader.positive_number(patch, "radius_mm", path) * 1e-3;
       sphere.material_inside = material_inside(reader, patch, path);
       part.design_spheres.push_back(sphere);
     } else if (type == "cylinder") {
       DesignCylinder cylinder;
+      cylinder.patch_index = k;
       cylinder.axis_point_W_m = reader.vector3(patch, "axis_point_mm", path, 1e-3);
       cylinder.axis_W = direction(reader, patch, "axis_direction", path);
       cylinder.radius_m = reader.positive_number(patch, "radius_mm", path) * 1e-3;
@@ -526,15 +547,8 @@ PartDescription load_part(const std::string& path) {
     reader.fail(root["strategy"], "strategy: expected a map, got " + PartReader::what(root["strategy"]));
   }
   read_feeds(reader, reader.required(root, "feeds", ""), part);
-  if (root["tolerance_um"]) {
-    // The depth of mark the part can take: the report's verdict (simulate-part --tolerance-um
-    // overrides it). Beyond 10 mm it is no surface tolerance but a unit mistake.
-    part.tolerance_m = reader.positive_number(root, "tolerance_um", "") * 1e-6;
-    if (part.tolerance_m > 10e-3) {
-      reader.fail(root["tolerance_um"], "tolerance_um: " + root["tolerance_um"].Scalar() +
-                                            " um is not a plausible surface tolerance (more than 10 mm)");
-    }
-  }
+  // simulate-part --tolerance-um overrides the part's; a patch's own holds on that patch.
+  if (root["tolerance_um"]) part.tolerance_m = read_tolerance_m(reader, root, "");
   part.warnings = std::move(reader.warnings);
   return part;
 }

@@ -48,6 +48,7 @@ struct StockBox {
 /// and cylinders are read here (simulate-part puts N-buffer lines along the normals of walls,
 /// spheres and cylinders); the height-function patches are read by the sample tests only.
 struct DesignPlane {
+  std::size_t patch_index = 0;  ///< its place in `design.surfaces` (PartDescription::design_patches)
   Eigen::Vector3d point_W_m = Eigen::Vector3d::Zero();
   Eigen::Vector3d normal_W = Eigen::Vector3d::UnitZ();  ///< unit, out of the material
   /// Bounds of the patch's points (x_range_mm, y_range_mm, z_range_mm); +-inf where not given.
@@ -58,6 +59,7 @@ struct DesignPlane {
 /// A sphere patch of the design surface (`design.surfaces`, type sphere) [m, W]: simulate-part
 /// looks at it along its normals (lines through the centre).
 struct DesignSphere {
+  std::size_t patch_index = 0;  ///< its place in `design.surfaces` (PartDescription::design_patches)
   Eigen::Vector3d centre_W_m = Eigen::Vector3d::Zero();
   double radius_m = 0.0;
   bool material_inside = true;  ///< a dome (`material: inside`); else a spherical pocket
@@ -66,11 +68,25 @@ struct DesignSphere {
 /// A cylinder patch of the design surface (`design.surfaces`, type cylinder) [m, W]:
 /// simulate-part looks at it along its normals (lines through the axis, square to it).
 struct DesignCylinder {
+  std::size_t patch_index = 0;  ///< its place in `design.surfaces` (PartDescription::design_patches)
   Eigen::Vector3d axis_point_W_m = Eigen::Vector3d::Zero();  ///< `axis_point_mm`
   Eigen::Vector3d axis_W = Eigen::Vector3d::UnitZ();         ///< `axis_direction`, made unit
   double radius_m = 0.0;
   /// A boss (`material: inside`); else a concave fillet or a bore (`outside`).
   bool material_inside = true;
+  /// Bounds of the patch's points (x_range_mm, y_range_mm, z_range_mm); +-inf where not given.
+  Eigen::Vector3d min_W_m = Eigen::Vector3d::Constant(-std::numeric_limits<double>::infinity());
+  Eigen::Vector3d max_W_m = Eigen::Vector3d::Constant(std::numeric_limits<double>::infinity());
+};
+
+/// What every patch of `design.surfaces` has, whatever its type (the tolerance of the report's
+/// verdict on the marks that lie on it).
+struct DesignPatch {
+  std::string type;  ///< "plane", "sphere", "cylinder", "quadratic_height", ...
+  /// `name:` where given, else "design surface <k> (<type>)", k counted from 1 in the file.
+  std::string name;
+  /// `tolerance_um` of the patch [m]: the deepest mark it can take; 0 = the part's tolerance.
+  double tolerance_m = 0.0;
   /// Bounds of the patch's points (x_range_mm, y_range_mm, z_range_mm); +-inf where not given.
   Eigen::Vector3d min_W_m = Eigen::Vector3d::Constant(-std::numeric_limits<double>::infinity());
   Eigen::Vector3d max_W_m = Eigen::Vector3d::Constant(std::numeric_limits<double>::infinity());
@@ -122,11 +138,13 @@ struct PartDescription {
   /// `stock_mesh` at most.
   std::optional<removal::TriangleMesh> stock_mesh;
   std::string stock_stl_path;
+  std::vector<DesignPatch> design_patches;  ///< every patch of `design.surfaces`, in its order
   std::vector<DesignPlane> design_planes;  ///< the plane patches of `design.surfaces`
   std::vector<DesignSphere> design_spheres;  ///< the sphere patches of `design.surfaces`
   std::vector<DesignCylinder> design_cylinders;  ///< the cylinder patches of `design.surfaces`
   std::optional<MachineSetup> setup;  ///< `setup:` where given
   /// `tolerance_um`: the deepest mark the part can take [m] (the report's verdict); 0 = not given.
+  /// A patch's own `tolerance_um` (DesignPatch::tolerance_m) overrides it on that patch.
   double tolerance_m = 0.0;
   /// The fixed feeds where the file gives them (0 where the feed follows the program).
   double production_feed_m_per_s = 0.0;

@@ -80,8 +80,34 @@ void verdict_section(std::ostringstream& html, const Json& report) {
   const char* colour = status == "within" ? "#e6f4e6" : status == "not_within" ? "#fbe3e3" : "#eeeeee";
   const char* border = status == "within" ? "#060" : status == "not_within" ? "#b00" : "#666";
   html << "<div class=\"verdict\" style=\"background:" << colour << ";border-color:" << border << "\"><h2>"
-       << html_escape(verdict.value("headline", "")) << "</h2><p>" << html_escape(verdict.value("summary", ""))
-       << "</p></div>\n";
+       << html_escape(verdict.value("headline", "")) << "</h2>";
+  // One line a surface where the tolerance differs between them (a design surface's own).
+  bool own = false;
+  for (const auto& surface : verdict.value("surfaces", Json::array())) {
+    own = own || surface.value("tolerance_source", "") == "design surface";
+  }
+  if (own) {
+    html << "<ul class=\"verdict-surfaces\">";
+    for (const auto& surface : verdict["surfaces"]) {
+      const int count = surface.value("marks", 0), beyond = surface.value("marks_beyond_tolerance", 0);
+      const std::string source = surface.value("tolerance_source", "");
+      html << "<li><b>" << html_escape(surface.value("surface", "")) << "</b>: ";
+      if (surface["tolerance_um"].is_number()) {
+        html << "tolerance " << fixed(surface["tolerance_um"].get<double>(), 1) << " um ("
+             << (source == "design surface" ? "its own, part file" : html_escape(source)) << "), ";
+      } else {
+        html << "no tolerance, ";
+      }
+      html << count << (count == 1 ? " mark" : " marks") << ", the deepest " << fixed(surface.value("deepest_um", 0.0), 2)
+           << " um: "
+           << (surface["tolerance_um"].is_number()
+                   ? (beyond == 0 ? std::string("within it") : std::to_string(beyond) + " beyond it")
+                   : std::string("not judged"))
+           << "</li>";
+    }
+    html << "</ul>";
+  }
+  html << "<p>" << html_escape(verdict.value("summary", "")) << "</p></div>\n";
 }
 
 void context_section(std::ostringstream& html, const Json& report) {
@@ -178,7 +204,11 @@ void marks_section(std::ostringstream& html, const Json& report) {
     for (const auto& mark : marks) {
       if (shown++ == kHtmlMarkRows) break;
       const double depth = mark.value("depth_um", 0.0);
-      const bool beyond = tolerance >= 0 && depth > tolerance;
+      // Against the tolerance of the mark's design surface where it has its own.
+      const double limit = mark.contains("tolerance_um") && mark["tolerance_um"].is_number()
+                               ? mark["tolerance_um"].get<double>()
+                               : tolerance;
+      const bool beyond = limit >= 0 && depth > limit;
       html << "<tr" << (beyond ? " class=\"beyond\"" : "") << "><td>" << mark.value("rank", 0);
       if (with_3d) {
         html << " <a class=\"show-in-3d\" href=\"#view-3d\" data-rank=\"" << mark.value("rank", 0)

@@ -4,6 +4,7 @@
 #include <cmath>
 #include <cstdio>
 #include <map>
+#include <optional>
 #include <sstream>
 #include <utility>
 #include <vector>
@@ -109,6 +110,11 @@ Json curate_marks(const Json& raw_marks, double min_area_mm2) {
   return result;
 }
 
+std::optional<double> mark_tolerance_um(const Json& mark, const Tolerance& tolerance) {
+  if (mark.contains("tolerance_um") && mark["tolerance_um"].is_number()) return mark["tolerance_um"].get<double>();
+  return tolerance.um;
+}
+
 Json make_verdict(const Json& curated, const Json& checks, const Tolerance& tolerance) {
   const Json& marks = curated["marks"];
   const Json& specks = curated["specks"];
@@ -116,30 +122,92 @@ Json make_verdict(const Json& curated, const Json& checks, const Tolerance& tole
   verdict["tolerance_um"] = tolerance.um ? Json(*tolerance.um) : Json(nullptr);
   verdict["tolerance_source"] = tolerance.source;
   verdict["worst_mark"] = marks.empty() ? Json(nullptr) : marks[0];
-  std::size_t beyond = 0, specks_beyond = 0;
-  if (tolerance.um) {
-    for (const auto& mark : marks) beyond += depth_of(mark) > *tolerance.um ? 1 : 0;
-    for (const auto& speck : specks["list"]) specks_beyond += depth_of(speck) > *tolerance.um ? 1 : 0;
+  const auto exceeds = [&tolerance](const Json& mark) {
+    const std::optional<double> limit = mark_tolerance_um(mark, tolerance);
+    return limit && depth_of(mark) > *limit;
+  };
+  std::size_t beyond = 0, specks_beyond = 0, unjudged = 0;
+  bool own_tolerances = false;  // a mark on a design surface with its own tolerance
+  const Json* deepest_beyond = nullptr;
+  for (const auto& mark : marks) {
+    own_tolerances = own_tolerances || mark.contains("tolerance_um");
+    if (!mark_tolerance_um(mark, tolerance)) ++unjudged;
+    if (!exceeds(mark)) continue;
+    ++beyond;
+    if (!deepest_beyond) deepest_beyond = &mark;  // marks are deepest first
+  }
+  for (const auto& speck : specks["list"]) {
+    own_tolerances = own_tolerances || speck.contains("tolerance_um");
+    specks_beyond += exceeds(speck) ? 1 : 0;
   }
   verdict["marks_beyond_tolerance"] = beyond;
   verdict["specks_beyond_tolerance"] = specks_beyond;
+  verdict["marks_without_tolerance"] = unjudged;
+
+  // Per design surface (or view where the mark lies on none): its tolerance, marks, marks
+  // beyond it and the deepest; in the order of each surface's deepest mark.
+  Json surfaces = Json::array();
+  for (const auto& mark : marks) {
+    const std::string name = mark.value("design_surface", mark.value("surface", mark.value("view", "")));
+    Json* entry = nullptr;
+    for (auto& candidate : surfaces) {
+      if (candidate["surface"] == name) entry = &candidate;
+    }
+    if (!entry) {
+      const std::optional<double> limit = mark_tolerance_um(mark, tolerance);
+      surfaces.push_back({{"surface", name},
+                          {"tolerance_um", limit ? Json(*limit) : Json(nullptr)},
+                          {"tolerance_source", mark.contains("tolerance_um") ? "design surface" : tolerance.source},
+                          {"marks", 0},
+                          {"marks_beyond_tolerance", 0},
+                          {"deepest_um", depth_of(mark)}});
+      entry = &surfaces.back();
+    }
+    (*entry)["marks"] = (*entry)["marks"].get<int>() + 1;
+    if (exceeds(mark)) (*entry)["marks_beyond_tolerance"] = (*entry)["marks_beyond_tolerance"].get<int>() + 1;
+  }
+  verdict["surfaces"] = surfaces;
 
   const double worst = marks.empty() ? 0.0 : depth_of(marks[0]);
+  // "10 um", or "10 um; 5 um on <surface>, ..." where design surfaces have their own.
+  std::string tolerances = tolerance.um ? figure(*tolerance.um) + " um" : "";
+  if (own_tolerances) {
+    for (const auto& surface : surfaces) {
+      if (surface["tolerance_source"] != "design surface") continue;
+      tolerances += (tolerances.empty() ? "" : tolerances.find(" on ") == std::string::npos ? "; " : ", ") +
+                    figure(surface["tolerance_um"].get<double>()) + " um on " + surface["surface"].get<std::string>();
+    }
+  }
   std::string headline;
-  if (!tolerance.um) {
+  if (!tolerance.um && !own_tolerances) {
     verdict["status"] = "no_tolerance";
     headline = marks.empty() ? "No mark found. No tolerance was given"
                              : "The deepest mark is " + figure(worst) + " um. No tolerance was given";
     headline += " (--tolerance-um, or tolerance_um in the part file), so there is no verdict.";
-  } else if (beyond == 0) {
+  } else if (beyond > 0) {
+    verdict["status"] = "not_within";
+    if (!own_tolerances) {
+      headline = "Not within tolerance (" + tolerances + "): " + std::to_string(beyond) +
+                 (beyond == 1 ? " mark exceeds it" : " marks exceed it") + ", the deepest " +
+                 figure(depth_of(*deepest_beyond)) + " um.";
+    } else {
+      const Json& mark = *deepest_beyond;
+      headline = "Not within tolerance (" + tolerances + "): " + std::to_string(beyond) +
+                 (beyond == 1 ? " mark exceeds" : " marks exceed") + " the tolerance of " +
+                 (beyond == 1 ? "its surface" : "their surfaces") + ", the deepest " + figure(depth_of(mark)) +
+                 " um on " + mark.value("design_surface", mark.value("surface", mark.value("view", ""))) +
+                 " (tolerance " + figure(*mark_tolerance_um(mark, tolerance)) + " um).";
+    }
+  } else if (unjudged > 0) {
+    verdict["status"] = "no_tolerance";
+    headline = "No verdict: " + std::to_string(unjudged) + (unjudged == 1 ? " mark lies" : " marks lie") +
+               " on surfaces without a tolerance (--tolerance-um, or tolerance_um in the part file); the marks "
+               "on surfaces with one (" + tolerances + ") are within it.";
+  } else {
     verdict["status"] = "within";
-    headline = "Within tolerance (" + figure(*tolerance.um) + " um): " +
+    headline = "Within tolerance (" + tolerances + "): " +
                (marks.empty() ? std::string("no mark found.")
                               : "the deepest mark is " + figure(worst) + " um.");
-  } else {
-    verdict["status"] = "not_within";
-    headline = "Not within tolerance (" + figure(*tolerance.um) + " um): " + std::to_string(beyond) +
-               (beyond == 1 ? " mark exceeds it" : " marks exceed it") + ", the deepest " + figure(worst) + " um.";
   }
   verdict["headline"] = headline;
 

@@ -32,9 +32,19 @@ struct Tolerance {
   std::string source;        ///< "--tolerance-um", "part file", or "" when none
 };
 
+/// A mark's tolerance [um]: its own "tolerance_um" (that of the design surface it lies on, where
+/// the part file gives that surface one), else `tolerance` (the part's or --tolerance-um).
+std::optional<double> mark_tolerance_um(const nlohmann::json& mark, const Tolerance& tolerance);
+
 /// The verdict at the top of the report: {"tolerance_um" (or null), "tolerance_source",
 /// "status": "within" | "not_within" | "no_tolerance", "headline", "summary",
-/// "worst_mark" (or null), "marks_beyond_tolerance", "specks_beyond_tolerance"}.
+/// "worst_mark" (or null), "marks_beyond_tolerance", "specks_beyond_tolerance",
+/// "marks_without_tolerance", "surfaces"}. Each mark is judged against mark_tolerance_um; a
+/// mark's surface is its "design_surface" (or "surface", or "view"). "surfaces": per surface,
+/// in the order of its deepest mark, {"surface", "tolerance_um" (or null), "tolerance_source"
+/// ("design surface" where its own), "marks", "marks_beyond_tolerance", "deepest_um"}.
+/// "within" needs every mark judged: marks with no tolerance at all give "no_tolerance" unless
+/// another mark exceeds its own ("not_within").
 /// `checks` is report.json's validity_checks: a check that warned is named in the summary.
 nlohmann::json make_verdict(const nlohmann::json& curated, const nlohmann::json& checks,
                             const Tolerance& tolerance);

@@ -1695,6 +1695,14 @@ Json simulate_part(const SimulatePartOptions& options, const ProgressSink& progr
       const std::string& title = comparison.view->title;
       entry["surface"] = title.substr(0, std::min(title.find(':'), title.find(" (")));
       entry["view_mark_index"] = k;  // the mark's place in its view's mark map (the renders)
+      // The design surface it lies on, and that surface's own tolerance (report_marks.hpp).
+      if (const auto patch = design_patch_of_mark(
+              context.part, *comparison.view, mark.deepest_point_W_m, 2.0 * comparison.view->spacing_m,
+              options.tolerance_m > 0 ? options.tolerance_m : context.part.tolerance_m)) {
+        const DesignPatch& design = context.part.design_patches[*patch];
+        entry["design_surface"] = design.name;
+        if (design.tolerance_m > 0) entry["tolerance_um"] = design.tolerance_m * 1e6;
+      }
       entry["kind"] = mark.kind == removal::MarkKind::gouge ? "gouge" : "excess";
       entry["depth_um"] = mark.depth_m * 1e6;
       entry["area_mm2"] = mark.area_m2 * 1e6;

@@ -338,6 +338,7 @@ std::vector<SurfaceView> surface_views(const PartDescription& part, const remova
   for (const DesignPlane& plane : part.design_planes) {
     if (std::abs(plane.normal_W.z()) > kWallMaxNormalZ) continue;
     SurfaceView view = wall_view(plane, stock, spacing_m, ++walls);
+    view.design_patch = static_cast<int>(plane.patch_index);
     if (view.nu >= 2 && view.nv >= 2) views.push_back(std::move(view));
   }
   // Sphere and cylinder views, numbered among their kind in the order of the file.
@@ -345,6 +346,7 @@ std::vector<SurfaceView> surface_views(const PartDescription& part, const remova
     int number = 0;
     for (const auto& patch : patches) {
       SurfaceView view = make_view(patch, number + 1);
+      view.design_patch = static_cast<int>(patch.patch_index);
       if (view.nu < 2 || view.nv < 2) continue;
       ++number;
       views.push_back(std::move(view));
@@ -357,6 +359,28 @@ std::vector<SurfaceView> surface_views(const PartDescription& part, const remova
     return cylinder_view(cylinder, stock, cutting_tips_W_m, reach_m, spacing_m, number);
   });
   return views;
+}
+
+std::optional<std::size_t> design_patch_of_mark(const PartDescription& part, const SurfaceView& view,
+                                                const Eigen::Vector3d& point_W_m, double margin_m,
+                                                double part_tolerance_m) {
+  if (view.design_patch >= 0) return static_cast<std::size_t>(view.design_patch);
+  std::optional<std::size_t> tightest;
+  double tightest_m = std::numeric_limits<double>::infinity();
+  for (std::size_t k = 0; k < part.design_patches.size(); ++k) {
+    const DesignPatch& patch = part.design_patches[k];
+    if (((point_W_m.array() < patch.min_W_m.array() - margin_m) ||
+         (point_W_m.array() > patch.max_W_m.array() + margin_m)).any()) {
+      continue;
+    }
+    const double tolerance_m = patch.tolerance_m > 0.0 ? patch.tolerance_m : part_tolerance_m;
+    const double key_m = tolerance_m > 0.0 ? tolerance_m : std::numeric_limits<double>::max();
+    if (!tightest || key_m < tightest_m) {
+      tightest = k;
+      tightest_m = key_m;
+    }
+  }
+  return tightest;
 }
 
 std::size_t exclude_steep_lines(const removal::NBuffer& reference, double spacing_m,

@@ -16,6 +16,7 @@
 // more than kSteepStepPerSpacing line spacings between neighbours) are not assessed: along such a
 // line the deviation is amplified by 1 / cos(slope) and a sideways shift reads as a depth.
 #include <Eigen/Core>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -43,6 +44,9 @@ struct SurfaceView {
   std::string id;     ///< "zmap", "wall1", "sphere1", "cylinder1", ...: file names
   std::string title;  ///< for reports and renders
   bool zmap = true;
+  /// The design patch whose normals the lines follow (PartDescription::design_patches); -1 for
+  /// the Z-map, which sees every patch that looks up.
+  int design_patch = -1;
   ViewShape shape = ViewShape::plane;  ///< when not the Z-map
   double spacing_m = 0.0;
   // Wall views: line (i, j) starts at corner + i s u + j s v - depth_inside n (inside the
@@ -109,6 +113,15 @@ std::vector<SurfaceView> surface_views(const PartDescription& part, const remova
                                        double spacing_m,
                                        const std::vector<Eigen::Vector3d>& cutting_tips_W_m = {},
                                        double reach_m = 0.0);
+
+/// The design patch (index into part.design_patches) a mark whose deepest point is `point_W_m`
+/// lies on, for its tolerance: the view's own patch (walls, spheres, cylinders); on the Z-map,
+/// of the patches whose ranges widened by `margin_m` hold the point, the one with the tightest
+/// tolerance (a patch without its own has `part_tolerance_m`; 0 = none, the loosest), since a
+/// mark at the border of two patches must satisfy both. nullopt: on no patch (no ranges hold it).
+std::optional<std::size_t> design_patch_of_mark(const PartDescription& part, const SurfaceView& view,
+                                                const Eigen::Vector3d& point_W_m, double margin_m,
+                                                double part_tolerance_m);
 
 /// Sets the deviation of the lines where `reference` is steep (see above) to 0; returns how
 /// many lines that excluded.

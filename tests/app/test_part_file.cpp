@@ -91,5 +91,46 @@ TEST(PartFile, ABadCylinderIsALocatedErrorNamingTheFieldAndTheValue) {
   }
 }
 
+// A patch's own tolerance and name (the report's verdict on the marks that lie on it); a patch
+// without them gets "design surface <k> (<type>)" and the part's tolerance (0 here: its own).
+TEST(PartFile, APatchMayHaveItsOwnToleranceAndName) {
+  const auto folder = test::fresh_folder("part_patch_tolerance");
+  const app::PartDescription part = app::load_part(part_with_patch(
+      folder, "{type: plane, point_mm: [0, 20, 0], normal: [0, -1, 0], name: sealing face, tolerance_um: 4.5}, "
+              "{type: cylinder, axis_point_mm: [0, 0, 0], axis_direction: [0, 0, 1], radius_mm: 10, material: inside, "
+              "z_range_mm: [20, 30]}"));
+  ASSERT_EQ(part.design_patches.size(), 2u);
+  EXPECT_EQ(part.design_patches[0].name, "sealing face");
+  EXPECT_EQ(part.design_patches[0].type, "plane");
+  EXPECT_DOUBLE_EQ(part.design_patches[0].tolerance_m, 4.5e-6);
+  EXPECT_EQ(part.design_patches[1].name, "design surface 2 (cylinder)");
+  EXPECT_EQ(part.design_patches[1].tolerance_m, 0.0);
+  EXPECT_DOUBLE_EQ(part.design_patches[1].min_W_m.z(), 20e-3);
+  ASSERT_EQ(part.design_planes.size(), 1u);
+  ASSERT_EQ(part.design_cylinders.size(), 1u);
+  EXPECT_EQ(part.design_planes[0].patch_index, 0u);
+  EXPECT_EQ(part.design_cylinders[0].patch_index, 1u);
+  EXPECT_EQ(part.tolerance_m, 0.0);
+}
+
+// A bad tolerance of a patch: an InputError at line 7 naming the field and the value.
+TEST(PartFile, ABadPatchToleranceIsALocatedErrorNamingTheValue) {
+  const auto folder = test::fresh_folder("part_patch_tolerance_bad");
+  for (const std::string value : {"-3", "0", "ten", "20000"}) {
+    SCOPED_TRACE(value);
+    const std::string path = part_with_patch(
+        folder, "{type: plane, point_mm: [0, 0, 20], normal: [0, 0, 1], tolerance_um: " + value + "}");
+    try {
+      app::load_part(path);
+      ADD_FAILURE() << "no error";
+    } catch (const InputError& error) {
+      const std::string message = error.what();
+      EXPECT_NE(message.find(path + ":7:"), std::string::npos) << message;
+      EXPECT_NE(message.find("design.surfaces[0].tolerance_um"), std::string::npos) << message;
+      EXPECT_NE(message.find(value), std::string::npos) << message;
+    }
+  }
+}
+
 }  // namespace
 }  // namespace vmsim

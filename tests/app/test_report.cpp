@@ -109,6 +109,64 @@ TEST(ReportMarks, AFailedOrWarningCheckIsInTheSummary) {
   EXPECT_EQ(verdict["summary"].get<std::string>().find(": WARNING"), std::string::npos) << verdict["summary"];
 }
 
+
+// Each mark against its design surface's own tolerance where it has one, the part's elsewhere;
+// the headline and report.json's "surfaces" name the surface.
+TEST(ReportMarks, EachMarkIsJudgedByItsSurfacesTolerance) {
+  Json on_seal = mark(8.0, 1.0, 40, "corner", "X");
+  on_seal["design_surface"] = "sealing face";
+  on_seal["tolerance_um"] = 5.0;
+  Json on_floor = mark(9.0, 1.0, 41, "corner", "Y");
+  on_floor["design_surface"] = "floor";
+  const Json curated = curate_marks({on_seal, on_floor}, 0.25);
+  // The part's 10 um holds the floor's 9 um mark; the sealing face's 5 um does not hold its 8 um.
+  const Json beyond = make_verdict(curated, Json::array(), {10.0, "part file"});
+  EXPECT_EQ(beyond["status"], "not_within") << beyond.dump(2);
+  EXPECT_EQ(beyond["marks_beyond_tolerance"], 1u);
+  const std::string headline = beyond["headline"].get<std::string>();
+  EXPECT_NE(headline.find("10 um; 5 um on sealing face"), std::string::npos) << headline;
+  EXPECT_NE(headline.find("the deepest 8 um on sealing face (tolerance 5 um)"), std::string::npos) << headline;
+  ASSERT_EQ(beyond["surfaces"].size(), 2u);
+  EXPECT_EQ(beyond["surfaces"][0]["surface"], "floor");  // the deepest mark's surface first
+  EXPECT_EQ(beyond["surfaces"][0]["tolerance_um"], 10.0);
+  EXPECT_EQ(beyond["surfaces"][0]["marks_beyond_tolerance"], 0);
+  EXPECT_EQ(beyond["surfaces"][1]["tolerance_source"], "design surface");
+  EXPECT_EQ(beyond["surfaces"][1]["marks_beyond_tolerance"], 1);
+  // A looser surface tolerance holds where the part's would not.
+  on_seal["tolerance_um"] = 8.5;
+  const Json within = make_verdict(curate_marks({on_seal, on_floor}, 0.25), Json::array(), {7.0, "--tolerance-um"});
+  EXPECT_EQ(within["status"], "not_within");  // the floor's 9 um against 7 um
+  on_floor["tolerance_um"] = 9.5;
+  const Json all_own = make_verdict(curate_marks({on_seal, on_floor}, 0.25), Json::array(), {7.0, "--tolerance-um"});
+  EXPECT_EQ(all_own["status"], "within") << all_own.dump(2);
+  // No part tolerance: a mark on a surface without one is not judged, so no "within".
+  on_floor.erase("tolerance_um");
+  const Json partial = make_verdict(curate_marks({on_seal, on_floor}, 0.25), Json::array(), {});
+  EXPECT_EQ(partial["status"], "no_tolerance");
+  EXPECT_EQ(partial["marks_without_tolerance"], 1u);
+  on_seal["tolerance_um"] = 5.0;
+  const Json partial_beyond = make_verdict(curate_marks({on_seal, on_floor}, 0.25), Json::array(), {});
+  EXPECT_EQ(partial_beyond["status"], "not_within");
+  // The page lists the surfaces, each with its tolerance, and marks the row beyond its own.
+  Json report;
+  report["part"] = {{"name", "plate"}, {"description", "a plate"}};
+  report["surface"] = {{"mark_threshold_um", 1.0}, {"views", Json::array()}};
+  const Json both = curate_marks({on_seal, on_floor}, 0.25);
+  report["marks"] = both["marks"];
+  report["specks"] = both["specks"];
+  report["verdict"] = make_verdict(both, Json::array(), {10.0, "part file"});
+  report["runs"] = Json::object();
+  const std::string html = html_report(report, {});
+  // The sealing face's row (rank 2, 8 um) is beyond its 5 um; the floor's (rank 1, 9 um) is not.
+  EXPECT_NE(html.find("<tr class=\"beyond\"><td>2"), std::string::npos);
+  EXPECT_EQ(html.find("<tr class=\"beyond\"><td>1"), std::string::npos);
+  EXPECT_NE(html.find("<li><b>sealing face</b>: tolerance 5 um (its own, part file), 1 mark, the deepest 8 um: 1 beyond it</li>"),
+            std::string::npos)
+      << html.substr(0, 3000);
+  EXPECT_NE(html.find("<li><b>floor</b>: tolerance 10 um (part file), 1 mark, the deepest 9 um: within it</li>"),
+            std::string::npos);
+}
+
 TEST(ReportMarks, CsvQuotesFieldsAndListsSpecksLast) {
   const Json curated = curate_marks({mark(12.0, 1.0, 40), mark(30.0, 0.01, 42)}, 0.25);
   const std::string csv = marks_csv(curated);

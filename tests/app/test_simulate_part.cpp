@@ -518,6 +518,42 @@ TEST(SimulatePart, APlantedWallDeviationIsAMarkOnTheWallView) {
   EXPECT_LT(views[1]["deviation_max_um"].get<double>(), 0.2);
 }
 
+// The wall with its own tolerance (and a name), the part with another: the wall's 20 um mark is
+// judged by the wall's, in report.json (the mark's design surface and tolerance, the verdict)
+// and in report.html's verdict lines; --tolerance-um replaces the part's, not the wall's.
+TEST(SimulatePart, AMarkIsJudgedByTheToleranceOfTheDesignSurfaceItLiesOn) {
+  const auto folder = test::fresh_folder("simulate_wall_tolerance");
+  app::SimulatePartOptions options = wall_options(folder, 50e-6);
+  options.renders = false;
+  const std::string original = read_file(options.part_path);
+  const auto with_tolerances = [&](const std::string& wall_um, const std::string& part_um) {
+    std::string yaml = original;
+    const std::string wall = "x_range_mm: [-10, 10], z_range_mm: [20, 30]}";
+    yaml.replace(yaml.find(wall), wall.size(),
+                 "x_range_mm: [-10, 10], z_range_mm: [20, 30], name: sealing wall, tolerance_um: " + wall_um + "}");
+    std::ofstream(options.part_path) << yaml << "tolerance_um: " << part_um << "\n";
+  };
+  with_tolerances("15", "30");
+  const nlohmann::json beyond = app::simulate_part(options, kSilent);
+  ASSERT_FALSE(beyond["marks"].empty());
+  EXPECT_EQ(beyond["marks"][0]["design_surface"], "sealing wall");
+  EXPECT_NEAR(beyond["marks"][0]["tolerance_um"].get<double>(), 15.0, 1e-9);
+  EXPECT_EQ(beyond["verdict"]["status"], "not_within") << beyond["verdict"].dump(2);
+  EXPECT_NE(beyond["verdict"]["headline"].get<std::string>().find("on sealing wall (tolerance 15 um)"),
+            std::string::npos)
+      << beyond["verdict"]["headline"];
+  const std::string html = read_file(options.out_dir + "/report.html");
+  EXPECT_NE(html.find("<li><b>sealing wall</b>: tolerance 15 um (its own, part file), "), std::string::npos);
+
+  with_tolerances("25", "10");
+  const nlohmann::json within = app::simulate_part(options, kSilent);
+  EXPECT_EQ(within["verdict"]["status"], "within") << within["verdict"].dump(2);
+  options.tolerance_m = 5e-6;
+  const nlohmann::json option = app::simulate_part(options, kSilent);
+  EXPECT_EQ(option["verdict"]["status"], "within") << option["verdict"].dump(2);
+  EXPECT_EQ(option["verdict"]["tolerance_source"], "--tolerance-um");
+}
+
 // A flat end mill D10 flank-milling a design cylinder of radius 10 mm (a boss, material inside)
 // or 15 mm (a bore, material outside) about the z axis, its tip at z = 20 mm: one arc of tip
 // radius `tip_radius_mm` from `first_deg` to `last_deg` (points every 0.5 deg), plunging at the

@@ -143,6 +143,55 @@ TEST(SurfaceViews, ACylinderViewAllRoundABossLooksAwayFromTheAxis) {
   }
 }
 
+// The design surface a mark lies on: a wall's or cylinder's view is its patch's; on the Z-map,
+// of the patches whose ranges hold the point, the tightest tolerance (a patch without its own
+// has the part's); a point on no patch: none.
+TEST(SurfaceViews, AMarkLiesOnItsViewsPatchOrOnTheTightestPatchHoldingIt) {
+  app::PartDescription part;
+  app::DesignPatch floor, fillet, land;
+  floor.type = "quadratic_height";
+  floor.min_W_m.x() = -20e-3, floor.max_W_m.x() = 20e-3;
+  fillet.type = "cylinder";
+  fillet.min_W_m.x() = 20e-3, fillet.max_W_m.x() = 27e-3;
+  fillet.tolerance_m = 5e-6;
+  land.type = "plane";
+  land.min_W_m.x() = 30e-3, land.max_W_m.x() = 40e-3;
+  land.tolerance_m = 50e-6;
+  part.design_patches = {floor, fillet, land};
+  app::SurfaceView zmap;
+  const double margin_m = 0.1e-3, part_tolerance_m = 10e-6;
+  auto on = [&](const app::SurfaceView& view, double x_mm) {
+    return app::design_patch_of_mark(part, view, Eigen::Vector3d(x_mm * 1e-3, 0, 0.01), margin_m, part_tolerance_m);
+  };
+  EXPECT_EQ(on(zmap, 0.0), std::optional<std::size_t>(0));
+  EXPECT_EQ(on(zmap, 23.0), std::optional<std::size_t>(1));
+  // At the border of the floor (the part's 10 um) and the fillet (5 um): the fillet's.
+  EXPECT_EQ(on(zmap, 20.05), std::optional<std::size_t>(1));
+  EXPECT_EQ(on(zmap, -20.05), std::optional<std::size_t>(0));
+  EXPECT_EQ(on(zmap, -20.2), std::nullopt);  // beyond the margin
+  EXPECT_EQ(on(zmap, 35.0), std::optional<std::size_t>(2));
+  EXPECT_EQ(on(zmap, 28.0), std::nullopt);
+  // Without the part's tolerance the floor has none: the land's 50 um is tighter there.
+  part.design_patches[2].min_W_m.x() = -1e-3;
+  EXPECT_EQ(app::design_patch_of_mark(part, zmap, Eigen::Vector3d(0, 0, 0.01), margin_m, 0.0),
+            std::optional<std::size_t>(2));
+  EXPECT_EQ(app::design_patch_of_mark(part, zmap, Eigen::Vector3d(0, 0, 0.01), margin_m, part_tolerance_m),
+            std::optional<std::size_t>(0));
+  // A cylinder view: its own patch, wherever the point.
+  app::SurfaceView cylinder;
+  cylinder.zmap = false;
+  cylinder.design_patch = 1;
+  EXPECT_EQ(on(cylinder, 0.0), std::optional<std::size_t>(1));
+  // surface_views gives each view its patch: sample part 1's fillet is its third patch.
+  const app::PartDescription part1 = app::load_part(std::string(VMSIM_SOURCE_DIR) + "/samples/parts/part1_tangency/part.yaml");
+  ASSERT_EQ(part1.design_cylinders.size(), 1u);
+  EXPECT_EQ(part1.design_patches.at(part1.design_cylinders[0].patch_index).type, "cylinder");
+  const auto views = app::surface_views(fillet_part(), kStock, 0.2e-3, pass_tips(0.0), 10e-3);
+  ASSERT_EQ(views.size(), 2u);
+  EXPECT_EQ(views[0].design_patch, -1);
+  EXPECT_EQ(views[1].design_patch, 0);
+}
+
 }  // namespace
 }  // namespace vmsim
 

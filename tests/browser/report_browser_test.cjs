@@ -12,7 +12,10 @@
 //    report.json has one), or its marks table is not the deepest marks of report.json, each no
 //    smaller than a speck, at most 25 of them, the rest counted in marks.csv;
 //  - the listed marks are not drawn in the 3-D view (a numbered label per mark of the view shown,
-//    the deepest mark outlined and its label on the canvas once its "3-D" link centred it).
+//    the deepest mark outlined and its label on the canvas once its "3-D" link centred it);
+//  - two mark numbers of the 3-D view overlap or one covers another's point: as drawn (the whole
+//    view, then zoomed far out so that the points crowd), and as placed by the view's placement
+//    on made-up crowds (30 numbers at one point, 40 in a small area, random crowds).
 // Screenshots (SHOTS_FOLDER): the top of the page, the marks table, the 3-D view.
 // Usage: node report_browser_test.cjs RESULT_FOLDER BASELINE.json SHOTS_FOLDER [--update-baseline | --no-baseline]
 // --no-baseline: for a report other than the baseline's (the mould sample, by hand).
@@ -163,6 +166,69 @@ async function imageStatistics(page, png, blocksX, blocksY) {
     const wanted = allMarks.filter((m) => listed.includes(m.rank) && m.view === overlay.view).length;
     check(overlay.labels === wanted && overlay.elements === wanted,
           'the 3-D view labels the ' + wanted + ' listed marks of its ' + overlay.view + ' view (' + overlay.elements + ' labels)');
+  }
+
+  // Mark numbers never overlap: the placement on made-up crowds, checked here apart from it.
+  if (view && view.ready) {
+    const crowds = await page.evaluate(() => {
+      const place = window.vmsimView3d.placeLabels;
+      let seed = 12345;
+      const random = () => ((seed = (seed * 1103515245 + 12345) % 2147483648) / 2147483648);
+      const cases = [];
+      const area = { x0: 0, y0: 0, x1: 900, y1: 540 };
+      cases.push({ name: '30 at one point', area, requests: Array.from({ length: 30 }, (_, k) => ({ x: 400, y: 300, width: 14 + 8 * (k >= 9), height: 18 })) });
+      cases.push({ name: '40 in 120 x 60 px', area, requests: Array.from({ length: 40 }, () => ({ x: 400 + 120 * random(), y: 250 + 60 * random(), width: 22, height: 18 })) });
+      for (let c = 0; c < 20; ++c) {
+        cases.push({ name: 'random crowd ' + c, area, requests: Array.from({ length: 25 }, () => ({
+          x: 450 + 200 * (random() - 0.5), y: 270 + 150 * (random() - 0.5), width: 14 + 8 * (random() < 0.5), height: 18 })) });
+      }
+      return cases.map((c) => ({ name: c.name, requests: c.requests, area: c.area, boxes: place(c.requests, c.area) }));
+    });
+    const problemsOf = (requests, boxes, area) => {
+      const found = [];
+      boxes.forEach((a, i) => {
+        if (!a) return;
+        if (Math.abs(a.x1 - a.x0 - requests[i].width) > 1e-6 || Math.abs(a.y1 - a.y0 - requests[i].height) > 1e-6) found.push('box ' + i + ' resized');
+        if (area && (a.x0 < area.x0 || a.y0 < area.y0 || a.x1 > area.x1 || a.y1 > area.y1)) found.push('box ' + i + ' outside');
+        boxes.forEach((b, j) => {
+          if (j <= i || !b) return;
+          if (a.x0 < b.x1 && b.x0 < a.x1 && a.y0 < b.y1 && b.y0 < a.y1) found.push('boxes ' + i + ' and ' + j + ' overlap');
+        });
+        requests.forEach((r, j) => {
+          if (j !== i && r.x > a.x0 && r.x < a.x1 && r.y > a.y0 && r.y < a.y1) found.push('box ' + i + ' covers point ' + j);
+        });
+      });
+      return found;
+    };
+    for (const c of crowds) {
+      const placedCount = c.boxes.filter(Boolean).length;
+      const found = problemsOf(c.requests, c.boxes, c.area);
+      if (c.name.startsWith('random') && found.length === 0 && placedCount > 0) continue;  // one line for all below
+      check(found.length === 0 && placedCount >= Math.min(10, c.requests.length),
+            '3-D view\'s number placement, ' + c.name + ': ' + placedCount + ' placed, none overlapping' +
+            (found.length ? ': ' + found.slice(0, 3).join(', ') : ''));
+    }
+    const randomOk = crowds.filter((c) => c.name.startsWith('random')).every((c) => problemsOf(c.requests, c.boxes, c.area).length === 0);
+    check(randomOk, "3-D view's number placement, 20 random crowds of 25: none overlapping");
+    // As drawn: the whole view, then zoomed out until the marks' points crowd together.
+    const drawn = async () => page.evaluate(() => Array.from(document.querySelectorAll('#view3d .view3d-mark-label'))
+      .filter((label) => label.style.display !== 'none')
+      .map((label) => { const r = label.getBoundingClientRect(); return { rank: label.dataset.rank, x0: r.left, y0: r.top, x1: r.right, y1: r.bottom,
+                                                                          anchor: label.vmsimAnchor }; }));
+    for (const [name, factor] of [['the whole view', 1], ['zoomed far out', 0.08]]) {
+      if (factor !== 1) {
+        await page.evaluate((f) => window.vmsimView3d.zoom(f), factor);
+        await page.evaluate(() => new Promise((done) => requestAnimationFrame(() => requestAnimationFrame(done))));
+      }
+      const boxes = await drawn();
+      const box = await page.locator('#view3d').boundingBox();
+      const requests = boxes.map((b) => ({ x: box.x + b.anchor[0], y: box.y + b.anchor[1], width: b.x1 - b.x0, height: b.y1 - b.y0 }));
+      const found = problemsOf(requests, boxes, null);
+      check(found.length === 0, 'the 3-D view\'s mark numbers, ' + name + ': ' + boxes.length + ' shown, none over another or its point' +
+            (found.length ? ': ' + found.slice(0, 3).join(', ') : ''));
+      if (factor !== 1) await page.locator('#view3d').screenshot({ path: path.join(shotsFolder, 'view3d_crowded_numbers.png') });
+    }
+    await page.locator('#view3d-reset').click();
   }
 
   // The page at its 3-D section, and the view alone, against the baseline.

@@ -213,6 +213,66 @@ TEST(SurfaceImage, InvertedDeviationDiffersFromBaseline) {
   EXPECT_GT(difference.thresholded_error, 10.0 * kTolerance);
 }
 
+// A thumbnail as narrow as the marks' (480 px): the colour bar's title is wholly in the image
+// (it was cut at the right edge: "deviation [um"). No dark pixel in the last columns, and the
+// title is there, in the top right.
+TEST(SurfaceImage, ColourBarTitleFitsANarrowImage) {
+  SurfaceRenderOptions options;
+  options.title = "Mark 1: 20 um";
+  options.size = {480, 360};
+  const auto png = output_folder() / "surface_narrow_bar_title.png";
+  render_surface_png(png.string(), gaussian_dent(), options);
+  const RgbImage image = read_png_rgb(png.string());
+  ASSERT_EQ(image.width_px, 480);
+  auto dark = [&](int x, int y) {
+    const std::uint8_t* p = image.at(x, y);
+    return p[0] < 110 && p[1] < 110 && p[2] < 110;
+  };
+  int dark_at_edge = 0, dark_title = 0;
+  for (int y = 0; y < image.height_px; ++y) {
+    for (int x = image.width_px - 3; x < image.width_px; ++x) dark_at_edge += dark(x, y) ? 1 : 0;
+  }
+  for (int y = 0; y < image.height_px / 5; ++y) {
+    for (int x = image.width_px * 7 / 10; x < image.width_px; ++x) dark_title += dark(x, y) ? 1 : 0;
+  }
+  EXPECT_EQ(dark_at_edge, 0) << png;
+  EXPECT_GT(dark_title, 100) << png << ": the colour bar's title is not in the top right";
+}
+
+// A view three times taller than wide seen from the top (a cylinder's unrolled view) lies wholly
+// below the title and left of the colour bar, large, and a label at its far corner is placed
+// (the view used to overflow under the title, its corner out of the picture).
+TEST(SurfaceImage, TallTopViewFitsBelowTheTitleAndLeftOfTheBar) {
+  HeightField field;
+  field.spacing_x_m = field.spacing_y_m = 0.5e-3;
+  field.nx = 41;   // 20 mm
+  field.ny = 161;  // 80 mm
+  field.height_m.assign(field.node_count(), 0.0);
+  field.deviation_m.assign(field.node_count(), 10e-6);  // all red: at the top of the colour map
+  SurfaceRenderOptions options;
+  options.title = "A tall view";
+  options.camera = CameraPreset::top;
+  options.labels.push_back({20e-3, 80e-3, "1"});
+  const auto png = output_folder() / "surface_tall_top.png";
+  const SurfaceRenderResult result = render_surface_png(png.string(), field, options);
+  EXPECT_TRUE(result.labels_left_out.empty()) << png;
+  const RgbImage image = read_png_rgb(png.string());
+  int top = image.height_px, bottom = -1, right = -1, red_under_title = 0;
+  // Left of the colour bar (at 0.83 of the width at the most).
+  for (int y = 0; y < image.height_px; ++y) {
+    for (int x = 0; x < image.width_px * 8 / 10; ++x) {
+      const std::uint8_t* p = image.at(x, y);
+      if (!(p[0] > p[1] + 80 && p[0] > p[2] + 60)) continue;
+      top = std::min(top, y), bottom = std::max(bottom, y), right = std::max(right, x);
+      if (y < image.height_px * 12 / 100) ++red_under_title;
+    }
+  }
+  EXPECT_EQ(red_under_title, 0) << png << ": the surface runs under the title (top at " << top << " px)";
+  EXPECT_LT(bottom, image.height_px - 2) << png;
+  EXPECT_LT(right, image.width_px * 8 / 10 - 2) << png;
+  EXPECT_GT(bottom - top, image.height_px * 6 / 10) << png << ": the surface is drawn too small";
+}
+
 TEST(SurfaceImage, HeightColouredTopViewRendersAtTheRequestedSize) {
   HeightField field = gaussian_dent();
   field.deviation_m.clear();

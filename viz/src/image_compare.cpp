@@ -38,6 +38,26 @@ vtkSmartPointer<vtkImageData> read_rgb(const std::string& path) {
 
 }  // namespace
 
+RgbImage read_png_rgb(const std::string& png_path) {
+  const auto image = read_rgb(png_path);
+  int dims[3];
+  image->GetDimensions(dims);
+  RgbImage result;
+  result.width_px = dims[0];
+  result.height_px = dims[1];
+  result.rgb.resize(3 * static_cast<std::size_t>(dims[0]) * static_cast<std::size_t>(dims[1]));
+  // VTK's rows start at the bottom.
+  for (int y = 0; y < dims[1]; ++y) {
+    for (int x = 0; x < dims[0]; ++x) {
+      for (int c = 0; c < 3; ++c) {
+        result.rgb[3 * (static_cast<std::size_t>(x) + static_cast<std::size_t>(dims[0]) * (dims[1] - 1 - y)) + c] =
+            static_cast<std::uint8_t>(image->GetScalarComponentAsDouble(x, y, 0, c));
+      }
+    }
+  }
+  return result;
+}
+
 ImageDifference compare_png_files(const std::string& png_path, const std::string& baseline_path,
                                   int threshold) {
   const auto image = read_rgb(png_path);

@@ -25,6 +25,8 @@
 #include <vtkSmartPointer.h>
 #include <vtkTextActor.h>
 #include <vtkTextProperty.h>
+#include <vtkTextRenderer.h>
+#include <vtkMatrix4x4.h>
 #include <vtkXMLPolyDataWriter.h>
 
 #include <algorithm>
@@ -256,6 +258,73 @@ void check_options(const HeightField& field, const SurfaceRenderOptions& options
   }
 }
 
+// The width in pixels of `text` drawn with `property` (a window's default 72 dpi).
+double text_width_px(vtkTextProperty* property, const std::string& text) {
+  int box[4] = {0, 0, 0, 0};
+  vtkTextRenderer* renderer = vtkTextRenderer::GetInstance();
+  if (renderer == nullptr || !renderer->GetBoundingBox(property, text, box, 72)) {
+    return 0.62 * property->GetFontSize() * static_cast<double>(text.size());  // about a bold glyph's
+  }
+  return box[1] - box[0] + 1;
+}
+
+// A rectangle of the image in normalised device coordinates ([-1, 1] across and up).
+struct NormalizedArea {
+  double x_min, x_max, y_min, y_max;
+};
+
+// Makes every point of `points` fall in `area` of the image (aspect = width / height): a camera
+// that already shows them all there is left as it is; otherwise it is zoomed out as far as
+// needed (never in) and its window centre shifted so that the points are centred in the area.
+// vtkRenderer::ResetCamera fits the bounds' sphere to the whole window, which a tall surface
+// (a cylinder's unrolled view) overflows, under the title.
+void fit_into_area(vtkCamera* camera, vtkPoints* points, double aspect, const NormalizedArea& area) {
+  auto extent = [&]() {
+    vtkMatrix4x4* to_ndc = camera->GetCompositeProjectionTransformMatrix(aspect, -1.0, 1.0);
+    NormalizedArea e{1e300, -1e300, 1e300, -1e300};
+    double p[3];
+    for (vtkIdType k = 0; k < points->GetNumberOfPoints(); ++k) {
+      points->GetPoint(k, p);
+      const double in[4] = {p[0], p[1], p[2], 1.0};
+      double out[4];
+      to_ndc->MultiplyPoint(in, out);
+      if (!(out[3] > 0.0)) continue;  // behind the eye: cannot happen for a camera outside the bounds
+      e.x_min = std::min(e.x_min, out[0] / out[3]);
+      e.x_max = std::max(e.x_max, out[0] / out[3]);
+      e.y_min = std::min(e.y_min, out[1] / out[3]);
+      e.y_max = std::max(e.y_max, out[1] / out[3]);
+    }
+    return e;
+  };
+  NormalizedArea e = extent();
+  if (e.x_min > e.x_max) return;
+  auto inside = [&](const NormalizedArea& r) {
+    return r.x_min >= area.x_min && r.x_max <= area.x_max && r.y_min >= area.y_min && r.y_max <= area.y_max;
+  };
+  if (inside(e)) return;
+  // Zooming scales the points' coordinates about the window centre's (exactly for a parallel
+  // projection, nearly for a perspective one: hence a few rounds).
+  for (int round = 0; round < 4; ++round) {
+    const double shrink = std::max((e.x_max - e.x_min) / (area.x_max - area.x_min),
+                                   (e.y_max - e.y_min) / (area.y_max - area.y_min));
+    if (shrink > 1.0) {
+      if (camera->GetParallelProjection()) {
+        camera->SetParallelScale(camera->GetParallelScale() * shrink * 1.005);
+      } else {
+        camera->Zoom(1.0 / (shrink * 1.005));
+      }
+      e = extent();
+    }
+    // The window centre shifts the image by exactly minus itself.
+    double centre[2];
+    camera->GetWindowCenter(centre);
+    camera->SetWindowCenter(centre[0] + 0.5 * (e.x_min + e.x_max) - 0.5 * (area.x_min + area.x_max),
+                            centre[1] + 0.5 * (e.y_min + e.y_max) - 0.5 * (area.y_min + area.y_max));
+    e = extent();
+    if (inside(e)) return;
+  }
+}
+
 }  // namespace
 
 void validate(const HeightField& field) {
@@ -296,12 +365,12 @@ void validate(const HeightField& field) {
 // `renderer` (its camera set, its window sized): text boxes and leader lines as 2-D actors.
 // Returns the indices of the labels left out.
 static std::vector<std::size_t> add_labels(vtkRenderer* renderer, const HeightField& field,
-                                           const SurfaceRenderOptions& options) {
+                                           const SurfaceRenderOptions& options, double right_share) {
   std::vector<std::size_t> left_out;
   if (options.labels.empty()) return left_out;
   const double width_px = options.size.width_px, height_px = options.size.height_px;
   // Left of the colour bar and below the title.
-  const PixelBox area{0.0, 0.0, width_px * (options.colour_bar ? 0.8 : 1.0), height_px * 0.9};
+  const PixelBox area{0.0, 0.0, width_px * right_share, height_px * 0.9};
   constexpr int kFontPx = 13;
   std::vector<LabelRequest> requests;
   std::vector<std::size_t> requested;  // index into options.labels
@@ -500,16 +569,17 @@ SurfaceRenderResult render_surface_png(const std::string& png_path, const Height
     add_lines(draped_outlines(field, options.outlines, options.height_scale, lift));
   }
 
+  // The colour bar's frame: from bar_left to bar_left + kBarWidth of the image's width.
+  constexpr double kBarWidth = 0.11;
+  double bar_left = 0.83;
   if (options.colour_bar) {
     auto bar = vtkSmartPointer<vtkScalarBarActor>::New();
     bar->SetLookupTable(map);
-    bar->SetTitle(by_deviation ? "deviation [um]" : (in_um ? "height [um]" : "height [mm]"));
+    const char* bar_title = by_deviation ? "deviation [um]" : (in_um ? "height [um]" : "height [mm]");
+    bar->SetTitle(bar_title);
     bar->SetNumberOfLabels(5);
     bar->SetLabelFormat("%-#6.3g");
     bar->SetUnconstrainedFontSize(true);
-    bar->GetPositionCoordinate()->SetCoordinateSystemToNormalizedViewport();
-    bar->GetPositionCoordinate()->SetValue(0.83, 0.12);
-    bar->SetWidth(0.11);
     bar->DrawBackgroundOn();  // the surface may run behind the bar (close-ups)
     bar->GetBackgroundProperty()->SetColor(1.0, 1.0, 1.0);
     bar->SetHeight(0.72);
@@ -523,6 +593,16 @@ SurfaceRenderResult render_surface_png(const std::string& png_path, const Height
     bar->GetTitleTextProperty()->BoldOn();
     detail::apply_font(bar->GetTitleTextProperty());
     detail::apply_font(bar->GetLabelTextProperty());
+    // vtkScalarBarActor centres its title over the frame at its natural size (unconstrained
+    // font): in a narrow image (the marks' 480 px thumbnails) it ran past the right edge. The
+    // frame moves left as far as the title needs.
+    const double title_width_px = text_width_px(bar->GetTitleTextProperty(), bar_title);
+    const double width_px = options.size.width_px;
+    const double centre_px = std::min((bar_left + 0.5 * kBarWidth) * width_px, width_px - 6.0 - 0.5 * title_width_px);
+    bar_left = centre_px / width_px - 0.5 * kBarWidth;
+    bar->GetPositionCoordinate()->SetCoordinateSystemToNormalizedViewport();
+    bar->GetPositionCoordinate()->SetValue(bar_left, 0.12);
+    bar->SetWidth(kBarWidth);
     renderer->AddActor2D(bar);
   }
   if (!options.title.empty()) {
@@ -563,6 +643,13 @@ SurfaceRenderResult render_surface_png(const std::string& png_path, const Height
   // Centre the surface in the part of the image left of the colour bar (window centre in
   // normalised view coordinates [-1, 1]: a positive x moves the scene to the left).
   if (options.colour_bar) camera->SetWindowCenter(0.16, 0.0);
+  if (options.camera != CameraPreset::close_up) {
+    // The surface wholly in the image, below the title and left of the colour bar.
+    const NormalizedArea free_area{-0.97, (options.colour_bar ? 2.0 * bar_left - 1.0 - 0.04 : 0.97), -0.97,
+                                   options.title.empty() ? 0.97 : 0.76};
+    fit_into_area(camera, surface->GetPoints(),
+                  static_cast<double>(options.size.width_px) / options.size.height_px, free_area);
+  }
   renderer->ResetCameraClippingRange();
 
   auto window = vtkSmartPointer<vtkRenderWindow>::New();
@@ -570,7 +657,7 @@ SurfaceRenderResult render_surface_png(const std::string& png_path, const Height
   window->SetSize(options.size.width_px, options.size.height_px);
   window->AddRenderer(renderer);
   SurfaceRenderResult result;
-  result.labels_left_out = add_labels(renderer, field, options);
+  result.labels_left_out = add_labels(renderer, field, options, options.colour_bar ? std::min(0.8, bar_left - 0.03) : 1.0);
   detail::write_window_png(window, png_path);
   return result;
 }

@@ -59,6 +59,51 @@
   labelLayer.className = 'view3d-labels';
   labelLayer.style.cssText = 'position:absolute;left:0;top:0;right:0;bottom:0;pointer-events:none;overflow:hidden';
 
+  // Leader lines from a mark's point to its number, when the number had to move away.
+  const svgNamespace = 'http://www.w3.org/2000/svg';
+  const leaderLayer = document.createElementNS(svgNamespace, 'svg');
+  leaderLayer.setAttribute('style', 'position:absolute;left:0;top:0;width:100%;height:100%;overflow:hidden');
+  const leaderPath = document.createElementNS(svgNamespace, 'path');
+  leaderPath.setAttribute('stroke', '#111');
+  leaderPath.setAttribute('stroke-width', '1.5');
+  leaderPath.setAttribute('fill', 'none');
+  leaderLayer.appendChild(leaderPath);
+  labelLayer.appendChild(leaderLayer);
+  const scalarBarWidthPx = 130;
+
+  // The rules of the report's images (viz/src/label_placement.cpp), in screen space (y down):
+  // in the given order (deepest mark first), each number above-right of its point if the place
+  // is free, else on rings of 4 px up to 80 px around it, 16 directions a ring; never over
+  // another number (2 px apart) nor over another number's point, inside `area`; null when
+  // there is no room (the number is left out). requests: [{x, y, width, height}] (px).
+  function placeLabels(requests, area, maxDistance = 80, ringStep = 4, gap = 2) {
+    const taken = [];
+    const overlaps = (a, b) => a.x0 < b.x1 + gap && b.x0 < a.x1 + gap && a.y0 < b.y1 + gap && b.y0 < a.y1 + gap;
+    const fits = (box, self) => {
+      if (box.x0 < area.x0 || box.x1 > area.x1 || box.y0 < area.y0 || box.y1 > area.y1) return false;
+      if (taken.some((other) => overlaps(box, other))) return false;
+      return requests.every((r, k) => k === self || !(r.x >= box.x0 && r.x <= box.x1 && r.y >= box.y0 && r.y <= box.y1));
+    };
+    return requests.map((r, n) => {
+      const w = r.width, h = r.height;
+      let chosen = null;
+      const usual = { x0: r.x + 4, y0: r.y - 2 - h, x1: r.x + 4 + w, y1: r.y - 2 };
+      if (fits(usual, n)) chosen = usual;
+      for (let ring = ringStep; !chosen && ring <= maxDistance + 1e-9; ring += ringStep) {
+        for (let d = 0; d < 16 && !chosen; ++d) {
+          const a = Math.PI / 4 + (d * Math.PI) / 8;  // from up-right, anticlockwise on the screen
+          const cx = r.x + Math.cos(a) * (0.5 * w + ring);
+          const cy = r.y - Math.sin(a) * (0.5 * h + ring);
+          const box = { x0: cx - 0.5 * w, y0: cy - 0.5 * h, x1: cx + 0.5 * w, y1: cy + 0.5 * h };
+          if (fits(box, n)) chosen = box;
+        }
+      }
+      if (chosen) taken.push(chosen);
+      return chosen;
+    });
+  }
+  state.placeLabels = placeLabels;
+
   let renderWindow, renderer, interactor;
   try {
     const generic = vtk.Rendering.Misc.vtkGenericRenderWindow.newInstance({
@@ -244,7 +289,7 @@
       label.textContent = String(data.marks[m].rank);
       label.title = 'mark ' + data.marks[m].rank + ', ' + data.marks[m].kind + ', ' +
         format(data.marks[m].depth_um, 2) + ' \u00b5m deep';
-      label.style.cssText = 'position:absolute;transform:translate(4px,-100%);font:bold 12px sans-serif;' +
+      label.style.cssText = 'position:absolute;box-sizing:border-box;font:bold 12px sans-serif;' +
         'color:#111;background:rgba(255,255,255,0.8);border:1px solid #111;border-radius:3px;padding:0 3px;' +
         'white-space:nowrap;display:none';
       entry.labels.push(label);
@@ -253,15 +298,48 @@
     anchorData.getPoints().setData(Float32Array.from(anchors), 3);
     const pixelMapper = vtk.Rendering.Core.vtkPixelSpaceCallbackMapper.newInstance();
     pixelMapper.setInputData(anchorData);
+    // Placed anew at every frame, in the canvas's CSS pixels (origin top left).
     pixelMapper.setCallback((coordinates, camera, aspect, depth, size) => {
       const ratio = window.devicePixelRatio || 1;
+      const width = size[0] / ratio, height = size[1] / ratio;
+      const requests = [], requested = [];
       coordinates.forEach(([x, y, z], k) => {
         const label = entry.labels[k];
         const inside = z > -1 && z < 1 && x >= 0 && y >= 0 && x <= size[0] && y <= size[1];
-        label.style.display = inside ? 'block' : 'none';
-        label.style.left = (x / ratio).toFixed(1) + 'px';
-        label.style.top = ((size[1] - y) / ratio).toFixed(1) + 'px';
+        if (!inside) return;
+        if (!label.vmsimSize) {  // measured once, shown off-screen
+          label.style.left = '-1000px';
+          label.style.display = 'block';
+          label.vmsimSize = [label.offsetWidth, label.offsetHeight];
+        }
+        requests.push({ x: x / ratio, y: (size[1] - y) / ratio, width: label.vmsimSize[0], height: label.vmsimSize[1] });
+        requested.push(k);
       });
+      // Clear of the colour bar (drawn by vtk.js at the right edge).
+      const placed = placeLabels(requests, { x0: 0, y0: 0, x1: Math.max(0, width - scalarBarWidthPx), y1: height });
+      const shownNow = new Set();
+      const leaders = [];
+      placed.forEach((box, n) => {
+        if (!box) return;
+        const k = requested[n];
+        shownNow.add(k);
+        const label = entry.labels[k];
+        label.style.display = 'block';
+        label.style.left = box.x0.toFixed(1) + 'px';
+        label.style.top = box.y0.toFixed(1) + 'px';
+        label.vmsimBox = box;
+        label.vmsimAnchor = [requests[n].x, requests[n].y];
+        // A leader line from the point to the box's nearest point, when the box is away from it.
+        const nearX = Math.min(Math.max(requests[n].x, box.x0), box.x1);
+        const nearY = Math.min(Math.max(requests[n].y, box.y0), box.y1);
+        if (Math.hypot(nearX - requests[n].x, nearY - requests[n].y) > 6) {
+          leaders.push('M' + requests[n].x.toFixed(1) + ' ' + requests[n].y.toFixed(1) + 'L' + nearX.toFixed(1) + ' ' + nearY.toFixed(1));
+        }
+      });
+      entry.labels.forEach((label, k) => {
+        if (!shownNow.has(k)) { label.style.display = 'none'; label.vmsimBox = null; }
+      });
+      leaderPath.setAttribute('d', leaders.join(''));
     });
     const anchorActor = vtk.Rendering.Core.vtkActor.newInstance();
     anchorActor.setMapper(pixelMapper);
@@ -279,7 +357,8 @@
     shown = entry;
     renderer.addActor(entry.actor);
     for (const actor of entry.overlayActors) renderer.addActor(actor);
-    labelLayer.replaceChildren(...entry.labels);
+    labelLayer.replaceChildren(leaderLayer, ...entry.labels);
+    leaderPath.setAttribute('d', '');
     if (scalarBar) renderer.removeActor(scalarBar);
     scalarBar = vtk.Rendering.Core.vtkScalarBarActor.newInstance();
     scalarBar.setScalarsToColors(entry.lookup);
@@ -457,5 +536,12 @@
     return fail(String(error));
   }
   state.showMark = showMark;
+  // For the browser test's crowded case: the camera moved towards its focal point (factor < 1:
+  // away), then a frame.
+  state.zoom = (factor) => {
+    renderer.getActiveCamera().dolly(factor);
+    renderer.resetCameraClippingRange();
+    renderWindow.render();
+  };
   state.ready = true;
 })();

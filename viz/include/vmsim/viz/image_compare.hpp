@@ -1,6 +1,9 @@
 #pragma once
 // Comparison of two PNG images (image tests against stored baselines). Needs no display.
+#include <cstddef>
+#include <cstdint>
 #include <string>
+#include <vector>
 
 namespace vmsim::viz {
 
@@ -18,5 +21,19 @@ struct ImageDifference {
 /// as a PNG.
 ImageDifference compare_png_files(const std::string& png_path, const std::string& baseline_path,
                                   int threshold = 16);
+
+/// A PNG's pixels as 8-bit RGB, row by row from the top left (as an image viewer shows it), for
+/// tests that look at where things are drawn.
+struct RgbImage {
+  int width_px = 0;
+  int height_px = 0;
+  std::vector<std::uint8_t> rgb;  ///< 3 width_px height_px values
+  const std::uint8_t* at(int x_px, int y_px) const {
+    return rgb.data() + 3 * (static_cast<std::size_t>(x_px) + static_cast<std::size_t>(width_px) * y_px);
+  }
+};
+
+/// Reads a PNG file. Throws vmsim::InputError when it cannot be read as a PNG.
+RgbImage read_png_rgb(const std::string& png_path);
 
 }  // namespace vmsim::viz
