@@ -53,8 +53,9 @@ struct Run {
 
 class RunFitter {
  public:
-  RunFitter(const std::vector<Eigen::Vector3d>& points, const Run& run, const CompressorOptions& options)
-      : points_(points), run_(run), options_(options) {
+  /// dense: a control point per programmed point (interior knots at the programmed points'
+  /// parameters: the curve can pass through every point), else about one per two blocks.
+  RunFitter(const std::vector<Eigen::Vector3d>& points, const Run& run, bool dense) : points_(points), run_(run) {
     const std::size_t m = points_.size() - 1;
     u_.assign(points_.size(), 0.0);
     for (std::size_t k = 1; k <= m; ++k) u_[k] = u_[k - 1] + (points_[k] - points_[k - 1]).norm();
@@ -63,19 +64,22 @@ class RunFitter {
     u_[m] = 1.0;
     // Control points: about one per two blocks (the penalty, not their count, sets the
     // smoothness), at least a cubic's four.
-    const std::size_t n = std::max<std::size_t>(4, std::min(m + 3, m / 2 + 4));
+    const std::size_t n = dense ? m + 3 : std::max<std::size_t>(4, std::min(m + 3, m / 2 + 4));
     knots_.resize(static_cast<Eigen::Index>(n + kDegree + 1));
     for (std::size_t j = 0; j <= static_cast<std::size_t>(kDegree); ++j) {
       knots_[static_cast<Eigen::Index>(j)] = 0.0;
       knots_[static_cast<Eigen::Index>(n + j)] = 1.0;
     }
     for (std::size_t j = 0; j + 4 < n; ++j) {
-      knots_[static_cast<Eigen::Index>(4 + j)] = static_cast<double>(j + 1) / static_cast<double>(n - 3);
+      knots_[static_cast<Eigen::Index>(4 + j)] =
+          dense ? u_[j + 1] : static_cast<double>(j + 1) / static_cast<double>(n - 3);
     }
     control_count_ = n;
   }
 
   double length_m() const { return length_m_; }
+  /// The programmed points' parameters u (chord length / length_m), 0 .. 1.
+  const std::vector<double>& parameters() const { return u_; }
 
   /// The curve for penalty weight lambda.
   CompressorSpline fit(double lambda) const {
@@ -110,7 +114,7 @@ class RunFitter {
                                double weight) {
         Eigen::Vector3d known = target;
         for (const auto& [j, value] : row) {
-          if (fixed[j]) known -= value * control.col(static_cast<Eigen::Index>(j)).matrix();
+          if (fixed[j]) known -= value * control.col(static_cast<Eigen::Index>(j));
         }
         for (const auto& [j, value] : row) {
           if (fixed[j]) continue;
@@ -135,10 +139,10 @@ class RunFitter {
       const Eigen::SimplicialLDLT<Eigen::SparseMatrix<double>> solver(normal);
       const Eigen::MatrixXd solution = solver.solve(rhs);
       for (std::size_t j = 0; j < n; ++j) {
-        if (!fixed[j]) control.col(static_cast<Eigen::Index>(j)) = solution.row(unknown[j]).transpose().array();
+        if (!fixed[j]) control.col(static_cast<Eigen::Index>(j)) = solution.row(unknown[j]).transpose();
       }
     }
-    return CompressorSpline(knots_, control);
+    return CompressorSpline(knots_, control.array());
   }
 
   /// Largest distance between the curve and the programmed points and polyline (both ways).
@@ -156,7 +160,8 @@ class RunFitter {
         if (!(slope > 0.0)) break;
         u = std::clamp(u - r.dot(s1) / slope, 0.0, 1.0);
       }
-      worst = std::max(worst, (curve(u).matrix() - points_[k]).norm());
+      const double distance = (curve(u).matrix() - points_[k]).norm();
+      if (!(distance <= worst)) worst = std::isnan(distance) ? std::numeric_limits<double>::infinity() : distance;
     }
     constexpr int kChecksPerBlock = 8;
     for (std::size_t k = 1; k <= m; ++k) {
@@ -167,7 +172,7 @@ class RunFitter {
         for (std::size_t s = k > 2 ? k - 2 : 1; s <= std::min(m, k + 2); ++s) {
           nearest = std::min(nearest, segment_distance(at, points_[s - 1], points_[s]));
         }
-        worst = std::max(worst, nearest);
+        if (!(nearest <= worst)) worst = std::isnan(nearest) ? std::numeric_limits<double>::infinity() : nearest;
       }
     }
     return worst;
@@ -182,7 +187,6 @@ class RunFitter {
  private:
   const std::vector<Eigen::Vector3d>& points_;
   const Run& run_;
-  const CompressorOptions& options_;
   std::vector<double> u_;
   double length_m_ = 0.0;
   CompressorSpline::KnotVectorType knots_;
@@ -221,6 +225,7 @@ void CompressorOptions::validate() const {
   if (!(corner_angle_rad > 0.0 && corner_angle_rad < std::numbers::pi)) fail("corner_angle_rad", corner_angle_rad, "must be in (0, pi)");
   if (min_run_blocks < 2) fail("min_run_blocks", static_cast<double>(min_run_blocks), "must be >= 2");
   if (!(sampling_fraction > 0.0 && sampling_fraction <= 0.5)) fail("sampling_fraction", sampling_fraction, "must be in (0, 0.5]");
+  if (!(max_sagitta_m > 0.0) || !std::isfinite(max_sagitta_m)) fail("max_sagitta_m", max_sagitta_m, "must be > 0");
   if (!(max_chord_turn_rad > 0.0 && max_chord_turn_rad < corner_angle_rad)) {
     fail("max_chord_turn_rad", max_chord_turn_rad, "must be in (0, corner_angle_rad)");
   }
@@ -306,25 +311,31 @@ CompressorResult compress_polylines(const toolpath::Toolpath& path, const Compre
     while (next <= run.first) out.push_back(p[next++]);
     std::vector<Eigen::Vector3d> points;
     for (std::size_t i = run.first; i <= run.last; ++i) points.push_back(p[i].tip_W_m);
-    const RunFitter fitter(points, run, options);
     const double allowed_m = (1.0 - options.sampling_fraction) * run.tolerance_m;
     // lambda from 1e-10 (nearly least squares) to 1e8 (nearly the tangent-constrained
-    // cubic): the largest that passes, to a half decade, by bisection of its exponent.
+    // cubic): the largest that passes, to a half decade, by bisection of its exponent. About
+    // one control point per two blocks first; where even the least-squares fit misses, one per
+    // block (knots at the points: the curve can pass through them).
     double low = -10.0, high = 8.0;
     std::optional<CompressorSpline> best;
     double best_deviation = 0.0;
-    {
+    std::optional<RunFitter> chosen;
+    for (const bool dense : {false, true}) {
+      RunFitter fitter(points, run, dense);
       CompressorSpline curve = fitter.fit(std::pow(10.0, low));
       const double deviation = fitter.deviation_m(curve);
       if (deviation <= allowed_m) {
         best = curve;
         best_deviation = deviation;
+        chosen.emplace(std::move(fitter));
+        break;
       }
     }
     if (!best) {
       ++result.summary.runs_left;
       continue;  // the run's points are copied as they are
     }
+    const RunFitter& fitter = *chosen;
     double best_exponent = low;
     while (high - low > 0.5) {
       const double middle = 0.5 * (low + high);
@@ -339,8 +350,17 @@ CompressorResult compress_polylines(const toolpath::Toolpath& path, const Compre
         high = middle;
       }
     }
+    // Evenly in u, as many intervals as blocks (no coarser: a chord over a whole period of a
+    // wave would see no sagitta at its quarter points; even: a cubic spline through unevenly
+    // spaced points has a third derivative that jumps with the spacing), bisected further.
     std::vector<double> samples;
-    sample_curve(*best, 0.0, 1.0, options.sampling_fraction * run.tolerance_m, options.max_chord_turn_rad, 0, samples);
+    const std::size_t intervals = points.size() - 1;
+    for (std::size_t k = 1; k <= intervals; ++k) {
+      sample_curve(*best, static_cast<double>(k - 1) / static_cast<double>(intervals),
+                   k == intervals ? 1.0 : static_cast<double>(k) / static_cast<double>(intervals),
+                   std::min(options.sampling_fraction * run.tolerance_m, options.max_sagitta_m),
+                   options.max_chord_turn_rad, 0, samples);
+    }
     for (double u : samples) {
       if (u >= 1.0) break;
       PathPoint sample = p[run.first + fitter.block_of(u)];

@@ -63,7 +63,7 @@ TEST(DwellPlan, HalfASecondAtACornerAddsHalfASecondAndHoldsTheSetPoints) {
   }
 }
 
-TEST(DwellPlan, ADwellAtTheEndsAndOnAStraightLineStopsAndHolds) {
+TEST(DwellPlan, ADwellAtTheEndsHoldsThereAndBadDwellsAreErrors) {
   const Square square;
   FeedrateOptions options;
   options.feed_m_per_s = 10.0 / 60.0;
