@@ -289,6 +289,15 @@ ChainInputs load_chain_inputs(const ChainInputOptions& options) {
   for (const auto& warning : inputs.toolpath.warnings) {
     inputs.warnings.push_back(located_message(warning.file, warning.line, 0, warning.message));
   }
+  {
+    // The compressor first (the 840D compresses blocks before its corner rounding): its curve
+    // keeps the runs' end points and tangents, so the corners between runs are still corners.
+    planner::CompressorOptions compressor;
+    compressor.override_tolerance_m = options.compressor_tolerance_override_m;
+    planner::CompressorResult compressed = planner::compress_polylines(inputs.toolpath, compressor);
+    inputs.compression = compressed.summary;
+    if (!compressed.runs.empty()) inputs.toolpath = std::move(compressed.toolpath);
+  }
   bool programmed_blending = false;  // a G64 P / G5.1 tolerance somewhere in the program
   if (!options.corner_tolerance_override) {
     for (const auto& point : inputs.toolpath.points) {
@@ -330,6 +339,7 @@ ChainInputs load_chain_inputs(const ChainInputOptions& options) {
         const auto& block = inputs.toolpath.blocks[static_cast<std::size_t>(point.block)];
         inputs.warnings.push_back(located_message(block.file, block.line, 0,
                                                   "repeats the previous pose; merged with it"));
+        inputs.point_dwell_s.back() += point.dwell_s;
         continue;
       }
     }
@@ -344,6 +354,7 @@ ChainInputs load_chain_inputs(const ChainInputOptions& options) {
       inputs.path.back().tool_length_m = point.tool_length_m;
     }
     inputs.toolpath_point.push_back(i);
+    inputs.point_dwell_s.push_back(point.dwell_s);
     const double programmed_m = point.corner_tolerance_m;
     double contour_m = options.corner_tolerance_override || std::isnan(programmed_m) ? options.corner_tolerance_m
                                                                                       : programmed_m;

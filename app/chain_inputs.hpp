@@ -2,6 +2,7 @@
 // What several commands share: the machine, the tool path and the tool, from either a part file
 // (--part) or from --machine, --toolpath and --tool-length-mm.
 #include <CLI/CLI.hpp>
+#include <limits>
 #include <optional>
 #include <string>
 #include <vector>
@@ -10,6 +11,7 @@
 #include "vmsim/kinematics/machine_model.hpp"
 #include "vmsim/kinematics/path_kinematics.hpp"
 #include "vmsim/kinematics/redundancy.hpp"
+#include "vmsim/planner/compressor.hpp"
 #include "vmsim/planner/corner_blend.hpp"
 #include "vmsim/toolpath/toolpath.hpp"
 
@@ -30,6 +32,10 @@ struct ChainInputOptions {
   bool corner_tolerance_override = false;
   /// Largest angle between the blended and the programmed tool axis at a corner [rad].
   double corner_axis_tolerance_rad = planner::CornerBlendOptions{}.axis_tolerance_rad;
+  /// The compressor (planner/compressor.hpp, 840D COMPCAD / COMPCURV / COMPON): NaN = as the
+  /// program asks (PathPoint::compressor_tolerance_m); 0 = off; > 0 = on everywhere within this
+  /// tolerance [m] (a command-line --compressor-tolerance-mm).
+  double compressor_tolerance_override_m = std::numeric_limits<double>::quiet_NaN();
 };
 
 /// Adds --part, --machine, --toolpath, --tool-length-mm to a subcommand.
@@ -37,7 +43,9 @@ void add_chain_input_options(CLI::App& command, ChainInputOptions& options);
 
 struct ChainInputs {
   kinematics::MachineModel machine;
-  /// The tool path as executed: corners blended when ChainInputOptions::corner_tolerance_m > 0
+  /// What the compressor did (runs of short G1 blocks smoothed before corner blending).
+  planner::CompressionSummary compression;
+  /// The tool path as executed: short G1 runs compressed where the compressor is on, corners blended when ChainInputOptions::corner_tolerance_m > 0
   /// (blend points carry the block of the corner they replace), else as read.
   toolpath::Toolpath toolpath;
   /// The run's tool length [m] (--tool-length-mm, else the part's `tool`): every H and T not in
@@ -54,6 +62,9 @@ struct ChainInputs {
   /// the planner's path fidelity and the set-point check allow it
   /// (FeedrateOptions::point_path_tolerance_m).
   std::vector<double> contour_tolerance_m;
+  /// For each point of `path`: the dwell [s] held there after its motion (PathPoint::dwell_s,
+  /// those of merged points added; FeedrateOptions::point_dwell_s).
+  std::vector<double> point_dwell_s;
   /// "file:line" (and " N<number>" where the block has one) for each tool path block.
   std::vector<std::string> block_names;
   /// Warnings for the user (reader warnings, merged points), each naming its file and line.

@@ -8,6 +8,7 @@
 #include <cmath>
 #include <filesystem>
 #include <iomanip>
+#include <limits>
 #include <memory>
 #include <numbers>
 #include <sstream>
@@ -37,6 +38,7 @@ struct PlanOptions {
   std::string effects = "all";
   double feed_mm_per_min = 0.0;
   double corner_tolerance_mm = 0.0;
+  double compressor_tolerance_mm = std::numeric_limits<double>::quiet_NaN();
   double corner_axis_tolerance_deg = planner::CornerBlendOptions{}.axis_tolerance_rad * 180.0 / std::numbers::pi;
   bool exact_stop = false;
   bool no_third_order = false;
@@ -122,6 +124,12 @@ int run_plan(const PlanOptions& options, const CommandContext& context) {
   // Either option overrides the program's corner tolerances (G61 / G64 P / G5.1); without them
   // the program's apply, exact stop where it says nothing.
   input_options.corner_tolerance_override = options.exact_stop || options.corner_tolerance_mm > 0.0;
+  if (!std::isnan(options.compressor_tolerance_mm)) {
+    if (!(options.compressor_tolerance_mm >= 0.0) || !std::isfinite(options.compressor_tolerance_mm)) {
+      throw CommandLineError("--compressor-tolerance-mm must be >= 0, got " + format_double(options.compressor_tolerance_mm));
+    }
+    input_options.compressor_tolerance_override_m = options.compressor_tolerance_mm * 1e-3;
+  }
 
   const ChainInputs inputs = load_chain_inputs(input_options);
   // Jerk limits: the command line's, else the program's SOFT / BRISK, else on (plan's default).
@@ -131,6 +139,9 @@ int run_plan(const PlanOptions& options, const CommandContext& context) {
   nc_command_line.corner_override = input_options.corner_tolerance_override;
   nc_command_line.corner_tolerance_m = input_options.corner_tolerance_m;
   nc_command_line.default_third_order = true;
+  nc_command_line.compressor_override = !std::isnan(input_options.compressor_tolerance_override_m);
+  nc_command_line.compressor_tolerance_m = nc_command_line.compressor_override ? input_options.compressor_tolerance_override_m : 0.0;
+  nc_command_line.compression = inputs.compression;
   const NcModes nc_modes = decide_nc_modes(inputs.toolpath, nc_command_line);
   fo.third_order = nc_modes.third_order;
   OutputFolder output(options.out_dir, chain_input_files(input_options, inputs), {"plan", VMSIM_VERSION});
@@ -142,6 +153,7 @@ int run_plan(const PlanOptions& options, const CommandContext& context) {
   // The programmed feeds (G94 F, G93 inverse time); rapids and turns about a fixed tip on the
   // axes' own limits.
   fo.point_feed_m_per_s = point_feeds_m_per_s(inputs, path, FeedSetting{});
+  fo.point_dwell_s = inputs.point_dwell_s;
   fo.rapid_end = rapid_ends(inputs);
   fo.point_path_tolerance_m = inputs.contour_tolerance_m;
   const planner::FeedratePlan plan = planner::plan_feedrate(inputs.machine, path, fo);
@@ -365,6 +377,10 @@ void add_plan_command(CLI::App& app, CommandContext& context) {
           ->check(CLI::PositiveNumber)
           ->capture_default_str();
   axis_tolerance->needs(tolerance);
+  command->add_option("--compressor-tolerance-mm", options->compressor_tolerance_mm,
+                      "the NC block compressor (840D COMPCAD) within this tolerance [mm] on every run of "
+                      "short G1 blocks, 0: off; default: where the program asks (COMPCAD / COMPCURV / "
+                      "COMPON, CYCLE832), within its tolerance");
   command->add_flag("--exact-stop", options->exact_stop,
                     "stop at every corner, whatever the program asks (without it and "
                     "--corner-tolerance-mm: the program's G61 / G9 / G64 P / G5.1, exact stop "

@@ -44,6 +44,8 @@ struct CommandOptions {
   bool compare_methods = false;
   /// NaN = not given: the program's corner tolerances (G61 / G64 P / G5.1), else exact stop.
   double corner_tolerance_mm = std::numeric_limits<double>::quiet_NaN();
+  /// NaN = not given: the compressor where the program asks (COMPCAD, CYCLE832).
+  double compressor_tolerance_mm = std::numeric_limits<double>::quiet_NaN();
   double tolerance_um = 0.0;
   int threads = 0;
   long long compact_zmap_above_lines = static_cast<long long>(SimulatePartOptions{}.compact_zmap_above_lines);
@@ -144,6 +146,12 @@ int run(const CommandOptions& command, const CommandContext& context) {
   }
   options.corner_tolerance_m = tolerance_given ? command.corner_tolerance_mm * 1e-3 : 0.0;
   options.corner_tolerance_override = tolerance_given;
+  if (!std::isnan(command.compressor_tolerance_mm)) {
+    if (!(command.compressor_tolerance_mm >= 0.0) || !std::isfinite(command.compressor_tolerance_mm)) {
+      throw InputError("--compressor-tolerance-mm must be >= 0, got " + format_double(command.compressor_tolerance_mm));
+    }
+    options.compressor_tolerance_override_m = command.compressor_tolerance_mm * 1e-3;
+  }
   options.threads = command.threads;
   if (!(command.tolerance_um >= 0.0) || command.tolerance_um > 1e4) {
     throw InputError("--tolerance-um must be > 0 and at most 10 000 (10 mm), got " +
@@ -271,6 +279,10 @@ void add_simulate_part_command(CLI::App& app, CommandContext& context) {
                       "blend G1 corners within this distance [mm] (0: exact stop) at every "
                       "corner; default: what the program asks (G61 / G9 exact stop, G64 P, "
                       "G5.1), exact stop where it says nothing");
+  command->add_option("--compressor-tolerance-mm", options->compressor_tolerance_mm,
+                      "the NC block compressor (840D COMPCAD) within this tolerance [mm] on every run of "
+                      "short G1 blocks, 0: off; default: where the program asks (COMPCAD / COMPCURV / "
+                      "COMPON, CYCLE832), within its tolerance");
   command->add_flag("--no-commanded-check", options->no_commanded_check,
                     "skip cutting the commanded path to check the reference run");
   command->add_option("--reference", options->reference,

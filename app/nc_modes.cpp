@@ -181,18 +181,42 @@ NcModes decide_nc_modes(const toolpath::Toolpath& path, const NcModeCommandLine&
     modes.corners.applied = "as the program asks at each corner, exact stop where it says nothing";
   }
 
-  // Compressor: read and reported; not emulated (the planner follows the programmed points).
+  // Compressor: runs of short G1 blocks smoothed within the tolerance (planner/compressor.hpp),
+  // where the program switches it on, or everywhere / nowhere from the command line.
   modes.compressor.program = stretches(path, [](const PathPoint& p) -> std::string {
     if (std::isnan(p.compressor_tolerance_m)) return "not programmed";
     return p.compressor_tolerance_m == 0.0 ? "COMPOF" : "COMPCAD " + tolerance_text(p.compressor_tolerance_m);
   });
-  modes.compressor.source = programmed_kinds(modes.compressor.program) > 0 ? "program" : "default: the program does not say";
-  modes.compressor.applied = "off: the programmed points are followed as they are";
   bool compressor_asked = false;
   for (const auto& s : modes.compressor.program) compressor_asked = compressor_asked || s.mode.rfind("COMPCAD", 0) == 0;
-  if (compressor_asked) {
-    modes.compressor.note = "the program asks for the compressor; it is not emulated (the blocks' points are "
-                            "followed within the planner's path tolerance, corners blended as programmed)";
+  if (command_line.compressor_override) {
+    modes.compressor.source = "command line: --compressor-tolerance-mm";
+    modes.compressor.overridden = programmed_kinds(modes.compressor.program) > 0;
+  } else {
+    modes.compressor.source = programmed_kinds(modes.compressor.program) > 0 ? "program" : "default: the program does not say";
+  }
+  const bool on = command_line.compressor_override ? command_line.compressor_tolerance_m > 0.0 : compressor_asked;
+  if (!on) {
+    modes.compressor.applied = "off: the programmed points are followed as they are";
+  } else if (!command_line.compression) {
+    modes.compressor.applied = "off in this run (not emulated by this command): the programmed points are followed";
+  } else {
+    const planner::CompressionSummary& c = *command_line.compression;
+    modes.compressor.applied =
+        (command_line.compressor_override ? "on everywhere within " + tolerance_text(command_line.compressor_tolerance_m)
+                                          : std::string("on where the program asks, within its tolerance")) +
+        ": runs of short G1 blocks replaced by a curvature-continuous cubic B-spline (" + std::to_string(c.runs) +
+        " runs, " + std::to_string(c.blocks_compressed) + " blocks; largest deviation from the programmed points " +
+        tolerance_text(c.deviation_max_m) + ")";
+    std::string note;
+    if (c.runs_left > 0) {
+      note = std::to_string(c.runs_left) + " runs left as programmed (no smooth curve within the tolerance)";
+    }
+    if (c.orientation_blocks_left > 0) {
+      note += (note.empty() ? "" : "; ") + std::to_string(c.orientation_blocks_left) +
+              " blocks left as programmed: the tool axis turns over them (the orientation is not compressed)";
+    }
+    modes.compressor.note = note;
   }
   return modes;
 }

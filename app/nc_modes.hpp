@@ -7,7 +7,8 @@
 // The model (README, "NC modes"): the planner plans one order for the whole path and the servo
 // runs one feedforward setting, so where a program switches mode along the path the mode in
 // force over most of its cutting moves is applied (the report lists every stretch and says so).
-// Corner tolerances are applied point by point (ChainInputs, planner::blend_corners).
+// Corner tolerances are applied point by point (ChainInputs, planner::blend_corners), and so is
+// the compressor (planner::compress_polylines).
 #include <nlohmann/json.hpp>
 
 #include <optional>
@@ -15,6 +16,7 @@
 #include <vector>
 
 #include "vmsim/kinematics/machine_model.hpp"
+#include "vmsim/planner/compressor.hpp"
 #include "vmsim/toolpath/toolpath.hpp"
 
 namespace vmsim::app {
@@ -55,6 +57,11 @@ struct NcModeCommandLine {
   bool corner_override = false;
   double corner_tolerance_m = 0.0;
   bool default_third_order = false;  ///< the command's default where the program says nothing
+  /// --compressor-tolerance-mm: 0 off, > 0 on everywhere within it [m].
+  bool compressor_override = false;
+  double compressor_tolerance_m = 0.0;
+  /// What the compressor did in this run (ChainInputs::compression); nullopt: not run.
+  std::optional<planner::CompressionSummary> compression;
 };
 
 /// Decides the run's modes from the program (path.points) and the command line.

@@ -522,6 +522,7 @@ Run simulate_path_stages(const Context& context, const std::string& name, const 
     plan_options.point_feed_m_per_s = point_feeds;
     plan_options.rapid_end = rapid_ends(context.inputs);
     plan_options.point_path_tolerance_m = context.inputs.contour_tolerance_m;
+    plan_options.point_dwell_s = context.inputs.point_dwell_s;
     // The reference run holds no set points (issue 21): they are made again window by window
     // from the plan (planner::SetPointGenerator) for the checks and the servo.
     plan_options.keep_setpoints = keep_signals;
@@ -1389,6 +1390,7 @@ Json simulate_part(const SimulatePartOptions& options, const ProgressSink& progr
   chain_options.part_path = options.part_path;
   chain_options.corner_tolerance_m = options.corner_tolerance_m;
   chain_options.corner_tolerance_override = options.corner_tolerance_override;
+  chain_options.compressor_tolerance_override_m = options.compressor_tolerance_override_m;
   const Ranks& ranks = Ranks::world();
   Context context{options, progress, load_part(options.part_path), load_chain_inputs(chain_options), {}, {}, {}, {}, {}, {}, ranks, {}, {}, {}, false, {}};
   NcModeCommandLine nc_command_line;
@@ -1397,6 +1399,9 @@ Json simulate_part(const SimulatePartOptions& options, const ProgressSink& progr
   nc_command_line.feedforward = options.feedforward;
   nc_command_line.corner_override = options.corner_tolerance_override;
   nc_command_line.corner_tolerance_m = options.corner_tolerance_m;
+  nc_command_line.compressor_override = !std::isnan(options.compressor_tolerance_override_m);
+  nc_command_line.compressor_tolerance_m = nc_command_line.compressor_override ? options.compressor_tolerance_override_m : 0.0;
+  nc_command_line.compression = context.inputs.compression;
   context.nc = decide_nc_modes(context.inputs.toolpath, nc_command_line);
   if (context.nc.feedforward) context.servo_machine = with_feedforward(context.inputs.machine, *context.nc.feedforward);
   for (const std::string& line : context.nc.lines()) progress("NC mode: " + line);

@@ -11,6 +11,7 @@
 
 #include <Eigen/Core>
 #include <functional>
+#include <limits>
 #include <optional>
 #include <string>
 #include <vector>
@@ -47,6 +48,9 @@ struct SimulatePartOptions {
   /// True: corner_tolerance_m at every corner (given on the command line); false: the
   /// program's tolerances (ChainInputOptions::corner_tolerance_override).
   bool corner_tolerance_override = false;
+  /// The compressor: NaN = as the program asks (COMPCAD ...), 0 = off, > 0 = on everywhere
+  /// within it [m] (ChainInputOptions::compressor_tolerance_override_m).
+  double compressor_tolerance_override_m = std::numeric_limits<double>::quiet_NaN();
   double grid_m = 20e-6;                 ///< line spacing of every surface view
   double mark_threshold_m = 2e-6;        ///< |deviation| above which a line belongs to a mark
   /// The actual trajectory is thinned to the samples needed to keep every dropped sample within

@@ -179,9 +179,17 @@ CornerBlendResult blend_corners(const Toolpath& path, const CornerBlendOptions& 
         (out.back().axis_W - point.axis_W).norm() < 1e-12 &&
         (out.back().tool_length_m == point.tool_length_m ||
          (std::isnan(out.back().tool_length_m) && std::isnan(point.tool_length_m)))) {
+      out.back().dwell_s += point.dwell_s;  // a dwell where the tool already is
       return;
     }
     out.push_back(point);
+  };
+  // A point made from another (a blend sample, a point on a leg) does not dwell: only the
+  // programmed point does, and a corner with a dwell stays an exact stop.
+  auto made_from = [](const PathPoint& source) {
+    PathPoint point = source;
+    point.dwell_s = 0.0;
+    return point;
   };
   std::size_t first = 0;  // start of the current stretch, as in solve_path_kinematics
   for (std::size_t i = 0; i < n; ++i) {
@@ -225,6 +233,10 @@ CornerBlendResult blend_corners(const Toolpath& path, const CornerBlendOptions& 
     };
     if (theta > options.max_turn_angle_rad) {
       keep("turns by more than the largest blended angle (a reversal)");
+      continue;
+    }
+    if (corner.dwell_s > 0.0) {
+      keep("a dwell (G4, a cycle's dwell) holds the tool there");
       continue;
     }
     if (corner.kind == MotionKind::rapid || next.kind == MotionKind::rapid) {
@@ -287,7 +299,7 @@ CornerBlendResult blend_corners(const Toolpath& path, const CornerBlendOptions& 
     std::vector<double> before;
     for (double d = 2.0 * L; d < half_in; d *= 2.0) before.push_back(d);
     for (auto it = before.rbegin(); it != before.rend(); ++it) {
-      PathPoint point = corner;
+      PathPoint point = made_from(corner);
       point.tip_W_m = corner.tip_W_m - *it * u1;
       point.axis_W = axis_exp(corner.axis_W, *it * rho1);
       push(point);
@@ -298,7 +310,7 @@ CornerBlendResult blend_corners(const Toolpath& path, const CornerBlendOptions& 
     sample(curve, 0.0, 0.5, sagitta_m, options.max_chord_turn_rad, 0, parameters);
     sample(curve, 0.5, 1.0, sagitta_m, options.max_chord_turn_rad, 0, parameters);
     for (const double t : parameters) {
-      PathPoint point = t <= 0.5 ? corner : next;
+      PathPoint point = made_from(t <= 0.5 ? corner : next);
       point.tip_W_m = curve.tip(t);
       point.axis_W = curve.axis(t);
       point.block = corner.block;
@@ -307,7 +319,7 @@ CornerBlendResult blend_corners(const Toolpath& path, const CornerBlendOptions& 
     // The same on the outgoing leg (the next motion: its block and feed).
     const double half_out = 0.5 * chord_out.norm();
     for (double d = 2.0 * L; d < half_out; d *= 2.0) {
-      PathPoint point = next;
+      PathPoint point = made_from(next);
       point.tip_W_m = corner.tip_W_m + d * u2;
       point.axis_W = axis_exp(corner.axis_W, d * rho2);
       push(point);

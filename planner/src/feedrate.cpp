@@ -669,6 +669,11 @@ void FeedrateOptions::validate() const {
       bad("point_feed_m_per_s[" + std::to_string(i) + "]", point_feed_m_per_s[i], "must be >= 0");
     }
   }
+  for (std::size_t i = 0; i < point_dwell_s.size(); ++i) {
+    if (!(point_dwell_s[i] >= 0.0) || !std::isfinite(point_dwell_s[i])) {
+      bad("point_dwell_s[" + std::to_string(i) + "]", point_dwell_s[i], "must be >= 0 and finite");
+    }
+  }
 }
 
 double SetPointCheck::worst() const { return ratio.size() == 0 ? 0.0 : ratio.maxCoeff(); }
@@ -994,16 +999,24 @@ FeedratePlan plan_feedrate(const kinematics::MachineModel& machine,
   fidelity.axis_tolerance_rad = options.path_axis_tolerance_rad;
   fidelity.free_end = options.rapid_end;
   fidelity.segment_tolerance_m = options.point_path_tolerance_m;
+  if (!options.point_dwell_s.empty() && options.point_dwell_s.size() != path.s_m.size()) {
+    throw InputError("feedrate interpolation: " + std::to_string(options.point_dwell_s.size()) + " dwells for " +
+                     std::to_string(path.s_m.size()) + " path points");
+  }
   RefinedPath refined = refine_path(machine, path, fidelity);
   const std::size_t added = refined.graded_points + refined.refined_points;
   FeedratePlan plan;
-  if (added > 0 && !options.point_feed_m_per_s.empty()) {
-    // An added point's feed is that of the input point that ends its segment.
+  if (added > 0 && (!options.point_feed_m_per_s.empty() || !options.point_dwell_s.empty())) {
+    // An added point's feed is that of the input point that ends its segment; a dwell stays at
+    // the input point itself (the last point of its source).
     FeedrateOptions mapped = options;
-    mapped.point_feed_m_per_s.assign(refined.source_point.size(), 0.0);
+    if (!options.point_feed_m_per_s.empty()) mapped.point_feed_m_per_s.assign(refined.source_point.size(), 0.0);
+    if (!options.point_dwell_s.empty()) mapped.point_dwell_s.assign(refined.source_point.size(), 0.0);
     for (std::size_t k = 0; k < refined.source_point.size(); ++k) {
       const std::size_t source = refined.source_point[k];
       if (source < options.point_feed_m_per_s.size()) mapped.point_feed_m_per_s[k] = options.point_feed_m_per_s[source];
+      const bool input_point = k + 1 == refined.source_point.size() || refined.source_point[k + 1] != source;
+      if (input_point && source < options.point_dwell_s.size()) mapped.point_dwell_s[k] = options.point_dwell_s[source];
     }
     plan = plan_refined_path(machine, refined.path, mapped);
   } else {
@@ -1149,6 +1162,11 @@ FeedratePlan plan_refined_path(const kinematics::MachineModel& machine, const ki
   std::vector<bool> corner_point(path.s_m.size(), false);
   for (const auto& c : path.corners) corner_point[c.point] = true;
   corner_point.front() = corner_point.back() = true;
+  // A dwell holds the point at rest: it is a stop.
+  const auto dwell_at = [&](std::size_t i) { return options.point_dwell_s.empty() ? 0.0 : options.point_dwell_s[i]; };
+  for (std::size_t i = 0; i < path.s_m.size(); ++i) {
+    if (dwell_at(i) > 0.0) corner_point[i] = true;
+  }
   // Stretch lengths in path segments, to keep at least 4 grid segments per stretch.
   std::vector<std::size_t> stretch_segments(path.s_m.size(), 0);
   {
@@ -1176,6 +1194,7 @@ FeedratePlan plan_refined_path(const kinematics::MachineModel& machine, const ki
   }
   p.s.push_back(0.0);
   p.stop.push_back(true);
+  std::vector<double> grid_dwell_s = {dwell_at(0)};  // per grid point
   std::vector<double> cuts;
   for (std::size_t i = 0; i + 1 < path.s_m.size(); ++i) {
     const double h = path.s_m[i + 1] - path.s_m[i];
@@ -1197,6 +1216,7 @@ FeedratePlan plan_refined_path(const kinematics::MachineModel& machine, const ki
       const bool last = m + 1 == cuts.size();
       p.s.push_back(last ? path.s_m[i + 1] : path.s_m[i] + cuts[m]);
       p.stop.push_back(last && corner_point[i + 1]);
+      grid_dwell_s.push_back(last ? dwell_at(i + 1) : 0.0);
       sigma_start = cuts[m];
     }
   }
@@ -1446,8 +1466,8 @@ FeedratePlan plan_refined_path(const kinematics::MachineModel& machine, const ki
       ++plan.slowdown_rounds;
       continue;
     }
-    ex.t.assign(points, 0.0);
-    for (std::size_t k = 0; k < segments; ++k) ex.t[k + 1] = ex.t[k] + ex.dt[k];
+    ex.t.assign(points, grid_dwell_s[0]);
+    for (std::size_t k = 0; k < segments; ++k) ex.t[k + 1] = ex.t[k] + ex.dt[k] + grid_dwell_s[k + 1];
 
     // Set points: the law sampled at the period, q from the spline.
     SetPoints& sp = plan.setpoints;

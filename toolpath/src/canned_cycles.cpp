@@ -108,6 +108,7 @@ std::vector<CycleMove> expand_cycle(const Eigen::Vector3d& start_mm, const Cycle
     move(true, hole.r_mm);
     if (shifted) onto_axis();
     move(false, hole.bottom_mm);
+    moves.back().dwell_s = hole.dwell_s;
     if (shifted) shift_by(1.0);
     move(true, hole.initial_mm);
     if (shifted) onto_axis();
@@ -140,6 +141,7 @@ std::vector<CycleMove> expand_cycle(const Eigen::Vector3d& start_mm, const Cycle
     }
     case 85: case 89: case 84: case 74:
       move(false, hole.bottom_mm);
+      moves.back().dwell_s = hole.dwell_s;
       move(false, hole.r_mm);
       break;
     case 88:
@@ -147,12 +149,14 @@ std::vector<CycleMove> expand_cycle(const Eigen::Vector3d& start_mm, const Cycle
       // stopped); the operator jogs the tool out, taken here as straight out along w to R, and
       // cycle start brings it to the return level.
       move(false, hole.bottom_mm);
+      moves.back().dwell_s = hole.dwell_s;
       move(true, hole.r_mm);
       break;
     case 76: {
       // Fine boring (Fanuc): at the bottom the spindle stops oriented and the tool moves off
       // the wall, so that it leaves without a mark; back on the hole's axis once out.
       move(false, hole.bottom_mm);
+      moves.back().dwell_s = hole.dwell_s;
       shift_by(1.0);
       const double out_mm =
           hole.return_to_initial ? std::max(hole.initial_mm, hole.r_mm) : hole.r_mm;
@@ -162,6 +166,7 @@ std::vector<CycleMove> expand_cycle(const Eigen::Vector3d& start_mm, const Cycle
     }
     default:  // 81 82 86
       move(false, hole.bottom_mm);
+      moves.back().dwell_s = hole.dwell_s;
       break;
   }
   const double clear_mm =

@@ -21,6 +21,7 @@ struct CycleMove {
   bool rapid = true;
   Eigen::Vector3d p_mm = Eigen::Vector3d::Zero();
   CycleFeed feed = CycleFeed::cutting;  ///< for a feed move
+  double dwell_s = 0.0;  ///< the dwell at its end (PathPoint::dwell_s)
 };
 
 /// Peck drilling along the axis w, downwards (bottom_mm below reference_mm): strokes cut from
@@ -85,12 +86,15 @@ struct CycleHole {
   /// in the plane (u, v).
   double shift_mm = 0.0;
   Eigen::Vector2d shift_direction = Eigen::Vector2d::UnitX();
+  /// The dwell at the bottom (the Z point: G87's top) [s]: P of G74 G76 G82 G84 G87 G88 G89.
+  double dwell_s = 0.0;
 };
 
 /// The moves of one hole from `start_mm`:
 ///  1. where w is below R: rapid along w up to R; then rapid in (u, v) to the hole; rapid
 ///     along w to R;
-///  2. the hole: G81 feed to the bottom; G82 the same (its dwell is not a motion); G83 pecks of
+///  2. the hole (a dwell of dwell_s on the move that reaches the bottom): G81 feed to the
+///     bottom; G82 the same; G83 pecks of
 ///     Q from R, after each a rapid out to R and a rapid back to peck_clearance_mm above the
 ///     last depth; G73 pecks of Q, after each a rapid back-off of peck_retract_mm; G85, G89,
 ///     G84 and G74 feed to the bottom and feed back to R; G86 feeds to the bottom; G76 feeds to

@@ -142,6 +142,15 @@ class GcodeReader {
   [[noreturn]] void fail(const Word& word, const std::string& message) const {
     fail(word.column, "'" + word.text + "': " + message);
   }
+  /// A dwell [s] at the current position: held on the last point made (a dwell before any
+  /// motion holds nothing).
+  void dwell_here(double seconds) {
+    if (compensator_) {
+      warn("dwell under cutter compensation (G41 / G42): not timed");
+      return;
+    }
+    if (!path_.points.empty() && seconds > 0.0) path_.points.back().dwell_s += seconds;
+  }
   void warn(const std::string& message) {
     // A file of millions of deleted blocks would otherwise give millions of warnings.
     ++warning_count_;
@@ -572,6 +581,10 @@ class GcodeReader {
           const Word* other = first_of({abc[0], abc[1], abc[2], ijk[0], ijk[1], ijk[2], vec[0],
                                         vec[1], vec[2], r_word, xyz[1], xyz[2]});
           if (other) fail(*other, "motion word in a G4 dwell block");
+          // Fanuc: G4 X<seconds> or G4 P<milliseconds> (LinuxCNC's P in seconds is not this
+          // dialect's).
+          if (xyz[0] && p_word) fail(*p_word, "G4 with both X and P");
+          if (xyz[0] || p_word) dwell_here(xyz[0] ? xyz[0]->value : p_word->value * 1e-3);
           return;
         }
         case 100: set_offset_from_program(*nonmodal_word, l_word, p_word, r_word, xyz); return;
@@ -601,7 +614,7 @@ class GcodeReader {
       if (const Word* extra = first_of({abc[0], abc[1], abc[2], vec[0], vec[1], vec[2]})) {
         fail(*extra, "rotary and tool vector words in a canned cycle block are not supported");
       }
-      canned_cycle(xyz, ijk, r_word, q_word, l_word, block_number,
+      canned_cycle(xyz, ijk, r_word, q_word, l_word, p_word, block_number,
                    motion_word ? *motion_word : *first_motion_word);
       return;
     }
@@ -1350,10 +1363,11 @@ class GcodeReader {
     cycle_bottom_mm_.reset();
     cycle_q_mm_.reset();
     cycle_shift_ij_mm_.reset();
+    cycle_dwell_s_ = 0.0;
   }
 
   void canned_cycle(const std::array<const Word*, 3>& xyz, const std::array<const Word*, 3>& ijk,
-                    const Word* r_word, const Word* q_word, const Word* l_word,
+                    const Word* r_word, const Word* q_word, const Word* l_word, const Word* p_word,
                     long block_number, const Word& reported) {
     const auto [u, v, w] = plane_axes(plane_);
     const int code = *motion_;
@@ -1400,6 +1414,8 @@ class GcodeReader {
     if (r_word) cycle_r_mm_ = r_word->value * mm_per_unit_;
     if (bottom_word) cycle_bottom_mm_ = bottom_word->value * mm_per_unit_;
     if (q_word) cycle_q_mm_ = std::abs(q_word->value) * mm_per_unit_;
+    // P: the dwell at the bottom in ms (Fanuc), modal like the hole data.
+    if (p_word) cycle_dwell_s_ = p_word->value * 1e-3;
     const std::string axis_name(1, "XYZ"[w]);
     if (!cycle_r_mm_) fail(reported, "canned cycle without its R level");
     if (!cycle_bottom_mm_) fail(reported, "canned cycle without its hole bottom (" + axis_name + ")");
@@ -1423,6 +1439,7 @@ class GcodeReader {
     hole.bottom_mm = incremental_ ? hole.r_mm + *cycle_bottom_mm_ : *cycle_bottom_mm_;
     hole.return_to_initial = return_to_initial_;
     hole.peck_mm = cycle_q_mm_.value_or(0.0);
+    hole.dwell_s = cycle_dwell_s_;
     hole.peck_clearance_mm = options_.peck_clearance_mm;
     hole.peck_retract_mm = options_.peck_retract_mm;
     if (!(options_.fine_boring_shift_direction.norm() > 0.0) ||
@@ -1497,6 +1514,7 @@ class GcodeReader {
         PathPoint point = new_point(move.rapid ? MotionKind::rapid : MotionKind::linear);
         if (!move.rapid) point.feed_m_per_s = *feed_m_per_s_;
         point.corner_tolerance_m = 0.0;  // the control stops at each level of a cycle
+        point.dwell_s = move.dwell_s;
         point.block = block;
         point.rotary_words_deg = rotary_words_deg(rotary_deg_);
         set_pose(point, to_frame(move.p_mm), rotary_deg_);
@@ -1869,6 +1887,7 @@ class GcodeReader {
   bool return_to_initial_ = true;       // G98 (else G99)
   std::optional<double> cycle_r_mm_, cycle_bottom_mm_, cycle_q_mm_;
   std::optional<Eigen::Vector2d> cycle_shift_ij_mm_;  // G76 / G87 shift by I J (modal)
+  double cycle_dwell_s_ = 0.0;  // P of G74 G76 G82 G84 G87 G88 G89 (modal in the cycle)
   bool g99_back_boring_warned_ = false;
   bool g88_warned_ = false;
   bool cycle_initial_known_ = false;

@@ -133,6 +133,15 @@ class HeidenhainReader {
   [[noreturn]] void fail(const Word& word, const std::string& message) const {
     fail(*word.token, message);
   }
+  /// A dwell [s] at the current position: held on the last point made (a dwell before any
+  /// motion holds nothing).
+  void dwell_here(double seconds) {
+    if (compensator_) {
+      warn("dwell under radius compensation (RL / RR): not timed");
+      return;
+    }
+    if (!path_.points.empty() && seconds > 0.0) path_.points.back().dwell_s += seconds;
+  }
   void warn(const std::string& message) {
     ++warning_count_;
     if (warning_count_ < kMaxWarnings) {
@@ -1094,7 +1103,23 @@ class HeidenhainReader {
       }
       return;  // 32.2 HSC-MODE / TA: accepted, not emulated
     }
-    if (cycle_number == "9") return;  // dwell: no geometry
+    if (cycle_number == "9") {
+      // CYCL DEF 9.0 DWELL TIME / CYCL DEF 9.1 DWELL <seconds>: the tool waits where it is.
+      if (sub == "0" || sub.empty()) return;
+      if (sub != "1") fail(number_token, "cycle 9 has sub-blocks 9.0 and 9.1 only");
+      std::optional<double> seconds;
+      for (std::size_t k = first + 3; k < tokens.size(); ++k) {
+        if (tokens[k].upper == "DWELL" || tokens[k].upper == "V.ZEIT") continue;
+        if (tokens[k].upper.rfind(';', 0) == 0) break;
+        seconds = value_of(tokens[k].text, tokens[k]);
+        if (!seconds) fail(tokens[k], "expected the dwell time in seconds");
+        require_within(tokens[k], *seconds, 0.0, detail::kMaxIgnoredWordValue, "dwell", "s");
+        break;
+      }
+      if (!seconds) fail(number_token, "CYCL DEF 9.1 needs the dwell time (DWELL <seconds>)");
+      dwell_here(*seconds);
+      return;
+    }
     if (cycle_number == "200" || cycle_number == "201" || cycle_number == "203" || cycle_number == "205") {
       if (!sub.empty()) fail(number_token, "cycle " + cycle_number + " has no sub-blocks");
       MachiningCycle definition;
@@ -1147,7 +1172,9 @@ class HeidenhainReader {
   //      than Q205; after each Q213 chip breaks (a retract of Q256 at Q208) one retract at Q208 to
   //      the set-up clearance and FMAX back to Q200 above the depth reached; out at Q208;
   //  all: then FMAX to the 2nd set-up clearance Q204 above the surface where it is higher.
-  // Dwells (Q210, Q211) are not motions: read, not timed.
+  // Dwells: Q211 (200, 201, 203, 205) at the depth, held on the point that reaches it; Q210
+  // (200, 203) at the set-up clearance after each full retract out of the hole (chip removal),
+  // before the tool goes back in.
 
   struct MachiningCycle {
     int number = 0;
@@ -1358,12 +1385,13 @@ class HeidenhainReader {
       bool rapid;
       Vec3 p_mm;
       double feed_m_per_s;
+      double dwell_s = 0.0;
     };
     std::vector<Step> steps;
     Vec3 p(*pos_[0], *pos_[1], *pos_[2]);
     const auto add = [&](bool rapid, const Vec3& to, double feed_m_per_s) {
       if ((to - p).norm() <= kTinyMm) return;
-      steps.push_back({rapid, to, feed_m_per_s});
+      steps.push_back({rapid, to, feed_m_per_s, 0.0});
       p = to;
     };
     const auto at_level = [&](double z) { return Vec3(p.x(), p.y(), z); };
@@ -1429,6 +1457,15 @@ class HeidenhainReader {
     for (const detail::CycleMove& m : detail::peck_moves(p, peck)) {
       add(m.rapid, m.p_mm, m.feed == detail::CycleFeed::retract ? retract : cutting);
     }
+    const double bottom_dwell_s = c.q.count(211) ? c.q.at(211) : 0.0;
+    const double top_dwell_s = (c.number == 200 || c.number == 203) && c.q.count(210) ? c.q.at(210) : 0.0;
+    for (std::size_t k = 0; k < steps.size(); ++k) {
+      Step& step = steps[k];
+      if (!step.rapid && step.p_mm.z() == bottom) step.dwell_s = bottom_dwell_s;
+      const bool back_in = k > 0 && k + 1 < steps.size() && steps[k - 1].p_mm.z() < clearance &&
+                           steps[k + 1].p_mm.z() < clearance;
+      if (step.p_mm.z() == clearance && back_in) step.dwell_s = top_dwell_s;
+    }
     // Out of the hole: 200 in rapid, 201 / 203 at the retraction feed; then the 2nd set-up clearance.
     add(c.number == 200 || retract_rapid, at_level(clearance), retract);
     add(true, at_level(second), 0.0);
@@ -1438,6 +1475,7 @@ class HeidenhainReader {
       PathPoint point = new_point(step.rapid ? MotionKind::rapid : MotionKind::linear, block);
       if (!step.rapid) point.feed_m_per_s = step.feed_m_per_s;
       point.corner_tolerance_m = 0.0;  // the control stops at each level of a cycle
+      point.dwell_s = step.dwell_s;
       set_pose(point, step.p_mm, rotary_deg_, axis_W_);
       detail::append_point(path_, point, options_, file_, line_);
     }

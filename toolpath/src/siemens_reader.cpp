@@ -194,6 +194,15 @@ class SiemensReader {
   const std::string& current_file() const {
     return calls_.empty() ? file_ : programs_[calls_.back().program].file;
   }
+  /// A dwell [s] at the current position: held on the last point made (a dwell before any
+  /// motion holds nothing).
+  void dwell_here(double seconds) {
+    if (compensator_) {
+      warn("dwell under cutter compensation (G41 / G42): not timed");
+      return;
+    }
+    if (!path_.points.empty() && seconds > 0.0) path_.points.back().dwell_s += seconds;
+  }
   void warn(const std::string& message) {
     ++warning_count_;
     if (warning_count_ < kMaxWarnings) {
@@ -926,6 +935,7 @@ class SiemensReader {
     bool exact_stop_here = false, machine_coordinates = false, dwell = false;
     const Word* frame_word = nullptr;
     const Word* f_word = nullptr;
+    const Word* s_word = nullptr;  // spindle speed [rev/min]; in a G4 block, revolutions
     const Word* t_word = nullptr;
     const Word* d_word = nullptr;
     const Word* l_word = nullptr;
@@ -985,7 +995,8 @@ class SiemensReader {
         refresh_corner_tolerance();
         continue;
       }
-      if (a == "OTOL" || a == "SPOS" || a == "S") continue;
+      if (a == "S") { set_once(s_word, word); continue; }
+      if (a == "OTOL" || a == "SPOS") continue;
       if (a == "RPL") { set_once(rpl_word, word); continue; }
       if (a == "AR" || a == "TURN" || a == "AP" || a == "RP" || a == "A2" || a == "B2" || a == "C2" || a == "SF" || a == "E") {
         fail(word, a == "AR" ? "arc by opening angle (AR=) is not supported: give I J K, CR= or CIP"
@@ -1047,6 +1058,10 @@ class SiemensReader {
     if (d_word) change_geometry([&] { d_ = static_cast<int>(std::lround(d_word->number())); });
     if (compensation_word && compensation_word->number() != 40.0) start_compensation(*compensation_word);
 
+    if (s_word && !dwell) {  // the spindle speed, for G4 S
+      require_within(*s_word, std::abs(s_word->number()), 0.0, 1e6, "spindle speed", "rev/min");
+      spindle_rev_per_min_ = std::abs(s_word->number());
+    }
     if (f_word && !dwell) {
       if (!(f_word->number() > 0.0)) fail(*f_word, "the feed rate must be positive");
       if (inverse_time_) {
@@ -1093,6 +1108,15 @@ class SiemensReader {
       if (const Word* other = first_of({xyz[0], xyz[1], xyz[2], abc[0], abc[1], abc[2]})) {
         fail(*other, "motion word in a G4 dwell block");
       }
+      // G4 F<seconds> or G4 S<spindle revolutions> (at the spindle speed programmed last).
+      if (f_word && s_word) fail(*s_word, "G4 with both F (seconds) and S (revolutions)");
+      if (!f_word && !s_word) fail(*dwell_word_, "G4 needs F (seconds) or S (spindle revolutions)");
+      const Word& time_word = f_word ? *f_word : *s_word;
+      require_within(time_word, time_word.number(), 0.0, detail::kMaxIgnoredWordValue, "dwell", "");
+      if (s_word && !(spindle_rev_per_min_ > 0.0)) {
+        fail(*s_word, "G4 S (a dwell in spindle revolutions) needs the spindle speed: no S before it");
+      }
+      dwell_here(f_word ? f_word->number() : s_word->number() * 60.0 / spindle_rev_per_min_);
       return;
     }
     if (mcall_word && !drill_word) modal_drill_.reset();  // MCALL alone ends the modal call
@@ -1182,7 +1206,7 @@ class SiemensReader {
       case 1: set_motion(Motion::linear); return;
       case 2: set_motion(Motion::cw); return;
       case 3: set_motion(Motion::ccw); return;
-      case 4: dwell = true; return;
+      case 4: dwell = true; dwell_word_ = &word; return;
       case 9: exact_stop_here = true; return;
       case 17: plane_ = Plane::xy; return;
       case 18: plane_ = Plane::zx; return;
@@ -1625,14 +1649,16 @@ class SiemensReader {
   // tool's position, in program coordinates (the frames map the points):
   //  CYCLE81(RTP, RFP, SDIS, DP, DPR), CYCLE82(..., DTB): G0 to RFP + SDIS, G1 to the depth
   //  (DPR > 0: RFP - DPR, it wins over DP, as on the control; else DP), G0 to RTP (the G-code
-  //  G81 motion: canned_cycles.hpp). DTB (dwell) is not a motion.
+  //  G81 motion: canned_cycles.hpp). DTB: a dwell at the depth (seconds; < 0: spindle
+  //  revolutions at the last S).
   //  CYCLE83(RTP, RFP, SDIS, DP, DPR, FDEP, FDPR, DAM, DTB, DTS, FRF, VARI, _AXN, _MDEP, _VRT,
   //  _DTD, _DIS1): the first stroke to FDPR below RFP (else to FDEP) at F * FRF, each next one
   //  DAM shorter but not shorter than DAM or _MDEP; VARI = 0 chip breaking: back _VRT (0: 1 mm)
   //  at F after each stroke; VARI = 1 swarf removal: G0 out to RFP + SDIS and G0 back to the
   //  anticipation distance above the depth reached (_DIS1, else 0.6 mm up to 30 mm deep holes,
   //  depth / 50 up to 7 mm beyond). G0 to RTP at the end. DAM < 0 (a degression factor) is not
-  //  read.
+  //  read. The dwell at the final depth: _DTD, else (0) DTB; DTB at the intermediate strokes'
+  //  depths and DTS at the top are not timed.
 
   struct DrillCycle {
     int number = 81;
@@ -1641,6 +1667,8 @@ class SiemensReader {
     double decrement_mm = 0.0, minimum_stroke_mm = 0.0, feed_factor = 1.0;
     bool chip_breaking = false;
     double chip_break_mm = 1.0, anticipation_mm = 0.6;
+    /// The dwell at the (final) depth as programmed: seconds, < 0 spindle revolutions.
+    double bottom_dwell = 0.0;
     int line = 0, column = 0;  ///< where it was programmed
   };
 
@@ -1688,7 +1716,10 @@ class SiemensReader {
       fail(word, name + ": the retraction plane RTP " + detail::format_number(c.rtp_mm) +
                      " mm is below the reference plane RFP " + detail::format_number(c.rfp_mm) + " mm");
     }
+    if (c.number == 82) c.bottom_dwell = arg(5).value_or(0.0);
     if (c.number != 83) return c;
+    // _DTD, else DTB.
+    c.bottom_dwell = arg(15).value_or(0.0) != 0.0 ? *arg(15) : arg(8).value_or(0.0);
     const std::optional<double> fdpr = arg(6);
     if (fdpr && *fdpr != 0.0) {
       c.first_depth_mm = c.rfp_mm - std::abs(*fdpr) * mm_per_unit_;
@@ -1779,12 +1810,25 @@ class SiemensReader {
       p = moves.back().p_mm;
       add(true, c.rtp_mm);
     }
+    if (c.bottom_dwell != 0.0) {
+      if (c.bottom_dwell < 0.0 && !(spindle_rev_per_min_ > 0.0)) {
+        fail(c.column, name + ": a dwell in spindle revolutions (DTB < 0) needs the spindle speed: no S before it");
+      }
+      const double seconds = c.bottom_dwell > 0.0 ? c.bottom_dwell : -c.bottom_dwell * 60.0 / spindle_rev_per_min_;
+      for (auto m = moves.rbegin(); m != moves.rend(); ++m) {
+        if (!m->rapid && m->p_mm[w] == c.depth_mm) {
+          m->dwell_s = seconds;
+          break;
+        }
+      }
+    }
     detail::require_room_for_points(path_, moves.size(), options_, current_file(), line_, c.column, name);
     const int block = add_source_block(block_number);
     for (const detail::CycleMove& m : moves) {
       PathPoint point = new_point(m.rapid ? MotionKind::rapid : MotionKind::linear);
       if (!m.rapid) point.feed_m_per_s = *feed_m_per_s_ * (m.feed == detail::CycleFeed::first_stroke ? c.feed_factor : 1.0);
       point.corner_tolerance_m = 0.0;  // the control stops at each level of a cycle
+      point.dwell_s = m.dwell_s;
       point.block = block;
       point.rotary_words_deg = rotary_words_deg(rotary_deg_);
       set_pose(point, to_frame(m.p_mm), rotary_deg_);
@@ -2361,6 +2405,8 @@ class SiemensReader {
   std::optional<CompensationSide> compensation_side_;
   double compensation_radius_mm_ = 0.0;
   std::optional<CutterCompensator> compensator_;  // from the first motion under G41 / G42
+  double spindle_rev_per_min_ = 0.0;  // the last S, for G4 S (revolutions)
+  const Word* dwell_word_ = nullptr;   // the G4 of the block being read
   struct CompensatedSource {
     PathPoint point;
     bool exact_stop = false;

@@ -205,13 +205,14 @@ bool same_rotary_words(const PathPoint& a, const PathPoint& b) {
 void append_point(Toolpath& path, const PathPoint& point, const ReaderOptions& options,
                   const std::string& file, int line) {
   if (!path.points.empty()) {
-    const PathPoint& last = path.points.back();
+    PathPoint& last = path.points.back();
     // The same tip with a tool of another length is another machine position (G43 H2 Z50
     // after T2 M6 lifts the spindle by the difference).
     const bool same_length = last.tool_length_m == point.tool_length_m ||
                              (std::isnan(last.tool_length_m) && std::isnan(point.tool_length_m));
     if (last.tip_W_m == point.tip_W_m && last.axis_W == point.axis_W &&
         same_rotary_words(last, point) && same_length) {
+      last.dwell_s += point.dwell_s;  // a dwell where the tool already is still holds it
       return;
     }
   }

@@ -57,6 +57,8 @@
 //    (splitting the motion would change its time),
 //  - the tip not moving on either side (the tool axis turns on the spot),
 //  - the tool axis turning by more than 90 deg over an adjacent segment,
+//  - a dwell there (PathPoint::dwell_s > 0: G4, a cycle's dwell); points made from a point
+//    (blend samples, leg points) carry no dwell,
 //  - a tolerance of 0 at that corner (CornerBlendOptions::program_tolerances: G61 / G9 there,
 //    or no programmed tolerance and tolerance_m = 0).
 // Arc points (MotionKind::arc) are treated like any other: the tessellated arc turns by less

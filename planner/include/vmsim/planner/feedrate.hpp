@@ -189,6 +189,10 @@ struct FeedrateOptions {
   /// rotary turn outside tool-centre-point mode is linear in the axes, not a line in W), so the
   /// path fidelity refinement leaves its segment alone.
   std::vector<bool> rapid_end;
+  /// Per path point: a dwell [s] after the motion that ends there (G4, a cycle's dwell): the
+  /// point is an exact stop and the set points hold it at rest that long (SetPointLaw: the grid
+  /// point's time includes it). Empty: none; else one value >= 0 per path point.
+  std::vector<double> point_dwell_s;
   /// Largest planning grid step [m]: longer path segments are subdivided (with third-order
   /// limits, finer near the stops). 0 = automatic (the path length / 4000).
   double max_grid_step_m = 0.0;
@@ -243,8 +247,8 @@ struct FeedrateProfile {
   std::vector<double> sd_lim;  ///< minimum over every kind in force [m/s]
   std::vector<ConstraintKind> limiting_kind;
   std::vector<int> limiting_axis;  ///< -1 for the feed
-  /// Executed profile at the grid points: time [s], sd [m/s], sdd [m/s^2] (the value on the
-  /// segment that starts there; the last point: 0).
+  /// Executed profile at the grid points: time [s] (dwells included: SetPointLaw::t_s), sd
+  /// [m/s], sdd [m/s^2] (the value on the segment that starts there; the last point: 0).
   std::vector<double> t_s, sd, sdd;
   /// Admissible sd [m/s] after the set-point checks lowered it (equal to sd_lim where no
   /// slow-down was needed).
@@ -272,8 +276,12 @@ struct SetPointLaw {
   std::vector<double> x;                  ///< sd^2 at the grid points [m^2/s^2]
   std::vector<double> sdd_start, sdd_end;  ///< per grid segment: sdd at its ends [m/s^2]
   std::vector<char> linear_law;           ///< per grid segment: sdd linear in s (else the quintic)
-  std::vector<double> dt_s;               ///< per grid segment: its duration
-  std::vector<double> t_s;                ///< at the grid points
+  std::vector<double> dt_s;               ///< per grid segment: its duration (the motion)
+  /// At the grid points: when the motion reaching it ends plus the dwell held there
+  /// (FeedrateOptions::point_dwell_s): t_s[k + 1] = t_s[k] + dt_s[k] + dwell at k + 1, and
+  /// t_s[0] is the dwell at the start. Between the motion's end and t_s[k + 1] the set points
+  /// stay at grid point k + 1.
+  std::vector<double> t_s;
   std::size_t segments() const { return grid_s_m.empty() ? 0 : grid_s_m.size() - 1; }
   double sample_t_s(std::size_t n) const { return static_cast<double>(n) * period_s; }
   /// The grid segment and the distance sigma [m] into it of sample n. `cursor`: the grid segment

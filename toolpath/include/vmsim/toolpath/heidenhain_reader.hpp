@@ -48,7 +48,8 @@
 //    of Q202, each Q212 shorter down to Q205, Q213 chip breaks (back Q256 at Q208) between full
 //    retracts (at Q208 to the set-up clearance, FMAX back to Q200 above the depth); out at
 //    Q208; all: then FMAX to the 2nd set-up clearance Q204 above the surface where it is higher
-//    than Q200. Dwells Q210 / Q211 are no motion. Errors: a call before a definition, under
+//    than Q200. Dwells (PathPoint::dwell_s): Q211 at the depth; Q210 (200, 203) at the set-up
+//    clearance after each full retract that goes back into the hole. Errors: a call before a definition, under
 //    RL / RR, before the position is known, more points than max_points_per_block; CYCL CALL
 //    PAT (PATTERN DEF), cycles 202 204 205 207 208 220 221 and any other cycle number.
 //  - Tools: TOOL CALL <n> Z S<rpm> F<feed> DL<mm> DR<mm>: tool n (PathPoint::tool_number; a
@@ -134,8 +135,8 @@
 //    32.2 HSC-MODE and TA (rotary tolerance) are accepted, not emulated. Jerk limitation and
 //    feedforward are the machine's on a TNC (no program word sets them): unspecified.
 //  - Accepted and ignored: M functions other than M2 M30 M89 M91 M92 M99 M128 M129 (spindle,
-//    coolant, M126 shortest path, ...; M140 retract and M98 are errors), STOP, CYCL DEF 9
-//    (dwell), FUNCTION MODE MILL. Any other keyword or cycle is an error: it may change the
+//    coolant, M126 shortest path, ...; M140 retract and M98 are errors), STOP, FUNCTION MODE MILL.
+//    CYCL DEF 9.0 / 9.1 DWELL <seconds>: a dwell where the tool is (PathPoint::dwell_s). Any other keyword or cycle is an error: it may change the
 //    geometry.
 #include <string>
 

@@ -128,7 +128,7 @@
 //  - Canned cycles G73 G74 G76 G81 G82 G83 G84 G85 G86 G87 G88 G89 (modal until G80 or another
 //    motion G-code; after G80 the G0 .. G3 in force before the cycle is back, as on a Fanuc,
 //    where the cycles are a modal group of their own; X Y the hole, Z the bottom, R the R level,
-//    Q the peck, P the dwell (no motion), K or
+//    Q the peck, P the dwell at the bottom in ms (PathPoint::dwell_s), K or
 //    L repeats, G98 return to the initial level (the drilling axis when the cycle started, or R
 //    if higher) / G99 to R). Incremental: R from the initial level, Z from R, X Y per repeat.
 //    Each hole: up to R first where below it, rapid in the plane to the hole, rapid to R; G81
@@ -195,7 +195,11 @@
 //    work offset, G52 / G92 / G10, G68 / G69, G43 / G49 / H, G53, G28 / G30, canned cycle,
 //    rotary or tool vector word, or a new D. A G41 / G42 still on at the end of the program is
 //    ended as by G40 (with a warning).
-//  - Accepted and ignored: G4 dwell (with X or P), G15 G50, G80 (ends a cycle), G8 P1/P0
+//  - Dwells (PathPoint::dwell_s, on the point the tool is at; under G41 / G42 a warning, not
+//    timed): G4 X<seconds> or G4 P<milliseconds> (Fanuc; LinuxCNC's P in seconds is not read:
+//    P500 is 0.5 s); the canned cycles' P (ms) at the hole bottom (G74 G76 G82 G84 G87 G88
+//    G89).
+//  - Accepted and ignored: G15 G50, G80 (ends a cycle), G8 P1/P0
 //    (look-ahead), the Q of G64 (LinuxCNC's folding of collinear points).
 //    Errors naming the word: G68.1 3-D rotation, G51 scaling, G16
 //    polar, any other G-code, and words outside this list (U V W, Siemens keywords
@@ -223,7 +227,8 @@
 //    and STOPRE do nothing. System variables ($...) are errors. Limits:
 //    ReaderOptions::max_executed_blocks, max_call_depth as for G-code.
 //  - Motion: G0 G1 G2 G3 CIP CT (modal), G17 G18 G19, G70/G700 inch, G71/G710 mm, G90/G91 and
-//    per word X=AC(..) / X=IC(..), G93/G94 (G95 G96: errors), F, G4 dwell (F or S a time).
+//    per word X=AC(..) / X=IC(..), G93/G94 (G95 G96: errors), F, G4 F<seconds> / G4 S<spindle revolutions> at the last S
+//    word's speed (none before: an error) -> PathPoint::dwell_s.
 //    G2/G3: I J K incremental from the start (I=AC(..): absolute), or CR=r (r < 0: more than
 //    180 deg); end radius tolerance and helix as for G-code. CIP X Y Z I1= J1= K1=: the circle
 //    through start, intermediate point (absolute under G90, from the start under G91 or IC)
@@ -286,7 +291,9 @@
 //    than DAM or _MDEP; VARI 0 (chip breaking): after each stroke G1 back _VRT (0: 1 mm) at F;
 //    VARI 1 (swarf removal): G0 to RFP + SDIS and G0 back to the anticipation distance above
 //    the depth reached (_DIS1, else 0.6 mm for holes up to 30 mm, depth / 50 up to 7 mm
-//    beyond); G0 to RTP. Dwells (DTB DTS _DTD) are no motion. MCALL CYCLE8x(...) calls the
+//    beyond); G0 to RTP. Dwell at the depth (PathPoint::dwell_s): CYCLE82 DTB, CYCLE83 _DTD
+//    (0: DTB), in seconds (< 0: spindle revolutions); DTB at CYCLE83's intermediate strokes and
+//    DTS are not timed. MCALL CYCLE8x(...) calls the
 //    cycle after every following block with X Y Z words until MCALL alone. Errors at the
 //    cycle: no depth, the depth not below RFP, RTP below RFP, DAM < 0 (degression factor),
 //    _AXN not the plane's axis, no F, under G41 / G42 or G93, more points than
@@ -483,6 +490,10 @@ struct PathPoint {
   /// Compressor (Siemens COMPCAD / COMPCURV / COMPON): short-segment polylines smoothed within
   /// this tolerance [m]; 0 = compressor off (COMPOF), NaN = not programmed.
   double compressor_tolerance_m = kNotProgrammed;
+  /// Dwell [s] after the motion that ends here (G4, a drilling cycle's dwell at the bottom, TNC
+  /// CYCL DEF 9): the tool stops here and stays at rest that long; 0 = none. Several dwells in a
+  /// row add up.
+  double dwell_s = 0.0;
 };
 
 /// A warning that names where it comes from (an unknown APT record, an ignored G-code word).
