@@ -1769,4 +1769,3 @@ kinematics::MachineModel extended_machine(const kinematics::MachineModel& machin
 }
 
 }  // namespace vmsim::identify
-
