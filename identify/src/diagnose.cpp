@@ -1341,11 +1341,16 @@ AxisDiagnosis diagnose_axis(const kinematics::MachineModel& machine,
         if (f.ok && objective(f.model) < objective(m)) {
           m = std::move(f.model);
           c.parameters = f.parameters;
-          // The evidence says the refitted values; what was measured on held-out data when the
-          // effect was added stays.
-          const std::size_t held_out = c.evidence.find("; on held-out data");
-          c.evidence = f.evidence + " (refitted with the found effects)" +
-                       (held_out == std::string::npos ? std::string() : c.evidence.substr(held_out));
+          // The evidence keeps what was fitted and measured when the effect was added, and says
+          // the refitted values.
+          std::string refitted;
+          for (const auto& [name, value] : f.parameters) {
+            refitted += (refitted.empty() ? "" : ", ") + name + " " + fmt(value);
+          }
+          const std::string marker = "; refitted with the found effects: ";
+          const std::size_t previous = c.evidence.find(marker);
+          if (previous != std::string::npos) c.evidence.erase(previous);
+          c.evidence += marker + refitted;
         }
       }
     }
@@ -1533,11 +1538,14 @@ AxisDiagnosis diagnose_axis(const kinematics::MachineModel& machine,
     const std::size_t best = order.front();
     if (!results[best].found) break;
     out.found.push_back(results[best]);
+    const DriveModel before_follow_up = model;
+    const std::vector<CandidateResult> found_before = out.found;
     model = refit_found(fits[best].model);
     // Backward check after the joint refit: a follow-up whose removal now costs no channel
     // more than its allowance explained only what the refit of the others takes (the
     // independent truth's saturation, refitted next to a "direction-dependent" friction, left
-    // that friction at the model's values). It is dropped, and selection ends.
+    // that friction at the model's values). It is dropped (the model and the found effects go
+    // back to what they were before it), and selection ends.
     if (out.found.size() >= 2) {
       const CandidateResult& newest = out.found.back();
       const DriveModel reduced = without_effect(newest.effect, model, nominal);
@@ -1548,9 +1556,9 @@ AxisDiagnosis diagnose_axis(const kinematics::MachineModel& machine,
           (ctx.has_diff && without.val_diff - with.val_diff > std::max(k * log_n_diff + look_elsewhere, 3.0 * control_diff)) ||
           without.val_position - with.val_position > std::max(k * log_n_position + look_elsewhere, 3.0 * control_position);
       if (!needed) {
+        out.found = found_before;
         out.found.pop_back();
-        model = refit_found(reduced);
-        base_ev = ctx.evaluate(model, true);
+        model = before_follow_up;
         break;
       }
     }
