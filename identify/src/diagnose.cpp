@@ -11,6 +11,8 @@
 #include <cmath>
 #include <functional>
 #include <numbers>
+#include <optional>
+#include <set>
 #include <sstream>
 #include <string_view>
 
@@ -25,6 +27,11 @@ namespace {
 
 constexpr double kTwoPi = 2.0 * std::numbers::pi;
 using detail::sign_band;
+
+// Effects that act as a force on the drive: their direct evidence is the effort.
+const std::set<std::string> kForceEffects = {
+    "coulomb_friction", "viscous_friction", "asymmetric_friction", "stribeck_friction",
+    "cogging", "gravity", "current_saturation", "inertia"};
 
 const std::vector<std::string> kEffects = {
     "coulomb_friction", "viscous_friction", "asymmetric_friction", "stribeck_friction",
@@ -398,8 +405,16 @@ Fit fit_asymmetric(const Context& ctx, const DriveModel& base, const Evaluation&
   const double b0 = drive.friction_dry_A, a0 = drive.friction_viscous_A_per_joint_unit_per_s;
   const double step = 0.1 + 0.2 * b0;
   const double vstep = 0.3 * std::max(a0, 0.1 / std::max(ctx.vmax, 1e-9));
-  const std::vector<double> th = gauss_newton(ctx, apply, {b0 + c(0), b0 + c(1), a0 + c(2), a0 + c(3)},
-                                              {step, step, vstep, vstep});
+  // Refitted jointly with later effects: the residual is relative to the values already there.
+  const auto& a_now = base.servo.axis.effects.asymmetric_friction;
+  const std::array<double, 4> now =
+      a_now.enabled ? std::array<double, 4>{a_now.dry_positive_A, a_now.dry_negative_A,
+                                            a_now.viscous_positive_A_per_joint_unit_per_s,
+                                            a_now.viscous_negative_A_per_joint_unit_per_s}
+                    : std::array<double, 4>{b0, b0, a0, a0};
+  const std::vector<double> th = gauss_newton(
+      ctx, apply, {now[0] + c(0), now[1] + c(1), now[2] + c(2), now[3] + c(3)},
+      {step, step, vstep, vstep});
   Fit f{true, apply(th), {}, 4, "", ""};
   const auto& a = f.model.servo.axis.effects.asymmetric_friction;
   const std::string unit = linear_axis(base.servo.axis) ? "_A_s_per_m" : "_A_s_per_rad";
@@ -430,6 +445,13 @@ Fit fit_stribeck(const Context& ctx, const DriveModel& base, const Evaluation& e
     s.static_friction_A = dry + std::max(0.0, extra);
     return m;
   };
+  // Refitted jointly with later effects: the residual is relative to the hump already there.
+  const auto& s_now = base.servo.axis.effects.stribeck;
+  double extra_now = 0.0;
+  if (s_now.enabled) {
+    const auto& a = base.servo.axis.effects.asymmetric_friction;
+    extra_now = s_now.static_friction_A - (a.enabled ? std::max(a.dry_positive_A, a.dry_negative_A) : b0);
+  }
   auto extra_for = [&](double vs) {
     const Eigen::VectorXd c = regress(
         ctx, ev,
@@ -437,7 +459,7 @@ Fit fit_stribeck(const Context& ctx, const DriveModel& base, const Evaluation& e
           x[0] = sign_band(d.vc[i], band) * std::exp(-std::pow(d.vc[i] / vs, 2));
         },
         1, false);
-    return std::max(0.0, c(0));
+    return std::max(0.0, extra_now + c(0));
   };
   auto refit = [&](double v, int iterations) {
     return gauss_newton(
@@ -498,7 +520,12 @@ Fit fit_cogging(const Context& ctx, const DriveModel& base, const Evaluation& ev
   const double band = 1e-3 * ctx.vmax;
   // A period of 2 pi r / n in the axis position is n periods per motor revolution.
   std::vector<double> periods;
-  for (int n = 1; n <= 64; ++n) periods.push_back(kTwoPi * r / n);
+  const auto& cog_now = axis.effects.cogging;
+  if (cog_now.enabled) {
+    periods.push_back(kTwoPi * r / cog_now.periods_per_rev);  // refitted: its period stays
+  } else {
+    for (int n = 1; n <= 64; ++n) periods.push_back(kTwoPi * r / n);
+  }
   const PeriodicRegression best_fit = regress_periodic(
       ctx, ev, periods, [&](const Dataset& d, std::size_t i) { return sign_band(d.vc[i], band); },
       false);  // the sign column keeps a friction error from leaking in
@@ -517,6 +544,10 @@ Fit fit_cogging(const Context& ctx, const DriveModel& base, const Evaluation& ev
   };
   // Current residual = -tau_cog / Kt at low frequency (the drive works against it).
   std::vector<double> th0 = {-best_c(0) * kt, -best_c(1) * kt};
+  if (cog_now.enabled) {  // refitted: the residual is relative to the ripple already there
+    th0[0] += cog_now.amplitude_N_m * std::cos(cog_now.phase_rad);
+    th0[1] += cog_now.amplitude_N_m * std::sin(cog_now.phase_rad);
+  }
   const double step = 0.1 * kt + 0.3 * std::hypot(th0[0], th0[1]);
   std::vector<double> th = gauss_newton(ctx, apply, th0, {step, step});
   // The amplitude along the fitted phase by a scan: the cost is rough (quantisation noise
@@ -554,7 +585,12 @@ Fit fit_pitch(const Context& ctx, const DriveModel& base, const Evaluation& ev) 
   }
   const double lead = lead_of(base.servo.axis);
   std::vector<double> periods;
-  for (double ratio : {0.25, 1.0 / 3.0, 0.5, 1.0, 2.0, 3.0, 4.0}) periods.push_back(ratio * lead);
+  const auto& pitch_now = base.servo.axis.effects.pitch_error;
+  if (pitch_now.enabled) {
+    periods.push_back(pitch_now.period);  // refitted: its period stays
+  } else {
+    for (double ratio : {0.25, 1.0 / 3.0, 0.5, 1.0, 2.0, 3.0, 4.0}) periods.push_back(ratio * lead);
+  }
   const PeriodicRegression best_fit =
       regress_periodic(ctx, ev, periods, [](const Dataset&, std::size_t) { return 1.0; }, true);
   if (best_fit.c.size() < 2 || !best_fit.c.allFinite()) return Fit{};
@@ -569,7 +605,11 @@ Fit fit_pitch(const Context& ctx, const DriveModel& base, const Evaluation& ev) 
     p.phase_rad = std::atan2(th[1], th[0]);
     return m;
   };
-  const std::vector<double> th0 = {best_c(0), best_c(1)};
+  std::vector<double> th0 = {best_c(0), best_c(1)};
+  if (pitch_now.enabled) {  // refitted: the residual is relative to the error already there
+    th0[0] += pitch_now.amplitude * std::cos(pitch_now.phase_rad);
+    th0[1] += pitch_now.amplitude * std::sin(pitch_now.phase_rad);
+  }
   const double step = 0.5 * std::hypot(th0[0], th0[1]) + (linear_axis(base.servo.axis) ? 1e-6 : 5e-6);
   const std::vector<double> th = gauss_newton(ctx, apply, th0, {step, step});
   Fit f{true, apply(th), {}, 3, "", ""};
@@ -780,6 +820,76 @@ Fit fit_inertia(const Context& ctx, const DriveModel& base, const Evaluation& ev
   f.evidence = "effort residual proportional to the acceleration: J_eq " + fmt(j0) + " -> " +
                fmt(j) + " kg m^2";
   return f;
+}
+
+// The fitted candidate's structure with parameters that add nothing to `base` (a cogging of
+// amplitude 0, a direction-dependent friction equal both ways, no Stribeck hump, no pitch
+// error, a play 1000 times smaller): enabling an effect changes the simulation itself (cogging
+// runs 8 plant sub-steps, the direction-dependent viscous friction is held over a sub-step),
+// and that change alone moved the position residual by 24 % on the independent truth. A gain
+// counts only beyond this null version's. Empty for effects whose parameters live in the base
+// model (its own null is the base).
+std::optional<DriveModel> null_version(const std::string& key, const DriveModel& base,
+                                       const DriveModel& fitted) {
+  DriveModel m = fitted;
+  auto& fx = m.servo.axis.effects;
+  const auto& bx = base.servo.axis.effects;
+  if (key == "cogging") {
+    fx.cogging.amplitude_N_m = 0.0;
+  } else if (key == "asymmetric_friction") {
+    const auto& drive = base.servo.axis.drive;
+    fx.asymmetric_friction = bx.asymmetric_friction;
+    if (!bx.asymmetric_friction.enabled) {
+      fx.asymmetric_friction.enabled = true;
+      fx.asymmetric_friction.dry_positive_A = fx.asymmetric_friction.dry_negative_A = drive.friction_dry_A;
+      fx.asymmetric_friction.viscous_positive_A_per_joint_unit_per_s =
+          fx.asymmetric_friction.viscous_negative_A_per_joint_unit_per_s =
+              drive.friction_viscous_A_per_joint_unit_per_s;
+    }
+    fx.stribeck = bx.stribeck;
+  } else if (key == "stribeck_friction") {
+    const auto& a = fx.asymmetric_friction;
+    fx.stribeck.static_friction_A =
+        a.enabled ? std::max(a.dry_positive_A, a.dry_negative_A) : m.servo.axis.drive.friction_dry_A;
+  } else if (key == "pitch_error") {
+    fx.pitch_error.amplitude = 0.0;
+  } else if (key == "backlash") {
+    fx.backlash.gap *= 1e-3;
+  } else {
+    return std::nullopt;
+  }
+  return m;
+}
+
+// `model` without the effect `key`: an effect of `effects` disabled (as in `nominal`), a
+// parameter of the drive, controller or offset put back to the nominal model's value.
+DriveModel without_effect(const std::string& key, DriveModel m, const DriveModel& nominal) {
+  auto& fx = m.servo.axis.effects;
+  const auto& nx = nominal.servo.axis.effects;
+  auto& drive = m.servo.axis.drive;
+  const auto& nd = nominal.servo.axis.drive;
+  if (key == "coulomb_friction") drive.friction_dry_A = nd.friction_dry_A;
+  if (key == "viscous_friction") {
+    drive.friction_viscous_A_per_joint_unit_per_s = nd.friction_viscous_A_per_joint_unit_per_s;
+  }
+  if (key == "asymmetric_friction") fx.asymmetric_friction = nx.asymmetric_friction;
+  if (key == "stribeck_friction") fx.stribeck = nx.stribeck;
+  if (key == "backlash") fx.backlash = nx.backlash;
+  if (key == "cogging") fx.cogging = nx.cogging;
+  if (key == "pitch_error") fx.pitch_error = nx.pitch_error;
+  if (key == "compliance") fx.compliance = nx.compliance;
+  if (key == "delay") m.servo.axis.controller.delay_s = nominal.servo.axis.controller.delay_s;
+  if (key == "gravity") m.offset_A = nominal.offset_A;
+  if (key == "current_saturation") {
+    m.servo.axis.controller.current_max_A = nominal.servo.axis.controller.current_max_A;
+  }
+  if (key == "inertia") {
+    drive.equivalent_inertia_kg_m2 = nd.equivalent_inertia_kg_m2;
+    drive.rotor_inertia_kg_m2 = nd.rotor_inertia_kg_m2;
+    m.servo.axis.controller.torque_feedforward_weight =
+        nominal.servo.axis.controller.torque_feedforward_weight;
+  }
+  return m;
 }
 
 Fit fit_candidate(const std::string& key, const Context& ctx, const DriveModel& base,
@@ -1233,10 +1343,48 @@ AxisDiagnosis diagnose_axis(const kinematics::MachineModel& machine,
       std::log(std::max(2.0, n_val * std::min(1.0, 2.0 * std::max(kv, 1.0) / kTwoPi * period)));
   const double fastest = servo::base_period_s(axis.controller);
 
+  const DriveModel nominal = model;
   Evaluation base_ev = ctx.evaluate(model, true);
   analyse_residual(out, ctx, base_ev, axis);
   out.before = summarise(ctx, base_ev, true);
   out.validation_cost_before = base_ev.val;
+
+  // Joint refit of the found effects: each refitted in turn on top of all the others (block
+  // coordinate descent, two passes), kept where its own fit objective falls. A follow-up
+  // candidate is then judged against the found effects at their best, not against what the
+  // first effect's fit alone left (which a follow-up would otherwise absorb).
+  auto refit_found = [&](DriveModel m) {
+    // One found effect: fitted once more on top of itself (a scan's first grid can miss, and
+    // what it leaves would be taken by a follow-up); several: two passes.
+    const int passes = out.found.size() < 2 ? 1 : 2;
+    for (int pass = 0; pass < passes; ++pass) {
+      for (CandidateResult& c : out.found) {
+        auto objective = [&](const DriveModel& x) {
+          return c.effect == "delay" ? ctx.fit_cost_with_position(x) : fit_cost(ctx, x);
+        };
+        const Evaluation ev = ctx.evaluate(m, true);
+        Fit f = fit_candidate(c.effect, ctx, m, ev, fastest, period);
+        if (f.ok && objective(f.model) < objective(m)) {
+          m = std::move(f.model);
+          c.parameters = f.parameters;
+          // The evidence keeps what was fitted and measured when the effect was added, and says
+          // the refitted values.
+          std::string refitted;
+          for (const auto& [name, value] : f.parameters) {
+            refitted += (refitted.empty() ? "" : ", ") + name + " " + fmt(value);
+          }
+          const std::string marker = "; refitted with the found effects: ";
+          const std::size_t previous = c.evidence.find(marker);
+          if (previous != std::string::npos) c.evidence.erase(previous);
+          c.evidence += marker + refitted;
+        }
+      }
+    }
+    return m;
+  };
+  // Candidates tried over all rounds so far: the look-elsewhere allowance grows with every
+  // round (a follow-up is the best of all the candidates tried, not only of this round's).
+  double tried = 0.0;
 
   std::vector<std::string> remaining;
   for (const auto& key : kEffects) {
@@ -1260,15 +1408,41 @@ AxisDiagnosis diagnose_axis(const kinematics::MachineModel& machine,
     if (round == 0) out.noise_control_cost = control_effort + control_diff;
     // Multiple comparisons: the best of M candidates gains about 2 ln M by chance alone
     // (Bonferroni on chi-square gains), on top of the BIC-like k ln N per parameter.
-    const double look_elsewhere = 2.0 * std::log(std::max(1.0, static_cast<double>(remaining.size())));
+    // A follow-up force is sought only while the found effects leave the effort (or load minus
+    // motor) residual above the verdict's noise threshold: a force shows in the effort first,
+    // and below that threshold the report says the residual is at the noise. Without this, a
+    // follow-up absorbs what the first effect's imperfect structure leaves in the position
+    // (the independent truth's saturation left 0.9 um that a viscous friction 3 % off the
+    // model's took half of, at 1.7 noise levels of effort).
+    bool forces_left = true;
+    std::string forces_note;
+    if (!out.found.empty()) {
+      const Unexplained left = find_unexplained(ctx, base_ev, period, options, linear_axis(axis));
+      forces_left = left.present;
+      forces_note = "not sought: the found effects leave the effort at " +
+                    fmt(left.effort_noise_units) + " noise levels" +
+                    (ctx.has_diff ? " and load minus motor at " + fmt(left.load_diff_noise_units) : std::string()) +
+                    " (at most " + fmt(options.unexplained_noise_units) + "): no force left to find";
+    }
+    std::size_t sought = 0;
+    for (const auto& key : remaining) sought += forces_left || kForceEffects.count(key) == 0 ? 1u : 0u;
+    tried += static_cast<double>(sought);
+    const double look_elsewhere = 2.0 * std::log(std::max(1.0, tried));
     std::vector<CandidateResult> results;
     std::vector<Fit> fits;
     // The candidates are fitted independently of each other: one thread per core.
     std::vector<Fit> fitted(remaining.size());
-    std::vector<Evaluation> judged(remaining.size());
+    std::vector<Evaluation> judged(remaining.size()), null_judged(remaining.size());
     for_each_index_in_parallel(remaining.size(), [&](std::size_t i) {
+      if (!forces_left && kForceEffects.count(remaining[i]) != 0) {
+        fitted[i].evidence = forces_note;
+        return;
+      }
       fitted[i] = fit_candidate(remaining[i], ctx, model, base_ev, fastest, period);
-      if (fitted[i].ok) judged[i] = ctx.evaluate(fitted[i].model, false);
+      if (!fitted[i].ok) return;
+      judged[i] = ctx.evaluate(fitted[i].model, false);
+      const std::optional<DriveModel> null = null_version(remaining[i], model, fitted[i].model);
+      null_judged[i] = null ? ctx.evaluate(*null, false) : base_ev;
     });
     for (std::size_t index = 0; index < remaining.size(); ++index) {
       const std::string& key = remaining[index];
@@ -1281,6 +1455,7 @@ AxisDiagnosis diagnose_axis(const kinematics::MachineModel& machine,
       c.validation_cost_after = base_ev.val;
       if (f.ok) {
         const Evaluation& e = judged[index];
+        const Evaluation& null_e = null_judged[index];
         c.parameters = f.parameters;
         c.parameter_count = f.parameter_count;
         c.validation_cost_after = e.val;
@@ -1294,14 +1469,17 @@ AxisDiagnosis diagnose_axis(const kinematics::MachineModel& machine,
           bool present;
           double before, after, allowance;
         };
+        // The gain counts from the better of the model before and the candidate's null
+        // version (its structure without its parameters' effect).
         const Channel channels[] = {
-            {"effort", true, base_ev.val_effort, e.val_effort,
+            {"effort", true, std::min(base_ev.val_effort, null_e.val_effort), e.val_effort,
              std::max(k * log_n_effort + look_elsewhere, 3.0 * control_effort)},
-            {"load_minus_motor", ctx.has_diff, base_ev.val_diff, e.val_diff,
-             std::max(k * log_n_diff + look_elsewhere, 3.0 * control_diff)},
-            {"position", true, base_ev.val_position, e.val_position,
-             std::max(k * log_n_position + look_elsewhere, 3.0 * control_position)}};
+            {"load_minus_motor", ctx.has_diff, std::min(base_ev.val_diff, null_e.val_diff),
+             e.val_diff, std::max(k * log_n_diff + look_elsewhere, 3.0 * control_diff)},
+            {"position", true, std::min(base_ev.val_position, null_e.val_position),
+             e.val_position, std::max(k * log_n_position + look_elsewhere, 3.0 * control_position)}};
         double best_rel = -1e300;
+        double effort_margin = 0.0, effort_gain = 0.0;
         bool worse = false;
         for (const Channel& ch : channels) {
           if (!ch.present || ch.before <= 0.0) continue;
@@ -1320,6 +1498,10 @@ AxisDiagnosis diagnose_axis(const kinematics::MachineModel& machine,
             if (explained_rms < (on_position ? ctx.position_quantum : ctx.diff_quantum)) margin = 0.0;
           }
           const double gain = 1.0 - ch.after / ch.before;
+          if (std::string_view(ch.name) == "effort") {
+            effort_margin = margin;
+            effort_gain = gain;
+          }
           // A channel counts when its margin is positive; the score is its relative gain net of
           // the penalty (comparable across channels of very different noise).
           const double rel = margin > 0.0 ? gain - ch.allowance / ch.before : margin / ch.before - 1.0;
@@ -1330,6 +1512,18 @@ AxisDiagnosis diagnose_axis(const kinematics::MachineModel& machine,
           }
         }
         c.score = worse ? std::min(best_rel, -1.0) : best_rel;
+        // A force (friction, offset, ripple, limit, mass) acts on the effort first: carried by a
+        // position channel, it must be confirmed by the effort channel too (a gain there beyond
+        // its allowance). A position gain from a force the current does not confirm re-arranges
+        // what any small force would: on the independent truth a viscous friction 3 % off the
+        // model's "explained" 59 % of the position residual a saturation's fit left, changing
+        // the simulated effort by 1.2 noise levels and the effort residual not at all.
+        if (c.score > 0.0 && c.channel != "effort" && c.bound_note.empty() &&
+            kForceEffects.count(key) != 0 && effort_margin <= 0.0) {
+          c.bound_note = "a force the effort residual does not confirm (effort gain " +
+                         fmt(100.0 * effort_gain, 2) + " %, within its allowance): its " +
+                         c.channel + " gain is no evidence of it";
+        }
         c.found = c.score > 0.0 && c.relative_gain >= options.minimum_relative_gain &&
                   c.bound_note.empty();
         // The evidence sentence carries what was measured on held-out data.
@@ -1370,7 +1564,28 @@ AxisDiagnosis diagnose_axis(const kinematics::MachineModel& machine,
     const std::size_t best = order.front();
     if (!results[best].found) break;
     out.found.push_back(results[best]);
-    model = fits[best].model;
+    model = refit_found(fits[best].model);
+    // Backward check after the joint refit: a follow-up whose removal now costs no channel
+    // more than its allowance explained only what the refit of the others takes (the
+    // independent truth's saturation, refitted next to a "direction-dependent" friction, left
+    // that friction at the model's values). It is dropped, the others are refitted without it
+    // (going back to the model before it would lose what the joint refit gained: on the
+    // independent truth's saturation 89 % instead of 100 %), and selection ends.
+    if (out.found.size() >= 2) {
+      const CandidateResult& newest = out.found.back();
+      const DriveModel reduced = without_effect(newest.effect, model, nominal);
+      const Evaluation with = ctx.evaluate(model, false), without = ctx.evaluate(reduced, false);
+      const double k = newest.parameter_count;
+      const bool needed =
+          without.val_effort - with.val_effort > std::max(k * log_n_effort + look_elsewhere, 3.0 * control_effort) ||
+          (ctx.has_diff && without.val_diff - with.val_diff > std::max(k * log_n_diff + look_elsewhere, 3.0 * control_diff)) ||
+          without.val_position - with.val_position > std::max(k * log_n_position + look_elsewhere, 3.0 * control_position);
+      if (!needed) {
+        out.found.pop_back();
+        model = refit_found(reduced);
+        break;
+      }
+    }
     base_ev = ctx.evaluate(model, true);
     remaining.erase(remaining.begin() + static_cast<std::ptrdiff_t>(best));
   }

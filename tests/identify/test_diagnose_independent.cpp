@@ -188,6 +188,9 @@ TEST_P(IndependentHiddenEffect, IsNamedFirst) {
   }
   EXPECT_EQ(o.first, effect);
   EXPECT_EQ(o.rank, 1);
+  // Nothing after the right one (issue 20: forward selection used to add what the first
+  // effect's imperfect fit left; seeds 0, 1, 2 now find none).
+  EXPECT_EQ(o.false_effects, 0) << "found after " << effect << ": " << o.fitted;
 }
 
 INSTANTIATE_TEST_SUITE_P(Catalogue, IndependentHiddenEffect,
@@ -205,6 +208,7 @@ TEST(IndependentControl, NoHiddenEffectFindsNothingAndNothingUnexplained) {
 
 TEST(IndependentExternalForce, IsReportedAsUnexplained) {
   const Outcome o = run_case("external_force");
+  EXPECT_EQ(o.false_effects, 0);
   EXPECT_TRUE(o.unexplained) << o.unexplained_text;
   EXPECT_NE(o.unexplained_text.find("does not explain"), std::string::npos) << o.unexplained_text;
 }

@@ -71,8 +71,9 @@ struct CandidateResult {
   std::string evidence;  ///< what the residual shows for this effect, one sentence
   /// The channel the score was taken on: "effort", "load_minus_motor" or "position".
   std::string channel;
-  /// Non-empty when a fitted parameter stayed on a bound of its scan (the candidate is then
-  /// rejected whatever its gain).
+  /// Non-empty when a fitted parameter stayed on a bound of its scan, or a plausibility rule
+  /// rejected the fit (e.g. a force carried by a position channel that the effort does not
+  /// confirm): the candidate is then rejected whatever its gain.
   std::string bound_note;
 };
 
