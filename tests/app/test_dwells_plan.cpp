@@ -83,9 +83,10 @@ TEST_P(DwellsPlan, HalfASecondLongerAndTheSetPointsHeld) {
 
 INSTANTIATE_TEST_SUITE_P(Dialects, DwellsPlan,
                          ::testing::Values(Dialect{"iso", "nc"}, Dialect{"840d", "mpf"}, Dialect{"tnc", "h"}),
-                         [](const auto& info) { return std::string(info.param.name) == "840d" ? std::string("Siemens840d")
-                                                       : std::string(info.param.name) == "iso" ? std::string("Iso")
-                                                                                               : std::string("HeidenhainTnc"); });
+                         [](const auto& dialect_info) {
+                           const std::string name = dialect_info.param.name;
+                           return name == "840d" ? std::string("Siemens840d") : name == "iso" ? std::string("Iso") : std::string("HeidenhainTnc");
+                         });
 
 }  // namespace
 }  // namespace vmsim

@@ -143,7 +143,7 @@ TEST_P(PostedTncProgram, GivesTheSamePosesAsItsIsoTwin) {
 }
 
 INSTANTIATE_TEST_SUITE_P(Corpus, PostedTncProgram, ::testing::ValuesIn(kCases),
-                         [](const ::testing::TestParamInfo<Case>& info) { return std::string(info.param.folder); });
+                         [](const ::testing::TestParamInfo<Case>& case_info) { return std::string(case_info.param.folder); });
 
 // A TNC program with an error: the file, line, column and word; exit 3; nothing written.
 TEST(PostedTncProgram, BadInputExitsThreeAndWritesNothing) {
@@ -166,7 +166,7 @@ TEST(PostedTncProgram, BadInputExitsThreeAndWritesNothing) {
   part_text.replace(part_text.find(machine), machine.size(),
                     (fs::path(VMSIM_SOURCE_DIR) / "samples/machines/mikron_ucp710.yaml").string());
   std::ofstream(folder / "part.yaml") << part_text;
-  for (const std::string command : {"kinematics --out " + (folder / "k.csv").string(),
+  for (const std::string& command : {"kinematics --out " + (folder / "k.csv").string(),
                                     "simulate-part --no-renders --out " + (folder / "sim").string()}) {
     const test::RunResult run = test::run_vmsim(command + " --part " + (folder / "part.yaml").string());
     EXPECT_EQ(run.exit_code, 3) << run.output;

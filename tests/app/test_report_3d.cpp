@@ -83,7 +83,9 @@ TEST(Report3d, CellSideIsTheSmallestWithinTheBudget) {
     const int k = cell_lines_for(nu, nv, static_cast<std::size_t>(budget));
     const auto cells = [&](int side) { return ((nu + side - 1) / side) * ((nv + side - 1) / side); };
     EXPECT_LE(cells(k), budget) << nu << " x " << nv;
-    if (k > 1) EXPECT_GT(cells(k - 1), budget) << nu << " x " << nv;
+    if (k > 1) {
+      EXPECT_GT(cells(k - 1), budget) << nu << " x " << nv;
+    }
   }
 }
 
