@@ -15,6 +15,7 @@
 
 #include "cli_runner.hpp"
 #include "simulate_part.hpp"
+#include "small_part.hpp"
 #include "surface_views.hpp"
 #include "validity_checks.hpp"
 #include "vmsim/common/files.hpp"
@@ -22,7 +23,6 @@
 namespace vmsim {
 namespace {
 
-const std::string kRoot = VMSIM_SOURCE_DIR;
 
 removal::Box stock_box() { return {Eigen::Vector3d(-0.1, -0.1, -0.1), Eigen::Vector3d(0.1, 0.1, 0.1)}; }
 
@@ -94,27 +94,6 @@ TEST(CommandedPathDeviation, SteepLineFactorIsTheSecantOfTheSteepestSlope) {
   EXPECT_NEAR(app::steep_line_factor(app::kSteepStepPerSpacing), 1.0 / std::cos(std::atan(3.0)), 1e-12);
 }
 
-// The first three passes of sample part 1 (as test_simulate_part's small part).
-std::string small_part(const std::filesystem::path& folder) {
-  std::istringstream apt(read_file(kRoot + "/samples/parts/part1_tangency/toolpath.apt"));
-  std::ostringstream out;
-  int rapids = 0;
-  for (std::string line; std::getline(apt, line);) {
-    if (line == "RAPID" && ++rapids > 6) break;
-    out << line << '\n';
-  }
-  out << "FINI\n";
-  std::ofstream(folder / "toolpath.apt") << out.str();
-  std::ofstream(folder / "part.yaml")
-      << "name: part1_three_passes\n"
-         "description: the first passes of sample part 1\n"
-         "machine: " << kRoot << "/samples/machines/mikron_ucp710.yaml\n"
-         "toolpath: toolpath.apt\n"
-         "tool: {type: ball, diameter_mm: 10, corner_radius_mm: 5, length_mm: 60}\n"
-         "stock: {box: {min_mm: [-12, -5, 0], max_mm: [16, -4.5, 40]}}\n"
-         "feeds: {production_mm_per_min: 10000, reference_mm_per_min: 100}\n";
-  return (folder / "part.yaml").string();
-}
 
 struct Heights {
   int nu = 0, nv = 0;
@@ -163,7 +142,7 @@ TEST(ReferenceModes, ThePlannedPathsSurfaceIsTheSimulatedReferenceWithinTheState
   const char* names[2] = {"simulated", "commanded"};
   for (int k = 0; k < 2; ++k) {
     app::SimulatePartOptions options;
-    options.part_path = small_part(folder);
+    options.part_path = test::small_part(folder, 3);
     options.out_dir = (folder / names[k]).string();
     options.grid_m = 25e-6;
     options.renders = false;
@@ -252,7 +231,7 @@ TEST(ReferenceModes, AutoFallsBackToTheSimulatedReferenceWhenTheBoundIsTooLarge)
   // A fraction so small that no servo meets it: the reference run is cut, and the report says why.
   const auto folder = test::fresh_folder("reference_auto");
   app::SimulatePartOptions options;
-  options.part_path = small_part(folder);
+  options.part_path = test::small_part(folder, 3);
   options.out_dir = (folder / "out").string();
   options.grid_m = 50e-6;
   options.renders = false;

@@ -18,6 +18,7 @@
 #include "effects_option.hpp"
 #include "part_file.hpp"
 #include "simulate_part.hpp"
+#include "small_part.hpp"
 #include "surface_views.hpp"
 #include "vmsim/common/errors.hpp"
 #include "vmsim/common/files.hpp"
@@ -30,29 +31,7 @@ namespace {
 
 const std::string kRoot = VMSIM_SOURCE_DIR;
 
-// Writes a part file with the first `passes` passes of sample part 1 and a stock strip around
-// them (the box, or `stock_line` in its place); returns its path.
-std::string small_part(const std::filesystem::path& folder, int passes,
-                       const std::string& stock_line = "stock: {box: {min_mm: [-12, -5, 0], max_mm: [16, -4.5, 40]}}") {
-  std::istringstream apt(read_file(kRoot + "/samples/parts/part1_tangency/toolpath.apt"));
-  std::ostringstream out;
-  int rapids = 0;
-  for (std::string line; std::getline(apt, line);) {
-    if (line == "RAPID" && ++rapids > 2 * passes) break;
-    out << line << '\n';
-  }
-  out << "FINI\n";
-  std::ofstream(folder / "toolpath.apt") << out.str();
-  std::ofstream(folder / "part.yaml")
-      << "name: part1_three_passes\n"
-         "description: the first passes of sample part 1\n"
-         "machine: " << kRoot << "/samples/machines/mikron_ucp710.yaml\n"
-         "toolpath: toolpath.apt\n"
-         "tool: {type: ball, diameter_mm: 10, corner_radius_mm: 5, length_mm: 60}\n"
-         << stock_line << "\n"
-         "feeds: {production_mm_per_min: 10000, reference_mm_per_min: 100}\n";
-  return (folder / "part.yaml").string();
-}
+using test::small_part;
 
 app::SimulatePartOptions options_for(const std::filesystem::path& folder) {
   app::SimulatePartOptions options;

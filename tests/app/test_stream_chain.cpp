@@ -18,6 +18,7 @@
 #include "cli_runner.hpp"
 #include "following_errors.hpp"
 #include "simulate_part.hpp"
+#include "small_part.hpp"
 #include "validity_checks.hpp"
 #include "vmsim/common/files.hpp"
 #include "vmsim/kinematics/kinematics.hpp"
@@ -28,25 +29,6 @@ namespace {
 
 const std::string kRoot = VMSIM_SOURCE_DIR;
 
-std::string three_passes(const std::filesystem::path& folder) {
-  std::istringstream apt(read_file(kRoot + "/samples/parts/part1_tangency/toolpath.apt"));
-  std::ostringstream out;
-  int rapids = 0;
-  for (std::string line; std::getline(apt, line);) {
-    if (line == "RAPID" && ++rapids > 6) break;
-    out << line << '\n';
-  }
-  out << "FINI\n";
-  std::ofstream(folder / "toolpath.apt") << out.str();
-  std::ofstream(folder / "part.yaml")
-      << "name: part1_three_passes\n"
-         "machine: " << kRoot << "/samples/machines/mikron_ucp710.yaml\n"
-         "toolpath: toolpath.apt\n"
-         "tool: {type: ball, diameter_mm: 10, corner_radius_mm: 5, length_mm: 60}\n"
-         "stock: {box: {min_mm: [-12, -5, 0], max_mm: [16, -4.5, 40]}}\n"
-         "feeds: {production_mm_per_min: 10000, reference_mm_per_min: 100}\n";
-  return (folder / "part.yaml").string();
-}
 
 // The report without what depends on the clock or the folder.
 nlohmann::json without_clocks(nlohmann::json report) {
@@ -76,7 +58,7 @@ void expect_same_json(const nlohmann::json& a, const nlohmann::json& b, const st
 
 TEST(StreamChain, TheWindowChangesNoResult) {
   const auto folder = test::fresh_folder("stream_chain_windows");
-  const std::string part = three_passes(folder);
+  const std::string part = test::small_part(folder, 3);
   const auto progress = [](const std::string&) {};
   std::vector<nlohmann::json> reports;
   for (double window_s : {0.013, 1e6}) {
@@ -107,7 +89,7 @@ TEST(StreamChain, TheWindowChangesNoResult) {
 // there; a budget that is no number of GiB is refused with exit 3 and nothing written.
 TEST(StreamChain, ZmapSpilledToDiskChangesNoResult) {
   const auto folder = test::fresh_folder("stream_chain_spill");
-  const std::string part = three_passes(folder);
+  const std::string part = test::small_part(folder, 3);
   const auto spill_dir = folder / "spill";
   std::filesystem::create_directories(spill_dir);
   const std::string common = "-q simulate-part --part " + part + " --grid-um 25 --no-renders --compact-zmap-above-lines 0";
