@@ -12,6 +12,7 @@
 #include <sstream>
 
 #include "commands.hpp"
+#include "diagnosis_inputs.hpp"
 #include "part_file.hpp"
 #include "simulate_part.hpp"
 #include "vmsim/common/errors.hpp"
@@ -27,13 +28,9 @@ namespace {
 using Json = nlohmann::json;
 
 struct CalibrateCommandOptions {
-  std::string machine_path;
-  std::string trace_path;
+  DiagnosisInputOptions inputs;
   std::string part_path;
-  std::string validate_path;
   std::string out_dir;
-  std::vector<std::string> exclude;
-  int max_effects = 4;
   double grid_um = 20.0;
   double mark_threshold_um = 2.0;
   double match_distance_mm = 2.0;
@@ -133,33 +130,22 @@ int run_calibrate(const CalibrateCommandOptions& options, const CommandContext& 
   if (!(options.mark_threshold_um > 0)) {
     throw InputError("--mark-threshold-um must be > 0, got " + format_double(options.mark_threshold_um));
   }
-  OutputFolder output(options.out_dir,
-                      {options.machine_path, options.trace_path, options.part_path, options.validate_path},
+  const DiagnosisInputOptions& in = options.inputs;
+  OutputFolder output(options.out_dir, {in.machine_path, in.trace_path, options.part_path, in.validate_path},
                       {"calibrate", VMSIM_VERSION});
-  // Every input read and checked before anything is computed.
-  const kinematics::MachineModel machine = kinematics::load_machine(options.machine_path);
-  for (const std::string& warning : machine.warnings) context.warn(warning);
+  // Every input read and checked before anything is computed (the part first: its errors are
+  // the cheapest to find).
   const PartDescription part = load_part(options.part_path);
-  TraceReadOptions read_options;
-  read_options.known_axes.emplace();
-  for (const auto& axis : machine.axes) read_options.known_axes->insert(axis.name);
-  const auto data = identify::extract_measurements(
-      machine, read_trace(options.trace_path, read_options), options.trace_path);
-  std::vector<identify::AxisMeasurement> validation;
-  if (!options.validate_path.empty()) {
-    validation = identify::extract_measurements(
-        machine, read_trace(options.validate_path, read_options), options.validate_path);
-  }
+  const DiagnosisInputs inputs = load_diagnosis_inputs(in, context);
+  const kinematics::MachineModel& machine = inputs.machine;
 
-  context.say("diagnosing " + std::to_string(data.size()) + " axes of " + options.trace_path + " ...");
-  identify::DiagnoseOptions diagnose_options;
-  diagnose_options.excluded = options.exclude;
-  diagnose_options.max_effects = options.max_effects;
+  context.say("diagnosing " + std::to_string(inputs.data.size()) + " axes of " + in.trace_path + " ...");
+  identify::DiagnoseOptions diagnose_options = catalogue_options(in);
   diagnose_options.tool_length_m = part.tool.length_m;
-  const identify::Diagnosis diagnosis = identify::diagnose(machine, data, validation, diagnose_options);
+  const identify::Diagnosis diagnosis = identify::diagnose(machine, inputs.data, inputs.validation, diagnose_options);
   std::vector<identify::AxisNote> notes;
   const kinematics::MachineModel calibrated = identify::extended_machine(machine, diagnosis, notes);
-  const std::string parent = std::filesystem::path(options.machine_path).parent_path().string();
+  const std::string parent = std::filesystem::path(in.machine_path).parent_path().string();
   // Only the axes with a found effect are written back: the others keep their keys as the user
   // wrote them (updated_machine_yaml rewrites the drive, controller and effects of every axis
   // it is given).
@@ -170,20 +156,20 @@ int run_calibrate(const CalibrateCommandOptions& options, const CommandContext& 
     });
   });
   const std::string calibrated_yaml =
-      identify::updated_machine_yaml(read_file(options.machine_path), changed_axes, notes,
-                                     options.machine_path, parent.empty() ? "." : parent);
+      identify::updated_machine_yaml(read_file(in.machine_path), changed_axes, notes,
+                                     in.machine_path, parent.empty() ? "." : parent);
 
   const std::filesystem::path& staging = output.staging();
   write_file_atomically(output.path_of("machine_calibrated.yaml"), calibrated_yaml);
   write_file_atomically(output.path_of("diagnosis.json"),
-                        identify::diagnosis_json(diagnosis, machine, options.trace_path));
+                        identify::diagnosis_json(diagnosis, machine, in.trace_path));
   write_file_atomically(output.path_of("diagnosis.md"),
-                        identify::diagnosis_report(diagnosis, machine, options.trace_path));
+                        identify::diagnosis_report(diagnosis, machine, in.trace_path));
   write_file_atomically(output.path_of("residuals.csv"), identify::residuals_csv(diagnosis, machine));
   // The part run with each machine: copies of the part file beside the results (the calibrated
   // machine by a relative name, valid in the staging folder and after the swap).
   const std::string nominal_machine =
-      std::filesystem::absolute(options.machine_path).lexically_normal().string();
+      std::filesystem::absolute(in.machine_path).lexically_normal().string();
   write_file_atomically(output.path_of("part_nominal.yaml"),
                         part_copy_yaml(options.part_path, nominal_machine));
   write_file_atomically(output.path_of("part_calibrated.yaml"),
@@ -214,9 +200,9 @@ int run_calibrate(const CalibrateCommandOptions& options, const CommandContext& 
   const Json& calibrated_marks = runs["calibrated"]["marks"];
   const std::vector<MarkRow> rows = pair_marks(nominal_marks, calibrated_marks, options.match_distance_mm);
   Json result;
-  result["machine"] = options.machine_path;
+  result["machine"] = in.machine_path;
   result["calibrated_machine"] = "machine_calibrated.yaml";
-  result["trace"] = options.trace_path;
+  result["trace"] = in.trace_path;
   result["part"] = options.part_path;
   result["effects"] = Json::array();
   for (const auto& axis : diagnosis.axes) {
@@ -261,7 +247,7 @@ int run_calibrate(const CalibrateCommandOptions& options, const CommandContext& 
   }
 
   std::ostringstream md;
-  md << "# Calibration\n\nMachine `" << options.machine_path << "`, trace `" << options.trace_path
+  md << "# Calibration\n\nMachine `" << in.machine_path << "`, trace `" << in.trace_path
      << "`, part `" << options.part_path << "`.\n\n## Effects found\n\n";
   if (result["effects"].empty()) md << "None: the calibrated machine is the nominal one.\n";
   for (const auto& axis : diagnosis.axes) {
@@ -314,26 +300,15 @@ void add_calibrate_command(CLI::App& app, CommandContext& context) {
       "calibrate",
       "diagnose a measured multi-axis trace, write the calibrated machine file and predict the "
       "part's marks with the nominal and the calibrated machine side by side");
-  command->add_option("--machine", options->machine_path, "nominal machine description (YAML)")
-      ->required()
-      ->check(CLI::ExistingFile);
-  command->add_option("--trace", options->trace_path,
-                      "measured trace of the machine: t, <AXIS>.cmd, .pos, .cur/.torque/.force "
-                      "per axis (.pos2 / .pos_motor where logged)")
-      ->required()
-      ->check(CLI::ExistingFile);
+  add_diagnosis_input_options(*command, options->inputs, "nominal machine description (YAML)",
+                              "measured trace of the machine: t, <AXIS>.cmd, .pos, .cur/.torque/.force "
+                              "per axis (.pos2 / .pos_motor where logged)");
   command->add_option("--part", options->part_path, "part file (part.yaml) whose marks to predict")
       ->required()
-      ->check(CLI::ExistingFile);
-  command->add_option("--validate", options->validate_path,
-                      "a second measured run to judge on (default: held-out blocks of --trace)")
       ->check(CLI::ExistingFile);
   command->add_option("--out", options->out_dir,
                       "output folder (new, empty or a previous vmsim result: replaced as a whole)")
       ->required();
-  command->add_option("--exclude", options->exclude, "effects to leave out of the catalogue");
-  command->add_option("--max-effects", options->max_effects, "at most this many effects per axis")
-      ->check(CLI::Range(0, 12));
   command->add_option("--grid-um", options->grid_um, "surface line spacing of both part runs [um]")
       ->capture_default_str();
   command->add_option("--mark-threshold-um", options->mark_threshold_um,

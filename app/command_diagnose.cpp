@@ -5,6 +5,7 @@
 #include <sstream>
 
 #include "commands.hpp"
+#include "diagnosis_inputs.hpp"
 #include "vmsim/common/errors.hpp"
 #include "vmsim/common/files.hpp"
 #include "vmsim/common/output_folder.hpp"
@@ -16,49 +17,32 @@ namespace vmsim::app {
 namespace {
 
 struct DiagnoseCommandOptions {
-  std::string machine_path;
-  std::string trace_path;
-  std::string validate_path;
+  DiagnosisInputOptions inputs;
   std::string out_dir;
-  std::vector<std::string> exclude;
-  int max_effects = 4;
   double effort_noise_A = 0.0;
   double position_noise_um = 0.0;
   double tool_length_mm = 0.0;
 };
-
 int run_diagnose(const DiagnoseCommandOptions& options, const CommandContext& context) {
-  OutputFolder output(options.out_dir, {options.machine_path, options.trace_path, options.validate_path},
-                      {"diagnose", VMSIM_VERSION});
-  const kinematics::MachineModel machine = kinematics::load_machine(options.machine_path);
-  for (const std::string& warning : machine.warnings) context.warn(warning);
-  TraceReadOptions read_options;
-  read_options.known_axes.emplace();
-  for (const auto& axis : machine.axes) read_options.known_axes->insert(axis.name);
-  const auto data = identify::extract_measurements(
-      machine, read_trace(options.trace_path, read_options), options.trace_path);
-  std::vector<identify::AxisMeasurement> validation;
-  if (!options.validate_path.empty()) {
-    validation = identify::extract_measurements(
-        machine, read_trace(options.validate_path, read_options), options.validate_path);
-  }
-  identify::DiagnoseOptions diagnose_options;
-  diagnose_options.excluded = options.exclude;
-  diagnose_options.max_effects = options.max_effects;
+  const DiagnosisInputOptions& in = options.inputs;
+  OutputFolder output(options.out_dir, {in.machine_path, in.trace_path, in.validate_path}, {"diagnose", VMSIM_VERSION});
+  const DiagnosisInputs inputs = load_diagnosis_inputs(options.inputs, context);
+  const kinematics::MachineModel& machine = inputs.machine;
+  identify::DiagnoseOptions diagnose_options = catalogue_options(options.inputs);
   diagnose_options.effort_noise_A = options.effort_noise_A;
   // um -> m on a linear axis; the same factor reads urad -> rad on a rotary one.
   diagnose_options.position_noise = options.position_noise_um * 1e-6;
   diagnose_options.tool_length_m = options.tool_length_mm * 1e-3;
   const identify::Diagnosis diagnosis =
-      identify::diagnose(machine, data, validation, diagnose_options);
+      identify::diagnose(machine, inputs.data, inputs.validation, diagnose_options);
   std::vector<identify::AxisNote> notes;
   const kinematics::MachineModel extended = identify::extended_machine(machine, diagnosis, notes);
-  const std::string parent = std::filesystem::path(options.machine_path).parent_path().string();
+  const std::string parent = std::filesystem::path(options.inputs.machine_path).parent_path().string();
   const std::string yaml =
-      identify::updated_machine_yaml(read_file(options.machine_path), extended, notes,
-                                     options.machine_path, parent.empty() ? "." : parent);
-  const std::string json = identify::diagnosis_json(diagnosis, machine, options.trace_path);
-  const std::string report = identify::diagnosis_report(diagnosis, machine, options.trace_path);
+      identify::updated_machine_yaml(read_file(options.inputs.machine_path), extended, notes,
+                                     options.inputs.machine_path, parent.empty() ? "." : parent);
+  const std::string json = identify::diagnosis_json(diagnosis, machine, options.inputs.trace_path);
+  const std::string report = identify::diagnosis_report(diagnosis, machine, options.inputs.trace_path);
   const std::string residuals = identify::residuals_csv(diagnosis, machine);
   // Everything computed: into the staging folder, then the set swapped in.
   write_file_atomically(output.path_of("diagnosis.json"), json);
@@ -102,25 +86,13 @@ void add_diagnose_command(CLI::App& app, CommandContext& context) {
       "diagnose",
       "compare the drive simulation with a measured trace, find the effects the model lacks, "
       "extend it and report the gain on held-out data");
-  command->add_option("--machine", options->machine_path, "machine description (YAML)")
-      ->required()
-      ->check(CLI::ExistingFile);
-  command->add_option("--trace", options->trace_path,
-                      "measured trace: t, <AXIS>.cmd, .pos, .cur/.torque/.force (.pos2 if a "
-                      "load-side scale was logged)")
-      ->required()
-      ->check(CLI::ExistingFile);
-  command->add_option("--validate", options->validate_path,
-                      "a second measured run to judge on (default: held-out blocks of --trace)")
-      ->check(CLI::ExistingFile);
+  add_diagnosis_input_options(*command, options->inputs, "machine description (YAML)",
+                              "measured trace: t, <AXIS>.cmd, .pos, .cur/.torque/.force (.pos2 if a "
+                              "load-side scale was logged)");
   command->add_option("--out", options->out_dir,
                       "output folder (new, empty or a previous vmsim result: replaced as a whole): "
                       "diagnosis.json, machine_extended.yaml, residuals.csv, report.md")
       ->required();
-  command->add_option("--exclude", options->exclude,
-                      "effects to leave out of the catalogue (e.g. current_saturation)");
-  command->add_option("--max-effects", options->max_effects, "at most this many effects per axis")
-      ->check(CLI::Range(0, 12));
   command->add_option("--effort-noise-A", options->effort_noise_A,
                       "white-noise level of the measured effort [A]; default: estimated from the "
                       "measured signal itself")
