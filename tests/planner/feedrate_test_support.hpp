@@ -4,14 +4,41 @@
 #include <Eigen/Core>
 #include <cmath>
 #include <functional>
+#include <string>
 #include <vector>
 
 #include "vmsim/kinematics/dynamics.hpp"
+#include "vmsim/kinematics/machine_loader.hpp"
 #include "vmsim/kinematics/machine_model.hpp"
 #include "vmsim/kinematics/path_kinematics.hpp"
 #include "vmsim/planner/feedrate.hpp"
+#include "vmsim/toolpath/toolpath.hpp"
 
 namespace vmsim::planner::test {
+
+/// A machine and a path solved on it.
+struct Sample {
+  kinematics::MachineModel machine;
+  kinematics::PathKinematics path;
+};
+
+/// Sample path 1's cut (without its rapid approach and retract) on samples/machines/
+/// `machine_file`, tool length 60 mm.
+inline Sample path1_on(const std::string& machine_file) {
+  Sample out;
+  const std::string root = VMSIM_SOURCE_DIR;
+  out.machine = kinematics::load_machine(root + "/samples/machines/" + machine_file);
+  const toolpath::Toolpath tp = toolpath::read_apt(root + "/samples/parts/path1_yz/toolpath.apt");
+  std::vector<kinematics::PathPose> poses;
+  for (const auto& p : tp.points) {
+    if (p.kind == toolpath::MotionKind::rapid) continue;
+    if (!poses.empty() && (poses.back().pose.tip_W_m - p.tip_W_m).norm() < 1e-12) continue;
+    poses.push_back({{p.tip_W_m, p.axis_W}, p.block});
+  }
+  poses.erase(poses.begin());  // the first cut point is the end of the approach
+  out.path = kinematics::solve_path_kinematics(out.machine, poses, out.machine.home_positions(), 0.060, {});
+  return out;
+}
 
 /// q(s) and its first three derivatives for every axis at s.
 using PathFunction = std::function<void(double s, Eigen::VectorXd& q, Eigen::VectorXd& q_s,

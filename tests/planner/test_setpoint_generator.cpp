@@ -10,37 +10,17 @@
 #include <string>
 #include <vector>
 
-#include "vmsim/kinematics/machine_loader.hpp"
-#include "vmsim/kinematics/path_kinematics.hpp"
+#include "feedrate_test_support.hpp"
 #include "vmsim/planner/feedrate.hpp"
-#include "vmsim/toolpath/toolpath.hpp"
 
 namespace vmsim::planner {
 namespace {
 
-struct Sample {
-  kinematics::MachineModel machine;
-  kinematics::PathKinematics path;
-};
+using test::Sample;
 
-// Sample path 1's cut (without its rapid approach and retract) on the Mikron sample, tool
-// length 60 mm.
+// Sample path 1's cut on the Mikron sample, tool length 60 mm.
 const Sample& path1() {
-  static const Sample sample = [] {
-    Sample out;
-    const std::string root = VMSIM_SOURCE_DIR;
-    out.machine = kinematics::load_machine(root + "/samples/machines/mikron_ucp710.yaml");
-    const toolpath::Toolpath tp = toolpath::read_apt(root + "/samples/parts/path1_yz/toolpath.apt");
-    std::vector<kinematics::PathPose> poses;
-    for (const auto& p : tp.points) {
-      if (p.kind == toolpath::MotionKind::rapid) continue;
-      if (!poses.empty() && (poses.back().pose.tip_W_m - p.tip_W_m).norm() < 1e-12) continue;
-      poses.push_back({{p.tip_W_m, p.axis_W}, p.block});
-    }
-    poses.erase(poses.begin());  // the first cut point is the end of the approach
-    out.path = kinematics::solve_path_kinematics(out.machine, poses, out.machine.home_positions(), 0.060, {});
-    return out;
-  }();
+  static const Sample sample = test::path1_on("mikron_ucp710.yaml");
   return sample;
 }
 

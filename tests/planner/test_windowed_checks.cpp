@@ -25,28 +25,8 @@
 namespace vmsim::planner {
 namespace {
 
-struct Sample {
-  kinematics::MachineModel machine;
-  kinematics::PathKinematics path;
-};
-
-// Sample path 1's cut (without its rapid approach and retract) on `machine_file`, tool length
-// 60 mm.
-Sample path1_on(const std::string& machine_file) {
-  Sample out;
-  const std::string root = VMSIM_SOURCE_DIR;
-  out.machine = kinematics::load_machine(root + "/samples/machines/" + machine_file);
-  const toolpath::Toolpath tp = toolpath::read_apt(root + "/samples/parts/path1_yz/toolpath.apt");
-  std::vector<kinematics::PathPose> poses;
-  for (const auto& p : tp.points) {
-    if (p.kind == toolpath::MotionKind::rapid) continue;
-    if (!poses.empty() && (poses.back().pose.tip_W_m - p.tip_W_m).norm() < 1e-12) continue;
-    poses.push_back({{p.tip_W_m, p.axis_W}, p.block});
-  }
-  poses.erase(poses.begin());  // the first cut point is the end of the approach
-  out.path = kinematics::solve_path_kinematics(out.machine, poses, out.machine.home_positions(), 0.060, {});
-  return out;
-}
+using test::path1_on;
+using test::Sample;
 
 const Sample& mikron() {
   static const Sample sample = path1_on("mikron_ucp710.yaml");
