@@ -515,6 +515,11 @@ TEST(SimulatePart, AMarkIsJudgedByTheToleranceOfTheDesignSurfaceItLiesOn) {
   with_tolerances("15", "30");
   const nlohmann::json beyond = app::simulate_part(options, kSilent);
   ASSERT_FALSE(beyond["marks"].empty());
+  // The planted mark lies between the two tolerances: the wall's own (15 um) fails it, the part's
+  // (30 um) and the wider wall tolerance below (25 um) pass it; deeper than 5 um (the command line).
+  const double depth_um = beyond["marks"][0]["depth_um"].get<double>();
+  ASSERT_GT(depth_um, 15.0);
+  ASSERT_LT(depth_um, 25.0);
   EXPECT_EQ(beyond["marks"][0]["design_surface"], "sealing wall");
   EXPECT_NEAR(beyond["marks"][0]["tolerance_um"].get<double>(), 15.0, 1e-9);
   EXPECT_EQ(beyond["verdict"]["status"], "not_within") << beyond["verdict"].dump(2);
@@ -526,9 +531,15 @@ TEST(SimulatePart, AMarkIsJudgedByTheToleranceOfTheDesignSurfaceItLiesOn) {
 
   with_tolerances("25", "10");
   const nlohmann::json within = app::simulate_part(options, kSilent);
+  ASSERT_FALSE(within["marks"].empty());
+  EXPECT_NEAR(within["marks"][0]["depth_um"].get<double>(), depth_um, 1e-9);
+  EXPECT_NEAR(within["marks"][0]["tolerance_um"].get<double>(), 25.0, 1e-9);
   EXPECT_EQ(within["verdict"]["status"], "within") << within["verdict"].dump(2);
+  // The command line's 5 um does not override the wall's own tolerance.
   options.tolerance_m = 5e-6;
   const nlohmann::json option = app::simulate_part(options, kSilent);
+  ASSERT_FALSE(option["marks"].empty());
+  EXPECT_NEAR(option["marks"][0]["tolerance_um"].get<double>(), 25.0, 1e-9);
   EXPECT_EQ(option["verdict"]["status"], "within") << option["verdict"].dump(2);
   EXPECT_EQ(option["verdict"]["tolerance_source"], "--tolerance-um");
 }
