@@ -40,6 +40,12 @@ inline Sample path1_on(const std::string& machine_file) {
   return out;
 }
 
+/// Path 1 on the Mikron sample, solved once per test program.
+inline const Sample& mikron_path1() {
+  static const Sample sample = path1_on("mikron_ucp710.yaml");
+  return sample;
+}
+
 /// q(s) and its first three derivatives for every axis at s.
 using PathFunction = std::function<void(double s, Eigen::VectorXd& q, Eigen::VectorXd& q_s,
                                         Eigen::VectorXd& q_ss, Eigen::VectorXd& q_sss)>;

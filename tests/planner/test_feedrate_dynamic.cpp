@@ -18,12 +18,7 @@ namespace vmsim::planner {
 namespace {
 
 using test::Sample;
-
-/// Path 1 without its rapid approach and retract (the cut only), on the Mikron sample.
-const Sample& path1() {
-  static const Sample sample = test::path1_on("mikron_ucp710.yaml");
-  return sample;
-}
+const auto& path1 = test::mikron_path1;  // the cut of path 1 on the Mikron sample
 
 FeedratePlan limits_only(FeedrateOptions options) {
   options.profile_only = true;

@@ -17,12 +17,7 @@ namespace vmsim::planner {
 namespace {
 
 using test::Sample;
-
-// Sample path 1's cut on the Mikron sample, tool length 60 mm.
-const Sample& path1() {
-  static const Sample sample = test::path1_on("mikron_ucp710.yaml");
-  return sample;
-}
+const auto& path1 = test::mikron_path1;  // the cut of path 1 on the Mikron sample
 
 bool same_bits(double a, double b) { return std::memcmp(&a, &b, sizeof a) == 0; }
 

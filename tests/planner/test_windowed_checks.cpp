@@ -28,10 +28,7 @@ namespace {
 using test::path1_on;
 using test::Sample;
 
-const Sample& mikron() {
-  static const Sample sample = path1_on("mikron_ucp710.yaml");
-  return sample;
-}
+const auto& mikron = test::mikron_path1;
 
 bool same_bits(double a, double b) { return std::memcmp(&a, &b, sizeof a) == 0; }
 
