@@ -27,6 +27,7 @@
 #include "../app/cli_runner.hpp"
 #include "mikron_truth.hpp"
 #include "truth_sim_independent.hpp"
+#include "vmsim/common/files.hpp"
 #include "vmsim/common/trace.hpp"
 #include "vmsim/identify/identify.hpp"
 #include "vmsim/kinematics/machine_loader.hpp"
@@ -41,12 +42,6 @@ constexpr double kToolLengthMm = 60.0;
 
 void write(const fs::path& path, const std::string& text) { std::ofstream(path) << text; }
 
-std::string read(const fs::path& path) {
-  std::ifstream in(path);
-  std::stringstream text;
-  text << in.rdbuf();
-  return text.str();
-}
 
 // A ball-end D10 on a sphere of radius 40 mm centred off the table's axis (at (20, -10, 0) mm in
 // W, so that X and Y follow the table), the tool axis along the sphere's normal. The normal's
@@ -145,7 +140,7 @@ Json diagnose_case(const std::string& name, const std::function<void(std::vector
                                           std::to_string(kToolLengthMm) + " --out " + (p.folder / name).string());
   EXPECT_EQ(run.exit_code, 0) << run.output;
   std::printf("%s: %s\n", name.c_str(), run.output.c_str());
-  return Json::parse(read(p.folder / name / "diagnosis.json"));
+  return Json::parse(read_file((p.folder / name / "diagnosis.json").string()));
 }
 
 const Json* axis_of(const Json& diagnosis, const std::string& name) {
@@ -276,7 +271,7 @@ TEST(DiagnoseFiveAxisProgram, HeavierUnbalanceOfTheCradleIsFoundOnA) {
   const double scale = (*a)["found"][0]["parameters"].value("gravity_scale", 0.0);
   EXPECT_NEAR(scale, 1.2, 0.02) << (*a)["found"][0].dump(1);
   // No machine-file key for it: a comment line in the extended machine file says so.
-  const std::string extended = read(planned_program().folder / "a_gravity" / "machine_extended.yaml");
+  const std::string extended = read_file((planned_program().folder / "a_gravity" / "machine_extended.yaml").string());
   EXPECT_NE(extended.find("gravity torque of the axis's own angle"), std::string::npos) << extended.substr(0, 600);
 }
 
