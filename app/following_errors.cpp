@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <limits>
 #include <numbers>
 
 #include "vmsim/kinematics/kinematics.hpp"
@@ -101,13 +102,7 @@ void FollowingErrorSummary::tip_sample(std::size_t k) {
   // The contour error: the distance from the actual tip to the commanded tip's path (its
   // segments within 0.1 s either side), not to where the command is at that instant (the
   // drives follow with a delay along the path, which leaves no mark).
-  double deviation = (tip - commanded(k)).norm();
-  for (std::size_t i = k > window_ ? k - window_ : 0; i + 1 < samples_ && i < k + window_; ++i) {
-    const Eigen::Vector3d segment = commanded(i + 1) - commanded(i);
-    const double length2 = segment.squaredNorm();
-    const double f = length2 > 0.0 ? std::clamp((tip - commanded(i)).dot(segment) / length2, 0.0, 1.0) : 0.0;
-    deviation = std::min(deviation, (tip - commanded(i) - f * segment).norm());
-  }
+  const double deviation = contour_error(tip, k);
   if (deviation > tip_peak_) tip_peak_ = deviation, tip_peak_t_s_ = sample.t_s;
   tip_sum_squares_ += deviation * deviation;
   ++tip_count_;
@@ -129,6 +124,79 @@ void FollowingErrorSummary::tip_sample(std::size_t k) {
   }
   const double deflection = (tip - kinematics::forward_kinematics(machine_, q_motor, tool_length_m_).tip_W_m).norm();
   if (deflection > deflection_peak_) deflection_peak_ = deflection, deflection_t_s_ = sample.t_s;
+}
+
+double FollowingErrorSummary::segment_distance_squared(const Eigen::Vector3d& tip, std::size_t i) const {
+  const Eigen::Vector3d* tips = commanded_.data() + commanded_dropped_;
+  const Eigen::Vector3d& start = tips[i - window_first_];
+  const Eigen::Vector3d segment = tips[i + 1 - window_first_] - start;
+  const double length2 = segment.squaredNorm();
+  const double f = length2 > 0.0 ? std::clamp((tip - start).dot(segment) / length2, 0.0, 1.0) : 0.0;
+  return (tip - start - f * segment).squaredNorm();
+}
+
+void FollowingErrorSummary::add_blocks() {
+  // A block's points: kBlockSegments + 1 commanded tips from its first segment on, all known.
+  while ((blocks_first_ + blocks_.size() + 1) * kBlockSegments < samples_) {
+    const std::size_t first = (blocks_first_ + blocks_.size()) * kBlockSegments;
+    if (first < window_first_) {  // its first tips no longer held: a sphere that skips nothing
+      blocks_.push_back({Eigen::Vector3d::Zero(), std::numeric_limits<double>::infinity()});
+      continue;
+    }
+    const Eigen::Vector3d* tips = commanded_.data() + commanded_dropped_ + (first - window_first_);
+    Eigen::Vector3d low = tips[0], high = tips[0];
+    for (std::size_t i = 1; i <= kBlockSegments; ++i) {
+      low = low.cwiseMin(tips[i]);
+      high = high.cwiseMax(tips[i]);
+    }
+    const Eigen::Vector3d centre = (low + high) / 2;
+    double radius = 0.0;
+    for (std::size_t i = 0; i <= kBlockSegments; ++i) radius = std::max(radius, (tips[i] - centre).norm());
+    blocks_.push_back({centre, radius});
+  }
+  // Blocks before the first segment any later sample reads.
+  const std::size_t unused = window_first_ / kBlockSegments;
+  if (unused > blocks_first_ + 1024 && unused - blocks_first_ > blocks_.size() / 2) {
+    blocks_.erase(blocks_.begin(), blocks_.begin() + static_cast<std::ptrdiff_t>(unused - blocks_first_));
+    blocks_first_ = unused;
+  }
+}
+
+double FollowingErrorSummary::contour_error(const Eigen::Vector3d& tip, std::size_t k) {
+  // The least distance to segments i = first .. end - 1, as the plain search over all of them
+  // gives it, bit for bit: the minimum of the squared distances (sqrt is monotonic and
+  // correctly rounded, so sqrt of the least square is the least norm), and whole blocks of
+  // segments skipped whose bounding sphere lies farther than the best so far (a skipped
+  // segment's distance exceeds the minimum by far more than rounding: it cannot change it).
+  const std::size_t first = k > window_ ? k - window_ : 0;
+  const std::size_t end = std::min(samples_ - 1, k + window_);
+  const Eigen::Vector3d* tips = commanded_.data() + commanded_dropped_;
+  double best2 = (tip - tips[k - window_first_]).squaredNorm();
+  if (first >= end) return std::sqrt(best2);
+  // The segment nearest to the previous sample's tip is near this one's: the best so far small
+  // from the start.
+  const std::size_t hint = std::clamp(previous_nearest_, first, end - 1);
+  best2 = std::min(best2, segment_distance_squared(tip, hint));
+  std::size_t nearest = hint;
+  const auto try_segment = [&](std::size_t i) {
+    const double d2 = segment_distance_squared(tip, i);
+    if (d2 < best2) best2 = d2, nearest = i;
+  };
+  add_blocks();
+  // Rounding of the distances (coordinates in metres, well below 1e3 m): far below this.
+  const double margin_m = 1e-9 * (1.0 + tip.cwiseAbs().maxCoeff());
+  for (std::size_t block = first / kBlockSegments; block * kBlockSegments < end; ++block) {
+    const std::size_t from = std::max(first, block * kBlockSegments);
+    const std::size_t to = std::min(end, (block + 1) * kBlockSegments);
+    if (block >= blocks_first_ && block < blocks_first_ + blocks_.size()) {
+      const BlockSphere& sphere = blocks_[block - blocks_first_];
+      const double lower_bound_m = (tip - sphere.centre_W_m).norm() - sphere.radius_m - margin_m;
+      if (lower_bound_m > 0.0 && lower_bound_m * lower_bound_m > best2) continue;
+    }
+    for (std::size_t i = from; i < to; ++i) try_segment(i);
+  }
+  previous_nearest_ = nearest;
+  return std::sqrt(best2);
 }
 
 nlohmann::json FollowingErrorSummary::finish(const std::function<double(double)>& s_at) {

@@ -39,6 +39,10 @@ class FollowingErrorSummary {
   };
   void tip_sample(std::size_t k);  // the contour error of pending sample k (its neighbours known)
   void process_ready(bool all);
+  // The distance from `tip` to the commanded tips' path within 0.1 s of sample k.
+  double contour_error(const Eigen::Vector3d& tip, std::size_t k);
+  double segment_distance_squared(const Eigen::Vector3d& tip, std::size_t i) const;  // to segment i -> i + 1
+  void add_blocks();  // the bounding spheres of the blocks whose tips are all known
 
   const kinematics::MachineModel& machine_;
   double tool_length_m_;
@@ -56,6 +60,16 @@ class FollowingErrorSummary {
   std::vector<Eigen::Vector3d> commanded_;
   std::size_t commanded_dropped_ = 0;  ///< entries of commanded_ before window_first_
   std::size_t window_first_ = 0;
+  // Bounding spheres of blocks of kBlockSegments commanded segments (block b: segments from
+  // b * kBlockSegments on), from block blocks_first_ on: the contour error skips far blocks.
+  static constexpr std::size_t kBlockSegments = 8;
+  struct BlockSphere {
+    Eigen::Vector3d centre_W_m;
+    double radius_m;
+  };
+  std::vector<BlockSphere> blocks_;
+  std::size_t blocks_first_ = 0;
+  std::size_t previous_nearest_ = 0;  ///< the segment nearest to the last sample's tip
   std::deque<Pending> pending_;
   std::size_t pending_first_ = 0;
   std::size_t window_ = 0;  ///< samples in 0.1 s (known after the second sample)

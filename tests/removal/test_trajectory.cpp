@@ -123,6 +123,69 @@ TEST(TrajectoryThinner, WindowedChainCutsTheSameSurface) {
   }
 }
 
+// The thinner checks a sample again only when the candidate's drift may have taken it out of
+// the tolerance (removal/trajectory.hpp). Against the plain scan (thin_whole: every sample at
+// every candidate) where the decisions are closest: slow and fast stretches whose speed varies
+// from sample to sample (the drift grows), a wobble of nearly the tolerance, coordinates
+// far from the origin (1 to 40 m, a larger margin scale), and tool changes (restart_from: the
+// stretch after it is thinned from the moved anchor, which the plain scan gets as its first pose).
+TEST(TrajectoryThinner, SkippedChecksChangeNoDecision) {
+  std::uniform_real_distribution<double> unit(0.0, 1.0);
+  std::size_t kept_total = 0, samples_total = 0;
+  for (unsigned seed = 0; seed < 24; ++seed) {
+    std::mt19937 rng(100 + seed);
+    const double tolerance = seed % 3 == 0 ? 0.05e-6 : seed % 3 == 1 ? 1e-6 : 10e-6;
+    const double length = 0.02 + 0.1 * unit(rng);
+    const Eigen::Vector3d origin = (1.0 + 39.0 * unit(rng) * (seed % 2)) * Eigen::Vector3d(1.0, -0.5, 0.25);
+    // Stretches between tool changes, each its own plain thinning.
+    std::vector<std::vector<Pose>> stretches(1 + seed % 4);
+    Eigen::Vector3d p = origin;
+    double heading = 0.0, tilt = 0.1, speed = 1e-4;
+    for (auto& stretch : stretches) {
+      const std::size_t n = 200 + static_cast<std::size_t>(unit(rng) * 1500);
+      for (std::size_t k = 0; k < n; ++k) {
+        if (k % 97 == 0) speed = std::pow(10.0, -7.0 + 4.0 * unit(rng));  // 0.1 um to 1 mm a sample
+        speed *= 1.0 + 0.02 * (unit(rng) - 0.5);
+        heading += 0.002 * (unit(rng) - 0.5);
+        tilt += 1e-5 * (unit(rng) - 0.3);
+        p += speed * Eigen::Vector3d(std::cos(heading), std::sin(heading), 0.1);
+        const Eigen::Vector3d wobble = 0.4 * tolerance * Eigen::Vector3d(unit(rng) - 0.5, unit(rng) - 0.5, unit(rng) - 0.5);
+        stretch.push_back({p + wobble, Eigen::Vector3d(std::sin(tilt), 0.0, std::cos(tilt))});
+      }
+    }
+    // The plain scan, stretch by stretch; a later stretch starts from the last pose of the one
+    // before moved 5 mm down (the new tool's tip), not reported again.
+    std::vector<std::size_t> expected;
+    std::size_t offset = 0;
+    for (std::size_t s = 0; s < stretches.size(); ++s) {
+      std::vector<Pose> poses = stretches[s];
+      if (s > 0) {
+        Pose anchor = stretches[s - 1].back();
+        anchor.tip_W_m.z() -= 5e-3;
+        poses.insert(poses.begin(), anchor);
+      }
+      const std::vector<std::size_t> kept = thin_whole(poses, length, tolerance);
+      for (std::size_t i = s > 0 ? 1 : 0; i < kept.size(); ++i) expected.push_back(kept[i] + offset - (s > 0 ? 1 : 0));
+      offset += stretches[s].size();
+    }
+    std::vector<std::size_t> streamed;
+    TrajectoryThinner thinner(length, tolerance, [&](std::size_t k, const Pose&) { streamed.push_back(k); });
+    for (std::size_t s = 0; s < stretches.size(); ++s) {
+      if (s > 0) {
+        Pose anchor = stretches[s - 1].back();
+        anchor.tip_W_m.z() -= 5e-3;
+        thinner.restart_from(anchor);
+      }
+      for (const Pose& pose : stretches[s]) thinner.push(pose);
+    }
+    thinner.finish();
+    ASSERT_EQ(streamed, expected) << "seed " << seed;
+    kept_total += streamed.size();
+    samples_total += offset;
+  }
+  EXPECT_LT(kept_total, samples_total * 7 / 10);  // it thins: most decisions are to go on
+}
+
 TEST(TrajectoryThinner, SingleAndTwoSamples) {
   std::vector<std::size_t> kept;
   TrajectoryThinner one(0.03, 1e-6, [&](std::size_t k, const Pose&) { kept.push_back(k); });
