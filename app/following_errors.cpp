@@ -25,6 +25,17 @@ FollowingErrorSummary::FollowingErrorSummary(const kinematics::MachineModel& mac
 void FollowingErrorSummary::add(double t_s, const Eigen::Ref<const Eigen::VectorXd>& q_cmd,
                                 const Eigen::Ref<const Eigen::VectorXd>& q_actual,
                                 const Eigen::Ref<const Eigen::VectorXd>& q_motor, bool cutting) {
+  if (!tool_tip_) {
+    add(t_s, q_cmd, q_actual, q_motor, cutting, Eigen::Isometry3d::Identity(), Eigen::Isometry3d::Identity());
+    return;
+  }
+  add(t_s, q_cmd, q_actual, q_motor, cutting, spindle_frame_W(machine_, q_cmd), spindle_frame_W(machine_, q_actual));
+}
+
+void FollowingErrorSummary::add(double t_s, const Eigen::Ref<const Eigen::VectorXd>& q_cmd,
+                                const Eigen::Ref<const Eigen::VectorXd>& q_actual,
+                                const Eigen::Ref<const Eigen::VectorXd>& q_motor, bool cutting,
+                                const Eigen::Isometry3d& spindle_cmd_W, const Eigen::Isometry3d& spindle_actual_W) {
   const std::size_t axes = machine_.axes.size();
   if (samples_ == 0) {
     first_t_s_ = t_s;
@@ -61,14 +72,17 @@ void FollowingErrorSummary::add(double t_s, const Eigen::Ref<const Eigen::Vector
   if (cutting) ++cutting_count_;
   ++samples_;
   if (!tool_tip_) return;
-  commanded_.push_back(kinematics::forward_kinematics(machine_, q_cmd, tool_length_m_).tip_W_m);
+  commanded_.push_back(tool_tip_W_m(spindle_cmd_W, tool_length_m_));
   Pending sample;
   sample.t_s = t_s;
   sample.cutting = cutting;
   if (cutting) {
-    sample.q_cmd = q_cmd;
-    sample.q_actual = q_actual;
-    if (elastic_) sample.q_motor = q_motor;
+    sample.tip_W_m = tool_tip_W_m(spindle_actual_W, tool_length_m_);
+    if (elastic_) {
+      sample.q_cmd = q_cmd;
+      sample.q_actual = q_actual;
+      sample.q_motor = q_motor;
+    }
   }
   pending_.push_back(std::move(sample));
   if (samples_ >= 2) process_ready(false);
@@ -97,7 +111,7 @@ void FollowingErrorSummary::tip_sample(std::size_t k) {
   if (!sample.cutting) return;
   const Eigen::Vector3d* tips = commanded_.data() + commanded_dropped_;
   const auto commanded = [&](std::size_t i) -> const Eigen::Vector3d& { return tips[i - window_first_]; };
-  const Eigen::Vector3d tip = kinematics::forward_kinematics(machine_, sample.q_actual, tool_length_m_).tip_W_m;
+  const Eigen::Vector3d& tip = sample.tip_W_m;
   lag_peak_ = std::max(lag_peak_, (tip - commanded(k)).norm());
   // The contour error: the distance from the actual tip to the commanded tip's path (its
   // segments within 0.1 s either side), not to where the command is at that instant (the

@@ -5,16 +5,29 @@
 #include <nlohmann/json.hpp>
 
 #include <Eigen/Core>
+#include <Eigen/Geometry>
 #include <deque>
 #include <functional>
 #include <optional>
 #include <string>
 #include <vector>
 
+#include "vmsim/kinematics/kinematics.hpp"
 #include "vmsim/kinematics/machine_model.hpp"
 #include "vmsim/servo/servo.hpp"
 
 namespace vmsim::app {
+
+/// The spindle frame in the workpiece frame W at joint positions q: kinematics::forward_kinematics
+/// before the tool length, so that one chain serves every tool length at a sample
+/// (tool_tip_W_m(frame, L) equals forward_kinematics(model, q, L).tip_W_m bit for bit: the same
+/// operations).
+inline Eigen::Isometry3d spindle_frame_W(const kinematics::MachineModel& machine, const Eigen::VectorXd& q) {
+  return kinematics::workpiece_frame_B(machine, q).inverse(Eigen::Isometry) * kinematics::spindle_frame_B(machine, q);
+}
+inline Eigen::Vector3d tool_tip_W_m(const Eigen::Isometry3d& spindle_W, double tool_length_m) {
+  return spindle_W * Eigen::Vector3d(0.0, 0.0, -tool_length_m);
+}
 
 class FollowingErrorSummary {
  public:
@@ -28,13 +41,19 @@ class FollowingErrorSummary {
   /// motor_side; else ignored), SI joint units, and whether its motion is a cutting move.
   void add(double t_s, const Eigen::Ref<const Eigen::VectorXd>& q_cmd, const Eigen::Ref<const Eigen::VectorXd>& q_actual,
            const Eigen::Ref<const Eigen::VectorXd>& q_motor, bool cutting);
+  /// The same with the spindle frames of q_cmd and q_actual known (spindle_frame_W): no direct
+  /// kinematics of its own but for the motor side.
+  void add(double t_s, const Eigen::Ref<const Eigen::VectorXd>& q_cmd, const Eigen::Ref<const Eigen::VectorXd>& q_actual,
+           const Eigen::Ref<const Eigen::VectorXd>& q_motor, bool cutting, const Eigen::Isometry3d& spindle_cmd_W,
+           const Eigen::Isometry3d& spindle_actual_W);
   /// After the last sample: the summary; `s_at(t)` is the path length [m] planned at time t.
   nlohmann::json finish(const std::function<double(double)>& s_at);
 
  private:
   struct Pending {
     double t_s = 0.0;
-    Eigen::VectorXd q_cmd, q_actual, q_motor;
+    Eigen::VectorXd q_cmd, q_actual, q_motor;  ///< cutting samples with elastic joints only
+    Eigen::Vector3d tip_W_m = Eigen::Vector3d::Zero();  ///< the actual tip (cutting samples)
     bool cutting = false;
   };
   void tip_sample(std::size_t k);  // the contour error of pending sample k (its neighbours known)

@@ -306,7 +306,10 @@ class ChainSink {
     const bool cutting = cutting_at(context_, run_.plan, t_s);
     travel_.add(t_s, q_actual);
     if (current_A.size() > 0) saturation_.add(t_s, current_A, cutting);
-    errors_.add(t_s, q_cmd, q_actual, q_motor, cutting);
+    // One direct kinematics of each position for every tool length read below.
+    const Eigen::Isometry3d spindle_cmd_W = spindle_frame_W(context_.inputs.machine, q_cmd);
+    const Eigen::Isometry3d spindle_actual_W = spindle_frame_W(context_.inputs.machine, q_actual);
+    errors_.add(t_s, q_cmd, q_actual, q_motor, cutting, spindle_cmd_W, spindle_actual_W);
     if (keep_) {
       const auto k = static_cast<Eigen::Index>(run_.t_s.size());
       if (k == run_.q_cmd.cols()) {  // more than expected: grow
@@ -322,16 +325,15 @@ class ChainSink {
       const double length_m = lengths.empty()            ? 0.0
                               : tool_poses_.one_length() ? lengths.front()
                                                          : lengths[motion_point_at(context_.path.s_m, plan_s_at(run_.plan, t_s))];
-      const kinematics::ToolPose commanded = kinematics::forward_kinematics(context_.inputs.machine, q_cmd, length_m);
-      const kinematics::ToolPose actual = kinematics::forward_kinematics(context_.inputs.machine, q_actual, length_m);
-      deviation_->add(t_s, {commanded.tip_W_m, commanded.axis_W}, {actual.tip_W_m, actual.axis_W});
+      deviation_->add(t_s, {tool_tip_W_m(spindle_cmd_W, length_m), spindle_cmd_W.linear().col(2)},
+                      {tool_tip_W_m(spindle_actual_W, length_m), spindle_actual_W.linear().col(2)});
     }
     ++run_.samples;
     if (!thin_) return;
     // The thinning holds a window of poses: the times of the samples it may still keep.
     sample_t_s_.push_back(t_s);
     // The tool in the spindle at this sample (its length: the path point its motion runs to).
-    tool_poses_.push(q_actual, tool_poses_.one_length() ? 0.0 : plan_s_at(run_.plan, t_s));
+    tool_poses_.push(spindle_actual_W, tool_poses_.one_length() ? 0.0 : plan_s_at(run_.plan, t_s));
     if (sample_t_s_.size() > 4096) {
       // Beyond the thinner's window (at most 257 poses) no sample is kept any more.
       const std::size_t drop = sample_t_s_.size() - 1024;

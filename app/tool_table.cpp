@@ -1,5 +1,7 @@
 #include "tool_table.hpp"
 
+#include "following_errors.hpp"
+
 #include <algorithm>
 #include <array>
 #include <cmath>
@@ -81,10 +83,14 @@ ToolPoseStream::ToolPoseStream(const kinematics::MachineModel& machine, std::vec
   for (const double length : point_length_m_) one_length_ = one_length_ && length == point_length_m_.front();
 }
 
-void ToolPoseStream::push(const Eigen::VectorXd& q, double s_m) {
+void ToolPoseStream::push(const Eigen::VectorXd& q, double s_m) { push(spindle_frame_W(machine_, q), s_m); }
+
+void ToolPoseStream::push(const Eigen::Isometry3d& spindle_W, double s_m) {
   const double length_m =
       point_length_m_.empty() ? 0.0 : one_length_ ? point_length_m_.front() : point_length_m_[motion_point_at(path_s_m_, s_m)];
-  const kinematics::ToolPose pose = kinematics::forward_kinematics(machine_, q, length_m);
+  kinematics::ToolPose pose;
+  pose.tip_W_m = tool_tip_W_m(spindle_W, length_m);
+  pose.axis_W = spindle_W.linear().col(2);
   if (any_ && length_m != last_length_m_) {
     // The tool changed at rest after the last sample: thin on from it with the new tool.
     thinner_.restart_from({kinematics::tip_with_tool_length(last_pose_.tip_W_m, last_pose_.axis_W, last_length_m_, length_m),

@@ -2,6 +2,7 @@
 // The part file's tools in the removal: the tool of each path point's motion (PathPoint::
 // tool_number through the part file's `tools:` table) and cutting a trajectory stretch by
 // stretch with the tool in the spindle.
+#include <Eigen/Geometry>
 #include <cstddef>
 #include <functional>
 #include <vector>
@@ -43,6 +44,8 @@ class ToolPoseStream {
   /// True when every point has the same tool length: push needs no s then (any value).
   bool one_length() const { return one_length_; }
   void push(const Eigen::VectorXd& q, double s_m);
+  /// The same with q's spindle frame known (spindle_frame_W).
+  void push(const Eigen::Isometry3d& spindle_W, double s_m);
 
  private:
   const kinematics::MachineModel& machine_;
