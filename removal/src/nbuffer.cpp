@@ -1114,6 +1114,11 @@ CutStatistics NBuffer::cut(const Tool& tool, std::span<const Pose> trajectory, c
         // at c0) already cut: they are skipped.
         const bool skip_start_disc = tilted && s.rho > 0.0 && s.continues_axis && fast.lowest_at_start();
         const SectionRows* chain_rows = role.rows >= 0 ? &section_rows[static_cast<std::size_t>(role.rows)] : nullptr;
+        // Vertical ball-end changing height (3-axis finishing on slopes, plunges): the general
+        // path's bound and entry, the same doubles, without its calls and generic products.
+        const bool ball_ramp = detail::VerticalBallEntry::serves(s);
+        const detail::VerticalBallEntry ball_entry(s);
+        const double ball_exit = std::max(s.c0.z(), s.c1.z()) + s.ell + s.r - z0;  // (vertical_entry's z1)
         const double tile_x_lo = tiles_[tile].lo.x() - slack, tile_x_hi = tiles_[tile].hi.x() + slack;
         for (int iv = tv * kTile; iv < v_end; ++iv) {
           const double y = origin0_.y() + iv * sp;
@@ -1214,6 +1219,12 @@ CutStatistics NBuffer::cut(const Tool& tool, std::span<const Pose> trajectory, c
               if (t0 >= h) continue;
               t1 = s.hi.z() - z0;
               if (t1 <= 0.0 && !detail::line_interval(s, Eigen::Vector3d(x, y, z0), Eigen::Vector3d::UnitZ(), t0, t1)) continue;
+            } else if (ball_ramp) {
+              if (ball_entry.lowest_below(x, y) - z0 >= h) continue;
+              double z = 0.0;
+              if (!ball_entry.entry(x, y, z)) continue;
+              t0 = z - z0;
+              t1 = ball_exit;
             } else {
               const double d = detail::distance_2d(x, y, s.c0.x(), s.c0.y(), s.c1.x(), s.c1.y());
               double bound = detail::lowest_z_beyond(s, d);

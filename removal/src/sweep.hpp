@@ -2,6 +2,8 @@
 // Private: the exact line-versus-swept-tool computations shared by the N-buffer and the
 // OpenVDB model. SI units, frame W.
 #include <Eigen/Core>
+#include <Eigen/Geometry>
+#include <algorithm>
 #include <cmath>
 #include <limits>
 #include <vector>
@@ -250,6 +252,115 @@ bool line_interval(const Sweep& s, const Eigen::Vector3d& o, const Eigen::Vector
 /// Vertical sweep, vertical line through (x, y): lowest point of the swept volume (entry z)
 /// and an upper bound of its highest point; false if the line misses.
 bool vertical_entry(const Sweep& s, double x, double y, double& z0, double& z1);
+
+/// vertical_entry and the culling bound for a vertical ball-end sweep (rho = 0, a = +z, not a
+/// conical tool) that changes height (c0.z != c1.z, the 3-axis ramps and plunges of a finishing
+/// path, where the level closed form does not apply): the same doubles, cheaper. `entry` is
+/// capsule_interval(c0, c1, r, (x, y, 0), +z) written out for a vertical line: what it drops
+/// are products by exact ones and sums with exact zeros (u = +z has zero x and y; u x d has a
+/// zero z), every other operation is capsule_interval's in its order (the three-term dot
+/// products through Eigen as there), so each candidate entry, and their minimum, is the same
+/// double; x86-64 without FMA contraction evaluates each expression as written. Per sweep
+/// constants are computed once. `lowest_below` is lowest_z_beyond(s, distance_2d(...)) for the
+/// vertical sweep (distance_2d's and lowest_z_beyond's operations). Both are checked bit for bit
+/// against the general functions (tests/removal/test_nbuffer_paths.cpp).
+class VerticalBallEntry {
+ public:
+  explicit VerticalBallEntry(const Sweep& s)
+      : ax_(s.c0.x()), ay_(s.c0.y()), az_(s.c0.z()), bx_(s.c1.x()), by_(s.c1.y()), bz_(s.c1.z()), r_(s.r),
+        cz_min_(s.cz_min), d_(s.c1 - s.c0) {
+    rr_ = r_ * r_;
+    dd_ = d_.squaredNorm();
+    const Eigen::Vector3d u_cross_d = Eigen::Vector3d::UnitZ().cross(d_);
+    ux_ = u_cross_d.x(), uy_ = u_cross_d.y();
+    uu_ = u_cross_d.squaredNorm();
+    cylinder_ = dd_ > 0.0 && uu_ > 1e-30 * dd_;
+    uu_rr_ = uu_ * r_ * r_;
+    dd_rr_ = dd_ * r_ * r_;
+    ud_ = Eigen::Vector3d::UnitZ().dot(d_);
+    // distance_2d's
+    pdx_ = bx_ - ax_, pdy_ = by_ - ay_;
+    pdd_ = pdx_ * pdx_ + pdy_ * pdy_;
+  }
+
+  /// True for the sweeps this class serves.
+  static bool serves(const Sweep& s) {
+    return s.vertical && s.rho == 0.0 && !s.profile.active && s.c0.z() != s.c1.z();
+  }
+
+  /// lowest_z_beyond(s, distance_2d(x, y, c0, c1)): the lowest z of the sweep over (x, y) and
+  /// beyond (+inf when it does not reach there).
+  double lowest_below(double x, double y) const {
+    const double wx = x - ax_, wy = y - ay_;
+    double t = pdd_ > 0.0 ? (wx * pdx_ + wy * pdy_) / pdd_ : 0.0;
+    t = std::clamp(t, 0.0, 1.0);
+    const double ex = wx - t * pdx_, ey = wy - t * pdy_;
+    const double e = std::max(0.0, std::sqrt(ex * ex + ey * ey) - 0.0);  // (lowest_z_beyond: d - rho)
+    return e > r_ ? kInf : cz_min_ - std::sqrt((r_ - e) * (r_ + e));
+  }
+
+  /// vertical_entry's z0 (the line's entry, absolute z); false when the line misses the sweep.
+  bool entry(double x, double y, double& z) const {
+    bool any = false;
+    // m = o - A with o = (x, y, 0)
+    const double mx = x - ax_, my = y - ay_, mz = 0.0 - az_;
+    // The end spheres: mu = m . u = m_z; the part of m normal to u is (m_x, m_y, 0).
+    auto sphere = [&](double px, double py, double pz) {
+      const double disc = rr_ - (px * px + py * py);
+      if (disc < 0.0) return;
+      const double candidate = -pz - std::sqrt(disc);
+      z = any ? std::min(z, candidate) : candidate;
+      any = true;
+    };
+    sphere(mx, my, mz);
+    if (!(dd_ > 0.0)) return any;
+    sphere(x - bx_, y - by_, 0.0 - bz_);
+    const Eigen::Vector3d m(mx, my, mz);
+    double c0 = -kInf, c1 = kInf;
+    bool hit = true;
+    // M = m x d (as Eigen's cross: each component one difference of two products)
+    const double Mx = my * d_.z() - mz * d_.y(), My = mz * d_.x() - mx * d_.z();
+    if (cylinder_) {
+      const double triple = mx * ux_ + my * uy_;  // m . (u x d), whose z is zero
+      const double disc = dd_ * (uu_rr_ - triple * triple);
+      if (disc < 0.0) {
+        hit = false;
+      } else {
+        const double b = Mx * ux_ + My * uy_, root = std::sqrt(disc);
+        c0 = (-b - root) / uu_;
+        c1 = (-b + root) / uu_;
+      }
+    } else {
+      const double Mz = mx * d_.y() - my * d_.x();
+      hit = Eigen::Vector3d(Mx, My, Mz).squaredNorm() <= dd_rr_;
+    }
+    if (hit) {
+      // Between the end planes: 0 <= (m + t u) . d <= dd (clip).
+      const double v0 = m.dot(d_);
+      if (ud_ == 0.0) {
+        hit = v0 >= 0.0 && v0 <= dd_;
+      } else {
+        double ta = (0.0 - v0) / ud_, tb = (dd_ - v0) / ud_;
+        if (ta > tb) std::swap(ta, tb);
+        c0 = std::max(c0, ta);
+        c1 = std::min(c1, tb);
+        hit = c0 <= c1;
+      }
+    }
+    if (hit && std::isfinite(c0) && std::isfinite(c1)) {
+      z = any ? std::min(z, c0) : c0;
+      any = true;
+    }
+    return any;
+  }
+
+ private:
+  double ax_, ay_, az_, bx_, by_, bz_, r_, cz_min_;
+  Eigen::Vector3d d_;
+  double rr_ = 0.0, dd_ = 0.0, ux_ = 0.0, uy_ = 0.0, uu_ = 0.0, uu_rr_ = 0.0, dd_rr_ = 0.0, ud_ = 0.0;
+  double pdx_ = 0.0, pdy_ = 0.0, pdd_ = 0.0;
+  bool cylinder_ = false;
+};
 
 /// Signed distance from p to the swept volume (exact outside for rho = 0; for rho > 0 the
 /// minimum over the segment of the tool's signed distance, exact outside to ~1e-12 m).
