@@ -278,6 +278,9 @@ class VerticalBallEntry {
     uu_rr_ = uu_ * r_ * r_;
     dd_rr_ = dd_ * r_ * r_;
     ud_ = Eigen::Vector3d::UnitZ().dot(d_);
+    root_max_ = std::sqrt(dd_ * uu_rr_);
+    inv_uu_ = cylinder_ ? 1.0 / uu_ : 0.0;
+    inv_ud_ = ud_ != 0.0 ? 1.0 / ud_ : 0.0;
     // distance_2d's
     pdx_ = bx_ - ax_, pdy_ = by_ - ay_;
     pdd_ = pdx_ * pdx_ + pdy_ * pdy_;
@@ -292,8 +295,13 @@ class VerticalBallEntry {
   /// beyond (+inf when it does not reach there).
   double lowest_below(double x, double y) const {
     const double wx = x - ax_, wy = y - ay_;
-    double t = pdd_ > 0.0 ? (wx * pdx_ + wy * pdy_) / pdd_ : 0.0;
-    t = std::clamp(t, 0.0, 1.0);
+    // (distance_2d's t = clamp(num / pdd, 0, 1): a quotient of a num outside (0, pdd) rounds to
+    // a value the clamp takes to 0 or 1 (division by pdd > 0 is monotonic), so it is not done.)
+    double t = 0.0;
+    if (pdd_ > 0.0) {
+      const double num = wx * pdx_ + wy * pdy_;
+      t = num <= 0.0 ? 0.0 : num >= pdd_ ? 1.0 : std::clamp(num / pdd_, 0.0, 1.0);
+    }
     const double ex = wx - t * pdx_, ey = wy - t * pdy_;
     const double e = std::max(0.0, std::sqrt(ex * ex + ey * ey) - 0.0);  // (lowest_z_beyond: d - rho)
     return e > r_ ? kInf : cz_min_ - std::sqrt((r_ - e) * (r_ + e));
@@ -326,9 +334,14 @@ class VerticalBallEntry {
       if (disc < 0.0) {
         hit = false;
       } else {
-        const double b = Mx * ux_ + My * uy_, root = std::sqrt(disc);
-        c0 = (-b - root) / uu_;
-        c1 = (-b + root) / uu_;
+        const double b = Mx * ux_ + My * uy_;
+        if (ud_ != 0.0 && outside_end_planes(b, m.dot(d_))) {
+          hit = false;
+        } else {
+          const double root = std::sqrt(disc);
+          c0 = (-b - root) / uu_;
+          c1 = (-b + root) / uu_;
+        }
       }
     } else {
       const double Mz = mx * d_.y() - my * d_.x();
@@ -336,7 +349,7 @@ class VerticalBallEntry {
     }
     if (hit) {
       // Between the end planes: 0 <= (m + t u) . d <= dd (clip).
-      const double v0 = m.dot(d_);
+      const double v0 = m.dot(d_);  // (as outside_end_planes')
       if (ud_ == 0.0) {
         hit = v0 >= 0.0 && v0 <= dd_;
       } else {
@@ -355,10 +368,30 @@ class VerticalBallEntry {
   }
 
  private:
+  // Whether the cylinder's chord [c0, c1] on the line surely lies outside the end planes' range
+  // [ta, tb] as capsule_interval computes them (its clip then fails), decided without the root
+  // and the four quotients: the computed root is at most root_max_ = fl(sqrt(fl(dd uu R^2)))
+  // (every step monotonic, triple^2 >= 0), so the computed c0 >= fl(fl(-b - root_max_) / uu) and
+  // c1 <= fl(fl(-b + root_max_) / uu); those quotients and ta, tb are taken as products by the
+  // reciprocals, widened by 1e-14 of their size (a quotient and its reciprocal product differ by
+  // a few units in the last place, 1e-16 relative). Most lines the sweep of a short move tests
+  // lie ahead of or behind it (the ball's front and back), where this holds.
+  bool outside_end_planes(double b, double v0) const {
+    constexpr double widen = 1e-14;
+    const double c_lo = (-b - root_max_) * inv_uu_, c_hi = (-b + root_max_) * inv_uu_;
+    double ta = (0.0 - v0) * inv_ud_, tb = (dd_ - v0) * inv_ud_;
+    if (ta > tb) std::swap(ta, tb);
+    constexpr double tiny = 1e-300;  // (below the normal range the relative bound does not hold)
+    const double low = std::max(c_lo - widen * std::abs(c_lo), ta - widen * std::abs(ta)) - tiny;
+    const double high = std::min(c_hi + widen * std::abs(c_hi), tb + widen * std::abs(tb)) + tiny;
+    return low > high;
+  }
+
   double ax_, ay_, az_, bx_, by_, bz_, r_, cz_min_;
   Eigen::Vector3d d_;
   double rr_ = 0.0, dd_ = 0.0, ux_ = 0.0, uy_ = 0.0, uu_ = 0.0, uu_rr_ = 0.0, dd_rr_ = 0.0, ud_ = 0.0;
   double pdx_ = 0.0, pdy_ = 0.0, pdd_ = 0.0;
+  double root_max_ = 0.0, inv_uu_ = 0.0, inv_ud_ = 0.0;
   bool cylinder_ = false;
 };
 
