@@ -1220,7 +1220,7 @@ CutStatistics NBuffer::cut(const Tool& tool, std::span<const Pose> trajectory, c
               t1 = s.hi.z() - z0;
               if (t1 <= 0.0 && !detail::line_interval(s, Eigen::Vector3d(x, y, z0), Eigen::Vector3d::UnitZ(), t0, t1)) continue;
             } else if (ball_ramp) {
-              if (ball_entry.lowest_below(x, y) - z0 >= h) continue;
+              if (ball_entry.cannot_lower(x, y, z0, h)) continue;
               double z = 0.0;
               if (!ball_entry.entry(x, y, z)) continue;
               t0 = z - z0;

@@ -202,14 +202,15 @@ TEST(NBufferPaths, ClosedFormIntervalsLieOnTheSignedDistanceZero) {
 
 // The vertical ball-end fast path (VerticalBallEntry: ramps, plunges, z-steps of a 3-axis ball)
 // against the general functions it stands for, bit for bit: vertical_entry (the line's entry)
-// and lowest_z_beyond at distance_2d (the culling bound). Random sweeps of every shape the
+// and lowest_z_beyond at distance_2d (the culling bound), and the culling's decision on lines
+// whose top lies at, an ulp from, near and far from that bound. Random sweeps of every shape the
 // path serves: ramps of any slope, plunges, near-plunges, z-steps, moves shorter than a line
 // spacing; lines anywhere around them (inside, on the rim, outside, on c0's and c1's verticals).
 TEST(NBufferPaths, VerticalBallEntryEqualsTheGeneralPathBitForBit) {
   std::mt19937 rng(11);
   std::uniform_real_distribution<double> c(-1.0, 1.0), unit(0.0, 1.0);
   auto same_bits = [](double a, double b) { return std::memcmp(&a, &b, sizeof a) == 0; };
-  int hits = 0, misses = 0, bounded = 0;
+  int hits = 0, misses = 0, bounded = 0, decided = 0;
   for (int k = 0; k < 3000; ++k) {
     const double r = (k % 3 == 0 ? 5.0 : 1.5) * mm;
     const Eigen::Vector3d c0 = Eigen::Vector3d(20 * c(rng), 20 * c(rng), 10 + 10 * c(rng)) * mm;
@@ -246,11 +247,21 @@ TEST(NBufferPaths, VerticalBallEntryEqualsTheGeneralPathBitForBit) {
       const double bound = detail::lowest_z_beyond(s, detail::distance_2d(x, y, s.c0.x(), s.c0.y(), s.c1.x(), s.c1.y()));
       ASSERT_TRUE(same_bits(fast.lowest_below(x, y), bound)) << k << " " << j;
       bounded += std::isfinite(bound);
+      // The culling's decision for lines of many lengths, at and around that bound.
+      const double z_origin = (k % 4 == 0 ? -0.01 : 0.0) + 0.01 * c(rng);
+      const double at = std::isfinite(bound) ? bound - z_origin : (c0.z() - z_origin);
+      for (const double h : {at, std::nextafter(at, 0.0), std::nextafter(at, 1.0), at + 1e-12, at - 1e-12, at + 1e-9 * c(rng),
+                             at + 1e-4 * c(rng), at + r * c(rng), 0.0, 1.0}) {
+        const bool general = bound - z_origin >= h;
+        ASSERT_EQ(fast.cannot_lower(x, y, z_origin, h), general) << k << " " << j << " h " << h;
+        decided += general;
+      }
     }
   }
   EXPECT_GT(hits, 50000);
   EXPECT_GT(misses, 10000);
   EXPECT_GT(bounded, 50000);
+  EXPECT_GT(decided, 300000);
 }
 
 // Random 3-axis ball-end trajectories (servo-like passes along x with nm noise in z over a
