@@ -7,6 +7,7 @@
 #include <algorithm>
 #include <atomic>
 #include <cmath>
+#include <optional>
 #include <stdexcept>
 #include <string>
 
@@ -339,7 +340,8 @@ namespace {
 
 // The x-interval of the row y where the planar distance to the segment (ax, ay)-(bx, by) is
 // at most R (the capsule is convex: the hull of its end discs' and its band's intervals).
-bool capsule_row(double ax, double ay, double bx, double by, double R, double y, double& x0, double& x1) {
+// `len`: the segment's length, std::hypot(bx - ax, by - ay) (a sweep's constant, given by the caller).
+bool capsule_row(double ax, double ay, double bx, double by, double len, double R, double y, double& x0, double& x1) {
   bool any = false;
   auto add = [&](double lo, double hi) {
     if (lo > hi) return;
@@ -354,7 +356,7 @@ bool capsule_row(double ax, double ay, double bx, double by, double R, double y,
       add(cx - w, cx + w);
     }
   }
-  const double dx = bx - ax, dy = by - ay, len = std::hypot(dx, dy);
+  const double dx = bx - ax, dy = by - ay;
   if (len > 0.0) {
     // |(x - ax) dy - (y - ay) dx| <= R len and 0 <= (x - ax) dx + (y - ay) dy <= len^2.
     double lo = -detail::kInf, hi = detail::kInf;
@@ -1105,14 +1107,17 @@ CutStatistics NBuffer::cut(const Tool& tool, std::span<const Pose> trajectory, c
         const bool level = s.vertical && s.c0.z() == s.c1.z();
         const bool tilted = !s.vertical && s.a.z() > 0.0;
         const bool behind = behind_is_cut(s, top);
+        const double move_xy = std::hypot(s.c1.x() - s.c0.x(), s.c1.y() - s.c0.y());  // (capsule_row's, once a tile)
         const double ball_reach = s.r * s.a.z();  // ball-end: within this of c0 and c1, the ball decides
-        const detail::VerticalEntry fast(s);     // tilted flat-end / bull-nose: certified entries
+        std::optional<detail::VerticalEntry> fast_entry;  // tilted flat-end / bull-nose: certified entries
+        if (tilted && s.rho > 0.0) fast_entry.emplace(s);
+        const detail::VerticalEntry* fast = fast_entry ? &*fast_entry : nullptr;
         detail::VerticalEntry::Warm warm;          // their warm starts along the walk
         // Tilted flat-end / bull-nose continuing with the same axis from where the last sweep left
         // it: where the bottom disc at c0 is the lowest part of the sweep (a . c0 <= a . c1), lines
         // crossing it get that disc's height as their entry, which the last sweep (holding the tool
         // at c0) already cut: they are skipped.
-        const bool skip_start_disc = tilted && s.rho > 0.0 && s.continues_axis && fast.lowest_at_start();
+        const bool skip_start_disc = tilted && s.rho > 0.0 && s.continues_axis && fast->lowest_at_start();
         const SectionRows* chain_rows = role.rows >= 0 ? &section_rows[static_cast<std::size_t>(role.rows)] : nullptr;
         // Vertical ball-end changing height (3-axis finishing on slopes, plunges): the general
         // path's bound and entry, the same doubles, without its calls and generic products.
@@ -1147,7 +1152,7 @@ CutStatistics NBuffer::cut(const Tool& tool, std::span<const Pose> trajectory, c
             // lines (the planar reach would only drop lines its exact tests reject; three roots
             // a row and tile saved).
             xa = strip_a, xb = strip_b;
-          } else if (!capsule_row(s.c0.x(), s.c0.y(), s.c1.x(), s.c1.y(), reach + slack, y, xa, xb)) {
+          } else if (!capsule_row(s.c0.x(), s.c0.y(), s.c1.x(), s.c1.y(), move_xy, reach + slack, y, xa, xb)) {
             continue;
           }
           if (tilted) keep_positive(s.a.y() * y - s.amin + s.a.z() * top + slack, s.a.x(), xa, xb);
@@ -1160,7 +1165,7 @@ CutStatistics NBuffer::cut(const Tool& tool, std::span<const Pose> trajectory, c
           double* row = tile_h + static_cast<std::size_t>(kTile) * (iv - tv * kTile);  // == index(iu, iv)
           int skip_a = ib + 1, skip_b = ib;  // lines [skip_a, skip_b] skipped
           double sx0 = 0.0, sx1 = 0.0;
-          if (skip_start_disc && fast.start_disc_row(y, slack, sx0, sx1)) {
+          if (skip_start_disc && fast->start_disc_row(y, slack, sx0, sx1)) {
             skip_a = static_cast<int>(std::ceil((sx0 - origin0_.x()) / sp));
             skip_b = static_cast<int>(std::floor((sx1 - origin0_.x()) / sp));
           }
@@ -1193,7 +1198,7 @@ CutStatistics NBuffer::cut(const Tool& tool, std::span<const Pose> trajectory, c
               if (!hit) continue;
             } else if (tilted && s.rho > 0.0) {  // flat-end / bull-nose, tilted: VerticalEntry decides most lines
               double z = 0.0;
-              const auto result = fast.entry(x, y, z0, z0 + h, iv, iu, warm, z);
+              const auto result = fast->entry(x, y, z0, z0 + h, iv, iu, warm, z);
               if (result == detail::VerticalEntry::Result::above) continue;
               if (result == detail::VerticalEntry::Result::exact) {
                 t0 = z - z0;  // entry exact (certified); t0 > 0, so the exit is above 0 too

@@ -344,16 +344,26 @@ class VerticalBallEntry {
     // m = o - A with o = (x, y, 0)
     const double mx = x - ax_, my = y - ay_, mz = 0.0 - az_;
     // The end spheres: mu = m . u = m_z; the part of m normal to u is (m_x, m_y, 0).
-    auto sphere = [&](double px, double py, double pz) {
-      const double disc = rr_ - (px * px + py * py);
+    auto sphere = [&](double q, double pz) {
+      const double disc = rr_ - q;
       if (disc < 0.0) return;
       const double candidate = -pz - std::sqrt(disc);
       z = any ? std::min(z, candidate) : candidate;
       any = true;
     };
-    sphere(mx, my, mz);
-    if (!(dd_ > 0.0)) return any;
-    sphere(x - bx_, y - by_, 0.0 - bz_);
+    const double qa = mx * mx + my * my;
+    if (!(dd_ > 0.0)) {
+      sphere(qa, mz);
+      return any;
+    }
+    const double px = x - bx_, py = y - by_, pz = 0.0 - bz_;
+    const double qb = px * px + py * py;
+    // An end sphere whose centre is not lower and whose distance is not smaller than the
+    // other's gives a candidate no lower than the other's, which hits wherever it does (the
+    // roundings are monotonic): it cannot change the minimum, and is left out.
+    const bool a_no_lower = -mz >= -pz && qa >= qb, b_no_lower = -pz >= -mz && qb >= qa;
+    if (!a_no_lower || b_no_lower) sphere(qa, mz);  // (both: the same candidate, one taken)
+    if (!b_no_lower) sphere(qb, pz);
     const Eigen::Vector3d m(mx, my, mz);
     double c0 = -kInf, c1 = kInf;
     bool hit = true;
