@@ -7,7 +7,6 @@
 #include <algorithm>
 #include <atomic>
 #include <cmath>
-#include <optional>
 #include <stdexcept>
 #include <string>
 
@@ -1109,15 +1108,13 @@ CutStatistics NBuffer::cut(const Tool& tool, std::span<const Pose> trajectory, c
         const bool behind = behind_is_cut(s, top);
         const double move_xy = std::hypot(s.c1.x() - s.c0.x(), s.c1.y() - s.c0.y());  // (capsule_row's, once a tile)
         const double ball_reach = s.r * s.a.z();  // ball-end: within this of c0 and c1, the ball decides
-        std::optional<detail::VerticalEntry> fast_entry;  // tilted flat-end / bull-nose: certified entries
-        if (tilted && s.rho > 0.0) fast_entry.emplace(s);
-        const detail::VerticalEntry* fast = fast_entry ? &*fast_entry : nullptr;
+        const detail::VerticalEntry fast(s);     // tilted flat-end / bull-nose: certified entries
         detail::VerticalEntry::Warm warm;          // their warm starts along the walk
         // Tilted flat-end / bull-nose continuing with the same axis from where the last sweep left
         // it: where the bottom disc at c0 is the lowest part of the sweep (a . c0 <= a . c1), lines
         // crossing it get that disc's height as their entry, which the last sweep (holding the tool
         // at c0) already cut: they are skipped.
-        const bool skip_start_disc = tilted && s.rho > 0.0 && s.continues_axis && fast->lowest_at_start();
+        const bool skip_start_disc = tilted && s.rho > 0.0 && s.continues_axis && fast.lowest_at_start();
         const SectionRows* chain_rows = role.rows >= 0 ? &section_rows[static_cast<std::size_t>(role.rows)] : nullptr;
         // Vertical ball-end changing height (3-axis finishing on slopes, plunges): the general
         // path's bound and entry, the same doubles, without its calls and generic products.
@@ -1165,7 +1162,7 @@ CutStatistics NBuffer::cut(const Tool& tool, std::span<const Pose> trajectory, c
           double* row = tile_h + static_cast<std::size_t>(kTile) * (iv - tv * kTile);  // == index(iu, iv)
           int skip_a = ib + 1, skip_b = ib;  // lines [skip_a, skip_b] skipped
           double sx0 = 0.0, sx1 = 0.0;
-          if (skip_start_disc && fast->start_disc_row(y, slack, sx0, sx1)) {
+          if (skip_start_disc && fast.start_disc_row(y, slack, sx0, sx1)) {
             skip_a = static_cast<int>(std::ceil((sx0 - origin0_.x()) / sp));
             skip_b = static_cast<int>(std::floor((sx1 - origin0_.x()) / sp));
           }
@@ -1198,7 +1195,7 @@ CutStatistics NBuffer::cut(const Tool& tool, std::span<const Pose> trajectory, c
               if (!hit) continue;
             } else if (tilted && s.rho > 0.0) {  // flat-end / bull-nose, tilted: VerticalEntry decides most lines
               double z = 0.0;
-              const auto result = fast->entry(x, y, z0, z0 + h, iv, iu, warm, z);
+              const auto result = fast.entry(x, y, z0, z0 + h, iv, iu, warm, z);
               if (result == detail::VerticalEntry::Result::above) continue;
               if (result == detail::VerticalEntry::Result::exact) {
                 t0 = z - z0;  // entry exact (certified); t0 > 0, so the exit is above 0 too
