@@ -12,9 +12,15 @@
 //    0.1 mm, 0.2 mm stepover, ball D6, 0.05 mm grid (and the same on a 10 um grid), 0.5 mm deep.
 //  - A 300 000-sample finishing run: 30 x 30 mm, 0.1 mm stepover, 0.03 mm samples (301 x 1001), ball D6 on a
 //    20 um grid, over a wavy surface (every segment a ramp).
+//  - The die of issue 21 (sample part 1's profile swept in y): ball D10, one-way passes along x
+//    over a plane, a concave R15 arc and a 30 deg slope, 0.25 mm stepover, tip poses every 40 um
+//    with 1 nm of noise in z (a servo's: every segment a ramp, up or down), plunging outside the
+//    stock and retracting, from a box stock 1 mm above the highest tip point; 20 x 5 mm of
+//    passes (21 x 501 poses) on a 20 um and a 10 um grid.
 #include <benchmark/benchmark.h>
 
 #include <cmath>
+#include <cstdint>
 #include <vector>
 
 #include "vmsim/removal/nbuffer.hpp"
@@ -69,14 +75,39 @@ Tool make_tool(ToolType type, double diameter_mm, double corner_mm = 0.0) {
   return tool;
 }
 
-void run(benchmark::State& state, const Tool& tool, const ZigZag& z, double grid_mm) {
-  const double margin = 0.5 * tool.diameter_m * 1e3 + 1.0;
-  const Box stock{Eigen::Vector3d(-margin, -margin, 0) * 1e-3,
-                  Eigen::Vector3d(z.width_mm + margin, z.width_mm + margin, 10) * 1e-3};
-  const std::vector<Pose> path = zigzag(z);
+// Part 1's profile in x [mm]: plane z = 0, concave arc R15 (centre x = 0, z = 15) up to x = 7.5,
+// then the 30 deg slope tangent to it.
+double die_profile_mm(double x) {
+  if (x <= 0.0) return 0.0;
+  if (x <= 7.5) return 15.0 - std::sqrt(225.0 - x * x);
+  return 15.0 - std::sqrt(225.0 - 7.5 * 7.5) + (x - 7.5) * std::tan(M_PI / 6.0);
+}
+
+// One-way passes along x from -8 to 12 mm, y = 0 .. 5 mm; the tip on the profile plus servo noise.
+std::vector<Pose> die_passes() {
+  std::vector<Pose> path;
+  std::uint64_t state = 12345;
+  auto noise_mm = [&] {  // [-1e-6, 1e-6] mm, a fixed sequence
+    state = state * 6364136223846793005ULL + 1442695040888963407ULL;
+    return (static_cast<double>(state >> 11) * 0x1p-53 * 2.0 - 1.0) * 1e-6;
+  };
+  auto add = [&](double x, double y, double z) { path.push_back(Pose{Eigen::Vector3d(x, y, z) * 1e-3, Eigen::Vector3d::UnitZ()}); };
+  for (int pass = 0; pass <= 20; ++pass) {
+    const double y = 0.25 * pass;
+    add(-8.0, y, 10.0);  // plunge outside the stock
+    for (int i = 0; i <= 500; ++i) {
+      const double x = -8.0 + 0.04 * i;
+      add(x, y, die_profile_mm(x) + noise_mm());
+    }
+    add(12.0, y, 10.0);  // retract
+  }
+  return path;
+}
+
+void run_path(benchmark::State& state, const Tool& tool, const std::vector<Pose>& path, const Box& stock, double grid_mm) {
   CutOptions options;
   options.threads = static_cast<int>(state.range(0));
-  std::size_t segments = 0, sub = 0, lowered = 0;
+  std::size_t segments = 0, sub = 0, lowered = 0, tiles = 0;
   for (auto _ : state) {
     state.PauseTiming();
     NBuffer buffer = NBuffer::zmap(stock, grid_mm * 1e-3);
@@ -85,12 +116,26 @@ void run(benchmark::State& state, const Tool& tool, const ZigZag& z, double grid
     segments += stats.segments;
     sub += stats.sub_segments;
     lowered += stats.lines_lowered;
+    tiles += stats.tiles_visited;
     benchmark::DoNotOptimize(buffer.length(100, 100));
   }
+  state.counters["tiles_visited_per_segment"] = static_cast<double>(tiles) / static_cast<double>(segments);
   state.counters["segments"] = static_cast<double>(path.size() - 1);
   state.counters["segments_per_s"] = benchmark::Counter(static_cast<double>(segments), benchmark::Counter::kIsRate);
   state.counters["sub_per_segment"] = static_cast<double>(sub) / static_cast<double>(segments);
   state.counters["lines_lowered_per_segment"] = static_cast<double>(lowered) / static_cast<double>(segments);
+}
+
+void run(benchmark::State& state, const Tool& tool, const ZigZag& z, double grid_mm) {
+  const double margin = 0.5 * tool.diameter_m * 1e3 + 1.0;
+  const Box stock{Eigen::Vector3d(-margin, -margin, 0) * 1e-3,
+                  Eigen::Vector3d(z.width_mm + margin, z.width_mm + margin, 10) * 1e-3};
+  run_path(state, tool, zigzag(z), stock, grid_mm);
+}
+
+void run_die(benchmark::State& state, double grid_mm) {
+  const Box stock{Eigen::Vector3d(-2, -6, -6) * 1e-3, Eigen::Vector3d(18, 11, die_profile_mm(12.0) + 1.0) * 1e-3};
+  run_path(state, make_tool(ToolType::ball, 10), die_passes(), stock, grid_mm);
 }
 
 const ZigZag kFinish{};
@@ -110,6 +155,8 @@ void BM_Bull10r2_10um_5axis(benchmark::State& s) { run(s, make_tool(ToolType::bu
 void BM_Camotics_Ball6_50um(benchmark::State& s) { run(s, make_tool(ToolType::ball, 6), kCamotics, 0.05); }
 void BM_Camotics_Ball6_10um(benchmark::State& s) { run(s, make_tool(ToolType::ball, 6), kCamotics, 0.01); }
 void BM_Run300k_Ball6_20um(benchmark::State& s) { run(s, make_tool(ToolType::ball, 6), kLongRun, 0.02); }
+void BM_Die_Ball10_20um(benchmark::State& s) { run_die(s, 0.02); }
+void BM_Die_Ball10_10um(benchmark::State& s) { run_die(s, 0.01); }
 
 // /1: CPU time of the one working thread; /2: wall clock.
 #define VMSIM_REMOVAL_BENCH(name)                                                   \
@@ -126,5 +173,7 @@ VMSIM_REMOVAL_BENCH(BM_Bull10r2_10um_5axis);
 VMSIM_REMOVAL_BENCH(BM_Camotics_Ball6_50um);
 VMSIM_REMOVAL_BENCH(BM_Camotics_Ball6_10um);
 VMSIM_REMOVAL_BENCH(BM_Run300k_Ball6_20um);
+VMSIM_REMOVAL_BENCH(BM_Die_Ball10_20um);
+VMSIM_REMOVAL_BENCH(BM_Die_Ball10_10um);
 
 }  // namespace

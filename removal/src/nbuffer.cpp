@@ -339,7 +339,8 @@ namespace {
 
 // The x-interval of the row y where the planar distance to the segment (ax, ay)-(bx, by) is
 // at most R (the capsule is convex: the hull of its end discs' and its band's intervals).
-bool capsule_row(double ax, double ay, double bx, double by, double R, double y, double& x0, double& x1) {
+// `len`: the segment's length, std::hypot(bx - ax, by - ay) (a sweep's constant, given by the caller).
+bool capsule_row(double ax, double ay, double bx, double by, double len, double R, double y, double& x0, double& x1) {
   bool any = false;
   auto add = [&](double lo, double hi) {
     if (lo > hi) return;
@@ -354,7 +355,7 @@ bool capsule_row(double ax, double ay, double bx, double by, double R, double y,
       add(cx - w, cx + w);
     }
   }
-  const double dx = bx - ax, dy = by - ay, len = std::hypot(dx, dy);
+  const double dx = bx - ax, dy = by - ay;
   if (len > 0.0) {
     // |(x - ax) dy - (y - ay) dx| <= R len and 0 <= (x - ax) dx + (y - ay) dy <= len^2.
     double lo = -detail::kInf, hi = detail::kInf;
@@ -1105,6 +1106,7 @@ CutStatistics NBuffer::cut(const Tool& tool, std::span<const Pose> trajectory, c
         const bool level = s.vertical && s.c0.z() == s.c1.z();
         const bool tilted = !s.vertical && s.a.z() > 0.0;
         const bool behind = behind_is_cut(s, top);
+        const double move_xy = std::hypot(s.c1.x() - s.c0.x(), s.c1.y() - s.c0.y());  // (capsule_row's, once a tile)
         const double ball_reach = s.r * s.a.z();  // ball-end: within this of c0 and c1, the ball decides
         const detail::VerticalEntry fast(s);     // tilted flat-end / bull-nose: certified entries
         detail::VerticalEntry::Warm warm;          // their warm starts along the walk
@@ -1114,6 +1116,11 @@ CutStatistics NBuffer::cut(const Tool& tool, std::span<const Pose> trajectory, c
         // at c0) already cut: they are skipped.
         const bool skip_start_disc = tilted && s.rho > 0.0 && s.continues_axis && fast.lowest_at_start();
         const SectionRows* chain_rows = role.rows >= 0 ? &section_rows[static_cast<std::size_t>(role.rows)] : nullptr;
+        // Vertical ball-end changing height (3-axis finishing on slopes, plunges): the general
+        // path's bound and entry, the same doubles, without its calls and generic products.
+        const bool ball_ramp = detail::VerticalBallEntry::serves(s);
+        const detail::VerticalBallEntry ball_entry(s);
+        const double ball_exit = std::max(s.c0.z(), s.c1.z()) + s.ell + s.r - z0;  // (vertical_entry's z1)
         const double tile_x_lo = tiles_[tile].lo.x() - slack, tile_x_hi = tiles_[tile].hi.x() + slack;
         for (int iv = tv * kTile; iv < v_end; ++iv) {
           const double y = origin0_.y() + iv * sp;
@@ -1142,7 +1149,7 @@ CutStatistics NBuffer::cut(const Tool& tool, std::span<const Pose> trajectory, c
             // lines (the planar reach would only drop lines its exact tests reject; three roots
             // a row and tile saved).
             xa = strip_a, xb = strip_b;
-          } else if (!capsule_row(s.c0.x(), s.c0.y(), s.c1.x(), s.c1.y(), reach + slack, y, xa, xb)) {
+          } else if (!capsule_row(s.c0.x(), s.c0.y(), s.c1.x(), s.c1.y(), move_xy, reach + slack, y, xa, xb)) {
             continue;
           }
           if (tilted) keep_positive(s.a.y() * y - s.amin + s.a.z() * top + slack, s.a.x(), xa, xb);
@@ -1214,6 +1221,12 @@ CutStatistics NBuffer::cut(const Tool& tool, std::span<const Pose> trajectory, c
               if (t0 >= h) continue;
               t1 = s.hi.z() - z0;
               if (t1 <= 0.0 && !detail::line_interval(s, Eigen::Vector3d(x, y, z0), Eigen::Vector3d::UnitZ(), t0, t1)) continue;
+            } else if (ball_ramp) {
+              if (ball_entry.cannot_lower(x, y, z0, h)) continue;
+              double z = 0.0;
+              if (!ball_entry.entry(x, y, z)) continue;
+              t0 = z - z0;
+              t1 = ball_exit;
             } else {
               const double d = detail::distance_2d(x, y, s.c0.x(), s.c0.y(), s.c1.x(), s.c1.y());
               double bound = detail::lowest_z_beyond(s, d);

@@ -2,6 +2,8 @@
 // Private: the exact line-versus-swept-tool computations shared by the N-buffer and the
 // OpenVDB model. SI units, frame W.
 #include <Eigen/Core>
+#include <Eigen/Geometry>
+#include <algorithm>
 #include <cmath>
 #include <limits>
 #include <vector>
@@ -250,6 +252,189 @@ bool line_interval(const Sweep& s, const Eigen::Vector3d& o, const Eigen::Vector
 /// Vertical sweep, vertical line through (x, y): lowest point of the swept volume (entry z)
 /// and an upper bound of its highest point; false if the line misses.
 bool vertical_entry(const Sweep& s, double x, double y, double& z0, double& z1);
+
+/// vertical_entry and the culling bound for a vertical ball-end sweep (rho = 0, a = +z, not a
+/// conical tool) that changes height (c0.z != c1.z, the 3-axis ramps and plunges of a finishing
+/// path, where the level closed form does not apply): the same doubles, cheaper. `entry` is
+/// capsule_interval(c0, c1, r, (x, y, 0), +z) written out for a vertical line: what it drops
+/// are products by exact ones and sums with exact zeros (u = +z has zero x and y; u x d has a
+/// zero z), every other operation is capsule_interval's in its order (the three-term dot
+/// products through Eigen as there), so each candidate entry, and their minimum, is the same
+/// double; x86-64 without FMA contraction evaluates each expression as written. Per sweep
+/// constants are computed once. `lowest_below` is lowest_z_beyond(s, distance_2d(...)) for the
+/// vertical sweep (distance_2d's and lowest_z_beyond's operations). Both are checked bit for bit
+/// against the general functions (tests/removal/test_nbuffer_paths.cpp).
+class VerticalBallEntry {
+ public:
+  explicit VerticalBallEntry(const Sweep& s)
+      : ax_(s.c0.x()), ay_(s.c0.y()), az_(s.c0.z()), bx_(s.c1.x()), by_(s.c1.y()), bz_(s.c1.z()), r_(s.r),
+        cz_min_(s.cz_min), d_(s.c1 - s.c0) {
+    rr_ = r_ * r_;
+    dd_ = d_.squaredNorm();
+    const Eigen::Vector3d u_cross_d = Eigen::Vector3d::UnitZ().cross(d_);
+    ux_ = u_cross_d.x(), uy_ = u_cross_d.y();
+    uu_ = u_cross_d.squaredNorm();
+    cylinder_ = dd_ > 0.0 && uu_ > 1e-30 * dd_;
+    uu_rr_ = uu_ * r_ * r_;
+    dd_rr_ = dd_ * r_ * r_;
+    ud_ = Eigen::Vector3d::UnitZ().dot(d_);
+    root_max_ = std::sqrt(dd_ * uu_rr_);
+    inv_uu_ = cylinder_ ? 1.0 / uu_ : 0.0;
+    inv_ud_ = ud_ != 0.0 ? 1.0 / ud_ : 0.0;
+    // distance_2d's
+    pdx_ = bx_ - ax_, pdy_ = by_ - ay_;
+    pdd_ = pdx_ * pdx_ + pdy_ * pdy_;
+  }
+
+  /// True for the sweeps this class serves.
+  static bool serves(const Sweep& s) {
+    return s.vertical && s.rho == 0.0 && !s.profile.active && s.c0.z() != s.c1.z();
+  }
+
+  /// lowest_z_beyond(s, distance_2d(x, y, c0, c1)): the lowest z of the sweep over (x, y) and
+  /// beyond (+inf when it does not reach there).
+  double lowest_below(double x, double y) const {
+    const double wx = x - ax_, wy = y - ay_;
+    // (distance_2d's t = clamp(num / pdd, 0, 1): a quotient of a num outside (0, pdd) rounds to
+    // a value the clamp takes to 0 or 1 (division by pdd > 0 is monotonic), so it is not done.)
+    double t = 0.0;
+    if (pdd_ > 0.0) {
+      const double num = wx * pdx_ + wy * pdy_;
+      t = num <= 0.0 ? 0.0 : num >= pdd_ ? 1.0 : std::clamp(num / pdd_, 0.0, 1.0);
+    }
+    const double ex = wx - t * pdx_, ey = wy - t * pdy_;
+    const double e = std::max(0.0, std::sqrt(ex * ex + ey * ey) - 0.0);  // (lowest_z_beyond: d - rho)
+    return e > r_ ? kInf : cz_min_ - std::sqrt((r_ - e) * (r_ + e));
+  }
+
+  /// lowest_below(x, y) - z0 >= h (the culling's test: the sweep cannot lower a line of length
+  /// h from z0), the same decision, without lowest_below's two roots where it is clear: with
+  /// X = r^2 - e^2 and g = cz_min - z0 - h the test is sqrt(X) <= g (X < 0: the bound is +inf),
+  /// i.e. X <= g^2 for g >= 0, decided here when X is farther than a margin from 0 and g^2
+  /// (and g from 0); the margin, 1e-13 of the sizes involved, is far above the rounding of
+  /// both ways of computing it (a few units of 1e-16 relative). Elsewhere lowest_below decides.
+  bool cannot_lower(double x, double y, double z0, double h) const {
+    const double wx = x - ax_, wy = y - ay_;
+    double t = 0.0;
+    if (pdd_ > 0.0) {
+      const double num = wx * pdx_ + wy * pdy_;
+      t = num <= 0.0 ? 0.0 : num >= pdd_ ? 1.0 : num / pdd_;
+    }
+    const double ex = wx - t * pdx_, ey = wy - t * pdy_;
+    const double X = rr_ - (ex * ex + ey * ey);
+    const double size = std::abs(cz_min_) + std::abs(z0) + std::abs(h) + r_;
+    const double g = cz_min_ - z0 - h;
+    constexpr double relative = 1e-13;
+    const double margin_x = relative * (rr_ + (std::abs(g) + r_) * size) + 1e-300;
+    if (X < -margin_x) return true;  // e > r: no point of the sweep over the line
+    if (X > margin_x) {
+      if (g < -relative * size) return false;  // the bound lies below the line's top
+      if (g > relative * size) {
+        const double gg = g * g;
+        if (X < gg - margin_x) return true;
+        if (X > gg + margin_x) return false;
+      }
+    }
+    return lowest_below(x, y) - z0 >= h;
+  }
+
+  /// vertical_entry's z0 (the line's entry, absolute z); false when the line misses the sweep.
+  bool entry(double x, double y, double& z) const {
+    bool any = false;
+    // m = o - A with o = (x, y, 0)
+    const double mx = x - ax_, my = y - ay_, mz = 0.0 - az_;
+    // The end spheres: mu = m . u = m_z; the part of m normal to u is (m_x, m_y, 0).
+    auto sphere = [&](double q, double pz) {
+      const double disc = rr_ - q;
+      if (disc < 0.0) return;
+      const double candidate = -pz - std::sqrt(disc);
+      z = any ? std::min(z, candidate) : candidate;
+      any = true;
+    };
+    const double qa = mx * mx + my * my;
+    if (!(dd_ > 0.0)) {
+      sphere(qa, mz);
+      return any;
+    }
+    const double px = x - bx_, py = y - by_, pz = 0.0 - bz_;
+    const double qb = px * px + py * py;
+    // An end sphere whose centre is not lower and whose distance is not smaller than the
+    // other's gives a candidate no lower than the other's, which hits wherever it does (the
+    // roundings are monotonic): it cannot change the minimum, and is left out.
+    const bool a_no_lower = -mz >= -pz && qa >= qb, b_no_lower = -pz >= -mz && qb >= qa;
+    if (!a_no_lower || b_no_lower) sphere(qa, mz);  // (both: the same candidate, one taken)
+    if (!b_no_lower) sphere(qb, pz);
+    const Eigen::Vector3d m(mx, my, mz);
+    double c0 = -kInf, c1 = kInf;
+    bool hit = true;
+    // M = m x d (as Eigen's cross: each component one difference of two products)
+    const double Mx = my * d_.z() - mz * d_.y(), My = mz * d_.x() - mx * d_.z();
+    if (cylinder_) {
+      const double triple = mx * ux_ + my * uy_;  // m . (u x d), whose z is zero
+      const double disc = dd_ * (uu_rr_ - triple * triple);
+      if (disc < 0.0) {
+        hit = false;
+      } else {
+        const double b = Mx * ux_ + My * uy_;
+        if (ud_ != 0.0 && outside_end_planes(b, m.dot(d_))) {
+          hit = false;
+        } else {
+          const double root = std::sqrt(disc);
+          c0 = (-b - root) / uu_;
+          c1 = (-b + root) / uu_;
+        }
+      }
+    } else {
+      const double Mz = mx * d_.y() - my * d_.x();
+      hit = Eigen::Vector3d(Mx, My, Mz).squaredNorm() <= dd_rr_;
+    }
+    if (hit) {
+      // Between the end planes: 0 <= (m + t u) . d <= dd (clip).
+      const double v0 = m.dot(d_);  // (as outside_end_planes')
+      if (ud_ == 0.0) {
+        hit = v0 >= 0.0 && v0 <= dd_;
+      } else {
+        double ta = (0.0 - v0) / ud_, tb = (dd_ - v0) / ud_;
+        if (ta > tb) std::swap(ta, tb);
+        c0 = std::max(c0, ta);
+        c1 = std::min(c1, tb);
+        hit = c0 <= c1;
+      }
+    }
+    if (hit && std::isfinite(c0) && std::isfinite(c1)) {
+      z = any ? std::min(z, c0) : c0;
+      any = true;
+    }
+    return any;
+  }
+
+ private:
+  // Whether the cylinder's chord [c0, c1] on the line surely lies outside the end planes' range
+  // [ta, tb] as capsule_interval computes them (its clip then fails), decided without the root
+  // and the four quotients: the computed root is at most root_max_ = fl(sqrt(fl(dd uu R^2)))
+  // (every step monotonic, triple^2 >= 0), so the computed c0 >= fl(fl(-b - root_max_) / uu) and
+  // c1 <= fl(fl(-b + root_max_) / uu); those quotients and ta, tb are taken as products by the
+  // reciprocals, widened by 1e-14 of their size (a quotient and its reciprocal product differ by
+  // a few units in the last place, 1e-16 relative). Most lines the sweep of a short move tests
+  // lie ahead of or behind it (the ball's front and back), where this holds.
+  bool outside_end_planes(double b, double v0) const {
+    constexpr double widen = 1e-14;
+    const double c_lo = (-b - root_max_) * inv_uu_, c_hi = (-b + root_max_) * inv_uu_;
+    double ta = (0.0 - v0) * inv_ud_, tb = (dd_ - v0) * inv_ud_;
+    if (ta > tb) std::swap(ta, tb);
+    constexpr double tiny = 1e-300;  // (below the normal range the relative bound does not hold)
+    const double low = std::max(c_lo - widen * std::abs(c_lo), ta - widen * std::abs(ta)) - tiny;
+    const double high = std::min(c_hi + widen * std::abs(c_hi), tb + widen * std::abs(tb)) + tiny;
+    return low > high;
+  }
+
+  double ax_, ay_, az_, bx_, by_, bz_, r_, cz_min_;
+  Eigen::Vector3d d_;
+  double rr_ = 0.0, dd_ = 0.0, ux_ = 0.0, uy_ = 0.0, uu_ = 0.0, uu_rr_ = 0.0, dd_rr_ = 0.0, ud_ = 0.0;
+  double pdx_ = 0.0, pdy_ = 0.0, pdd_ = 0.0;
+  double root_max_ = 0.0, inv_uu_ = 0.0, inv_ud_ = 0.0;
+  bool cylinder_ = false;
+};
 
 /// Signed distance from p to the swept volume (exact outside for rho = 0; for rho > 0 the
 /// minimum over the segment of the tool's signed distance, exact outside to ~1e-12 m).

@@ -5,6 +5,7 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <cstring>
 #include <random>
 #include <vector>
 
@@ -196,6 +197,161 @@ TEST(NBufferPaths, ClosedFormIntervalsLieOnTheSignedDistanceZero) {
     EXPECT_GT(detail::signed_distance(s, o + (t0 - 1e-7) * u), 0.0) << k;
   }
   EXPECT_GT(hits, 100);
+}
+
+
+// The vertical ball-end fast path (VerticalBallEntry: ramps, plunges, z-steps of a 3-axis ball)
+// against the general functions it stands for, bit for bit: vertical_entry (the line's entry)
+// and lowest_z_beyond at distance_2d (the culling bound), and the culling's decision on lines
+// whose top lies at, an ulp from, near and far from that bound. Random sweeps of every shape the
+// path serves: ramps of any slope, plunges, near-plunges, z-steps, moves shorter than a line
+// spacing; lines anywhere around them (inside, on the rim, outside, on c0's and c1's verticals).
+TEST(NBufferPaths, VerticalBallEntryEqualsTheGeneralPathBitForBit) {
+  std::mt19937 rng(11);
+  std::uniform_real_distribution<double> c(-1.0, 1.0), unit(0.0, 1.0);
+  auto same_bits = [](double a, double b) { return std::memcmp(&a, &b, sizeof a) == 0; };
+  int hits = 0, misses = 0, bounded = 0, decided = 0;
+  for (int k = 0; k < 3000; ++k) {
+    const double r = (k % 3 == 0 ? 5.0 : 1.5) * mm;
+    const Eigen::Vector3d c0 = Eigen::Vector3d(20 * c(rng), 20 * c(rng), 10 + 10 * c(rng)) * mm;
+    Eigen::Vector3d move = Eigen::Vector3d(c(rng), c(rng), c(rng)) * 0.3 * mm;
+    switch (k % 6) {
+      case 1: move = Eigen::Vector3d(0.0, 0.0, -0.5 * unit(rng) * mm); break;              // plunge
+      case 2: move.x() *= 1e-9, move.y() *= 1e-9; break;                                  // near-plunge
+      case 3: move *= 0.01; break;                                                        // shorter than a line spacing
+      case 4: move = Eigen::Vector3d(0.04 * c(rng), 0.0, 1e-9 * c(rng)) * mm; break;      // servo noise on a level pass
+      case 5: move.z() = 0.05 * mm * (c(rng) > 0 ? 1 : -1), move.x() *= 0.01; break;      // z-step
+      default: break;
+    }
+    const detail::Sweep s = detail::make_sweep(c0, c0 + move, Eigen::Vector3d::UnitZ(), 0.0, r, 3 * r);
+    if (!detail::VerticalBallEntry::serves(s)) continue;
+    const detail::VerticalBallEntry fast(s);
+    for (int j = 0; j < 60; ++j) {
+      double x = c0.x() + 1.2 * r * c(rng), y = c0.y() + 1.2 * r * c(rng);
+      if (j == 0) x = c0.x(), y = c0.y();
+      if (j == 1) x = s.c1.x(), y = s.c1.y();
+      if (j == 2) x = c0.x() + r, y = c0.y();  // on the rim at c0
+      if (j % 5 == 3) {                        // near the middle of the move
+        const double t = unit(rng);
+        x = c0.x() + t * move.x() + 1e-7 * c(rng), y = c0.y() + t * move.y() + 1e-7 * c(rng);
+      }
+      double z0 = 0.0, z1 = 0.0, z = 0.0;
+      const bool hit = detail::vertical_entry(s, x, y, z0, z1);
+      ASSERT_EQ(fast.entry(x, y, z), hit) << k << " " << j;
+      if (hit) {
+        ASSERT_TRUE(same_bits(z, z0)) << k << " " << j << ": " << z << " vs " << z0;
+        ++hits;
+      } else {
+        ++misses;
+      }
+      const double bound = detail::lowest_z_beyond(s, detail::distance_2d(x, y, s.c0.x(), s.c0.y(), s.c1.x(), s.c1.y()));
+      ASSERT_TRUE(same_bits(fast.lowest_below(x, y), bound)) << k << " " << j;
+      bounded += std::isfinite(bound);
+      // The culling's decision for lines of many lengths, at and around that bound.
+      const double z_origin = (k % 4 == 0 ? -0.01 : 0.0) + 0.01 * c(rng);
+      const double at = std::isfinite(bound) ? bound - z_origin : (c0.z() - z_origin);
+      for (const double h : {at, std::nextafter(at, 0.0), std::nextafter(at, 1.0), at + 1e-12, at - 1e-12, at + 1e-9 * c(rng),
+                             at + 1e-4 * c(rng), at + r * c(rng), 0.0, 1.0}) {
+        const bool general = bound - z_origin >= h;
+        ASSERT_EQ(fast.cannot_lower(x, y, z_origin, h), general) << k << " " << j << " h " << h;
+        decided += general;
+      }
+    }
+  }
+  EXPECT_GT(hits, 50000);
+  EXPECT_GT(misses, 10000);
+  EXPECT_GT(bounded, 50000);
+  EXPECT_GT(decided, 300000);
+}
+
+// Random 3-axis ball-end trajectories (servo-like passes along x with nm noise in z over a
+// wave, plunges, z-steps, moves shorter than a line spacing) cut on a Z-map, plain and compact,
+// 1 and 2 threads, against every line cut by hand the general way in the cut's order (the level
+// closed form for level sweeps, else the bound lowest_z_beyond and vertical_entry): the same
+// doubles. The compact buffer, cut in one batch, holds the plain result's offsets from its base.
+TEST(NBufferPaths, BallRampsOnAZmapEqualTheGeneralPathLineByLine) {
+  const Tool ball = make_tool(ToolType::ball, 3, 0, 9);
+  const Box stock{Eigen::Vector3d(-3, -3, 0) * mm, Eigen::Vector3d(3, 3, 5) * mm};
+  std::mt19937 rng(7);
+  std::uniform_real_distribution<double> c(-1.0, 1.0);
+  std::vector<Pose> path;
+  auto add = [&](double x, double y, double z) { path.push_back(Pose{Eigen::Vector3d(x, y, z) * mm, Eigen::Vector3d::UnitZ()}); };
+  add(-2.0, -2.0, 6.0);
+  add(-2.0, -2.0, 4.7);  // plunge into the stock
+  for (int pass = 0; pass < 6; ++pass) {
+    const double y = -2.0 + 0.35 * pass;
+    for (int i = 0; i <= 100; ++i) {
+      const double x = -2.0 + 0.04 * (pass % 2 == 0 ? i : 100 - i);
+      double z = 4.7 + 0.15 * std::sin(2.0 * x) + 1e-6 * c(rng);  // nm noise (mm units)
+      if (i % 37 == 5) z += 0.03;                                 // a z-step up, then down
+      add(x + 1e-5 * c(rng), y, z);
+      if (i % 23 == 7) add(x + 0.004, y, z - 0.002);              // shorter than a line spacing
+      if (i % 41 == 11) add(path.back().tip_W_m.x() / mm, y, z);  // a level move of length 0... and level
+    }
+    add(path.back().tip_W_m.x() / mm, y + 0.35, path.back().tip_W_m.z() / mm - 0.01);  // stepover going down
+  }
+  add(0.5, 0.5, 4.2);  // a deep plunge-ramp
+  add(0.5, 0.5, 4.0);  // and a plunge
+
+  // By hand, in the cut's order: each line from the stock, every sweep.
+  NBuffer zmap = NBuffer::zmap(stock, 0.04 * mm);
+  const double z0 = zmap.zmap_origin_m().z();
+  std::vector<double> expected = zmap.lengths();
+  for (std::size_t k = 0; k + 1 < path.size(); ++k) {
+    std::vector<detail::Sweep> sweeps;
+    detail::split_segment(ball, path[k], path[k + 1], 0.05e-6, sweeps);
+    ASSERT_EQ(sweeps.size(), 1u);
+    const detail::Sweep& s = sweeps[0];
+    for (int iv = 0; iv < zmap.nv(); ++iv) {
+      for (int iu = 0; iu < zmap.nu(); ++iu) {
+        double& h = expected[static_cast<std::size_t>(iu) + static_cast<std::size_t>(zmap.nu()) * iv];
+        const double x = zmap.origin(iu, iv).x(), y = zmap.origin(iu, iv).y();
+        const double d = detail::distance_2d(x, y, s.c0.x(), s.c0.y(), s.c1.x(), s.c1.y());
+        double t0 = 0.0, t1 = 0.0;
+        if (s.c0.z() == s.c1.z()) {
+          if (d > s.r) continue;
+          t0 = s.c0.z() - std::sqrt((s.r - d) * (s.r + d)) - z0;
+          t1 = s.c0.z() + s.ell + s.r - z0;
+        } else {
+          if (detail::lowest_z_beyond(s, d) - z0 >= h) continue;
+          if (!detail::vertical_entry(s, x, y, t0, t1)) continue;
+          t0 -= z0;
+          t1 -= z0;
+        }
+        if (t1 > 0.0 && t0 < h) h = std::max(0.0, t0);
+      }
+    }
+  }
+  std::size_t lowered = 0;
+  for (double h : expected) lowered += h < 5 * mm;
+  EXPECT_GT(lowered, 5000u);
+
+  for (int threads : {1, 2}) {
+    CutOptions options;
+    options.threads = threads;
+    NBuffer plain = NBuffer::zmap(stock, 0.04 * mm);
+    plain.cut(ball, path, options);
+    const std::vector<double> lengths = plain.lengths();
+    std::size_t differ = 0;
+    for (std::size_t i = 0; i < lengths.size(); ++i) differ += std::memcmp(&lengths[i], &expected[i], sizeof(double)) != 0;
+    EXPECT_EQ(differ, 0u) << threads << " threads";
+
+    NBuffer compact = NBuffer::zmap(stock, 0.04 * mm);
+    compact.make_compact();
+    options.batch_segments = path.size();  // one batch: each tile decoded, cut and encoded once
+    compact.cut(ball, path, options);
+    const double base = 5 * mm;
+    std::size_t compact_differ = 0;
+    for (int iv = 0; iv < compact.nv(); ++iv) {
+      for (int iu = 0; iu < compact.nu(); ++iu) {
+        const double h = expected[static_cast<std::size_t>(iu) + static_cast<std::size_t>(compact.nu()) * iv];
+        const double stored = h == base ? base : std::max(0.0, base + static_cast<double>(static_cast<float>(h - base)));
+        const double got = compact.length(iu, iv);
+        compact_differ += std::memcmp(&got, &stored, sizeof(double)) != 0;
+      }
+    }
+    EXPECT_EQ(compact_differ, 0u) << threads << " threads";
+  }
 }
 
 }  // namespace
