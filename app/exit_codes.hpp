@@ -18,11 +18,13 @@ enum ExitCode : int {
   kInputError = 3,      ///< bad input file: the message names file, line and value
   kInfeasible = 4,      ///< valid input the machine cannot do (unreachable pose, travel exceeded)
   kNoDisplay = 5,       ///< a render was asked for and no X display is there (use xvfb-run -a)
+  kOutOfMemory = 6,     ///< the job needs more memory than the process may have (not a bug)
 };
 
 inline constexpr const char* kExitCodeHelp =
     "Exit codes: 0 success; 1 internal error; 2 bad command line; 3 bad input file (the message "
     "names file, line and value); 4 infeasible (unreachable pose, travel exceeded); 5 no display "
-    "for a render (run under xvfb-run -a).";
+    "for a render (run under xvfb-run -a); 6 out of memory (a coarser grid, --memory-budget-gb, or "
+    "mpirun over several machines).";
 
 }  // namespace vmsim::app

@@ -1,12 +1,14 @@
 // vmsim: the command-line program. A thin layer over the libraries: it parses arguments, calls
 // the libraries, prints, and turns errors into exit codes (exit_codes.hpp).
 #include <CLI/CLI.hpp>
+#include <sys/resource.h>
 #include <unistd.h>
 
 #include <cstdio>
 #include <exception>
 #include <filesystem>
 #include <iostream>
+#include <new>
 #include <string>
 
 #include "commands.hpp"
@@ -21,6 +23,13 @@ namespace {
 // Under mpirun with several ranks: only simulate-part is split (the other commands would run
 // whole on every rank and write the same files); ranks other than 0 print nothing but errors.
 int run(int argc, char** argv);
+
+// The process's peak resident memory so far [MiB] (the kernel's high-water mark; KiB on Linux).
+long long peak_resident_mib() {
+  rusage usage{};
+  getrusage(RUSAGE_SELF, &usage);
+  return static_cast<long long>(usage.ru_maxrss / 1024);
+}
 
 // Ends the job with `code` after an error on this rank. One rank: returns it. Several: ranks
 // other than 0 first wait a moment, so that where every rank fails alike (bad input, read by
@@ -121,6 +130,16 @@ int run(int argc, char** argv) {
   } catch (const std::filesystem::filesystem_error& error) {
     // The system refused a file operation (no space, read-only, permission): the user's to fix.
     return fail(kInputError, "error: " + std::string(error.what()) + "\n");
+  } catch (const std::bad_alloc&) {
+    // The job is larger than the memory the process may have (the machine's, or a ulimit):
+    // the user's to resize, not a bug. The output folder is left as it was (OutputFolder).
+    return fail(kOutOfMemory,
+                "error: out of memory (the process's peak resident memory: " +
+                    std::to_string(peak_resident_mib()) +
+                    " MiB). The job needs more memory than this process may have: a coarser grid "
+                    "(--grid-um), a lower --memory-budget-gb (the Z-map heights beyond it go to disk, "
+                    "--spill-dir), fewer surface views, or simulate-part under mpirun over several "
+                    "machines (README, \"Scale\" and \"Running on several processes\")\n");
   } catch (const std::exception& error) {
     return fail(kInternalError, "internal error: " + std::string(error.what()) +
                                     "\n(this is a bug in vmsim: please report it with the command line)\n");

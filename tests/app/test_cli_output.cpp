@@ -144,6 +144,26 @@ TEST(CliOutput, APreviousResultIsReplacedAsAWhole) {
   EXPECT_EQ(contents_of(folder).size(), 2u);  // inputs, out: no staging or old set left beside
 }
 
+// A job larger than the memory the process may have (here an address-space limit of 1.5 GB
+// against part 1 at a 2 um grid, 2e8 Z-map lines) is exit 6 with what to do, not an
+// "internal error", and the previous result in the output folder is left as it was.
+TEST(CliOutput, RunningOutOfMemoryIsExit6AndLeavesThePreviousResult) {
+  const fs::path folder = test::fresh_folder("output_out_of_memory");
+  const fs::path inputs = inputs_folder(folder);
+  const fs::path out = folder / "out";
+  ASSERT_EQ(test::run_vmsim(plan_arguments(inputs / "path.apt", out.string())).exit_code, 0);
+  const auto before = contents_of(out);
+  const test::RunResult run = test::run_vmsim_with_env(
+      "ulimit -v 1500000;", "-q simulate-part --part " + kRoot + "/samples/parts/part1_tangency/part.yaml --out " +
+                                out.string() + " --grid-um 2 --no-renders");
+  EXPECT_EQ(run.exit_code, 6) << run.output;
+  EXPECT_NE(run.output.find("out of memory"), std::string::npos) << run.output;
+  EXPECT_NE(run.output.find("--grid-um"), std::string::npos) << run.output;
+  EXPECT_EQ(run.output.find("internal error"), std::string::npos) << run.output;
+  EXPECT_EQ(contents_of(out), before);
+  EXPECT_EQ(contents_of(folder).size(), 2u);  // inputs, out: no staging folder left beside
+}
+
 TEST(CliOutput, AnUnwritablePlaceIsExit3WithTheReason) {
   const fs::path folder = test::fresh_folder("output_unwritable");
   const fs::path inputs = inputs_folder(folder);

@@ -248,7 +248,7 @@ TEST(StreamChain, ContourErrorSkippingFarBlocksEqualsThePlainSearch) {
       const auto i = static_cast<Eigen::Index>(k);
       t_s.push_back(1.0 + period_s * static_cast<double>(k));
       const double angle = 2.0 * std::numbers::pi * static_cast<double>(k) / 350.0;
-      for (Eigen::Index j = 0; j < q_cmd.rows(); ++j) q_cmd(j, i) = j < 3 ? 0.003 * std::cos(angle + j) : 0.01 * std::sin(angle);
+      for (Eigen::Index j = 0; j < q_cmd.rows(); ++j) q_cmd(j, i) = j < 3 ? 0.003 * std::cos(angle + static_cast<double>(j)) : 0.01 * std::sin(angle);
       q_cmd(2, i) = 0.0005 * std::sin(3 * angle);
       // Behind the command by 5 samples (the lag), and a little off.
       const Eigen::Index behind = i - std::min<Eigen::Index>(i, 5);
