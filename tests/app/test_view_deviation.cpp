@@ -95,10 +95,10 @@ TEST(ViewDeviation, StepsAreSteepInEitherRun) {
   const removal::NBuffer b = removal::NBuffer::lines(4, 3, origins, directions, b_lengths);
   const ViewDeviation ab(a, b, 1e-4), ba(b, a, 1e-4);
   for (int iv = 0; iv < 3; ++iv) {
-    EXPECT_DOUBLE_EQ(ab.at(0, iv), 1e-5);
+    EXPECT_NEAR(ab.at(0, iv), 1e-5, 1e-15);
     EXPECT_EQ(ab.at(1, iv), 0.0);  // steep: beside the step
     EXPECT_EQ(ab.at(2, iv), 0.0);
-    EXPECT_DOUBLE_EQ(ab.at(3, iv), 1e-3 + 1e-5);
+    EXPECT_NEAR(ab.at(3, iv), 1e-3 + 1e-5, 1e-15);
     EXPECT_EQ(ba.at(1, iv), 0.0);  // steep in a, the second run here
   }
 }
