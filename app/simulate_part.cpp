@@ -1249,7 +1249,7 @@ void write_renders(const Context& context, const Run& production, const Run& ref
     }
   };
   if (any_line_machined(context, reference, comparisons)) {
-    viz::plot_deviation_histogram((folder / "deviation_histogram.png").string(), machined_deviations_m, 60,
+    viz::plot_walked_deviation_histogram((folder / "deviation_histogram.png").string(), machined_deviations_m, 60,
                                   context.part.name + ": production minus reference, machined lines",
                                   {}, true);
     images.push_back("deviation_histogram.png");

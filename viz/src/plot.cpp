@@ -247,12 +247,12 @@ void plot_along_path(const std::string& png_path, const AlongPathPlotInput& inpu
 
 Histogram make_histogram(const std::vector<double>& values, int bin_count,
                          const std::optional<Range>& range) {
-  return make_histogram([&values](const std::function<void(double)>& visit) {
+  return make_walked_histogram([&values](const std::function<void(double)>& visit) {
     for (double v : values) visit(v);
   }, bin_count, range);
 }
 
-Histogram make_histogram(const ValueWalk& walk, int bin_count, const std::optional<Range>& range) {
+Histogram make_walked_histogram(const ValueWalk& walk, int bin_count, const std::optional<Range>& range) {
   if (bin_count < 1) {
     throw InputError("histogram: bin count " + std::to_string(bin_count) + " must be >= 1");
   }
@@ -429,14 +429,14 @@ void plot_deviation_histogram(const std::string& png_path, const std::vector<dou
   write_histogram_png(png_path, plot, size);
 }
 
-void plot_deviation_histogram(const std::string& png_path, const ValueWalk& deviation_m, int bin_count,
+void plot_walked_deviation_histogram(const std::string& png_path, const ValueWalk& deviation_m, int bin_count,
                               const std::string& title, const ImageSize& size, bool log_counts) {
   HistogramPlot plot;
   plot.title = title;
   plot.x_title = "deviation [um]";
   plot.log_counts = log_counts;
   if (log_counts) plot.y_title = "lines, log10(1 + count)";
-  plot.histogram = make_histogram([&deviation_m](const std::function<void(double)>& visit) {
+  plot.histogram = make_walked_histogram([&deviation_m](const std::function<void(double)>& visit) {
     deviation_m([&visit](double d) { visit(d * 1e6); });
   }, bin_count);
   write_histogram_png(png_path, plot, size);

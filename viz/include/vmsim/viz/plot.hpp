@@ -94,7 +94,7 @@ using ValueWalk = std::function<void(const std::function<void(double)>& visit)>;
 
 /// The same for values too many to hold (a view's lines): `walk` is called twice (the range,
 /// then the counts). Same result as make_histogram of the values walked.
-Histogram make_histogram(const ValueWalk& walk, int bin_count, const std::optional<Range>& range = std::nullopt);
+Histogram make_walked_histogram(const ValueWalk& walk, int bin_count, const std::optional<Range>& range = std::nullopt);
 
 struct HistogramPlot {
   std::string title;
@@ -181,7 +181,7 @@ void plot_deviation_histogram(const std::string& png_path, const std::vector<dou
                               const ImageSize& size = {}, bool log_counts = false);
 
 /// The same, the deviations [m] walked (twice) rather than held.
-void plot_deviation_histogram(const std::string& png_path, const ValueWalk& deviation_m, int bin_count,
+void plot_walked_deviation_histogram(const std::string& png_path, const ValueWalk& deviation_m, int bin_count,
                               const std::string& title, const ImageSize& size = {}, bool log_counts = false);
 
 /// One curve of a polar deviation plot: the radial deviation [m] at polar angles [rad].
