@@ -86,38 +86,64 @@ WorstOfCells keep_worst_of_cells(int nu, int nv, const std::vector<double>& devi
   if (cell_lines < 1 || nu < 1 || nv < 1 || deviation_m.size() != lines || (usable && usable->size() != lines)) {
     throw std::invalid_argument("keep_worst_of_cells: sizes do not match the grid");
   }
+  const ViewRowReader rows = [&](int iv, std::span<double> row_m, std::span<std::uint8_t> row_usable) {
+    const std::size_t first = static_cast<std::size_t>(nu) * static_cast<std::size_t>(iv);
+    for (std::size_t iu = 0; iu < row_m.size(); ++iu) {
+      row_m[iu] = deviation_m[first + iu];
+      row_usable[iu] = !usable || (*usable)[first + iu] ? 1 : 0;
+    }
+  };
+  return keep_worst_of_cells(nu, nv, rows, cell_lines, significant_m);
+}
+
+namespace {
+
+// A cell's choice so far (lines seen in row-major order within the cell).
+struct CellChoice {
+  std::size_t line = kNone;
+  double size = -1.0;
+  long centre_distance = 0;
+};
+
+}  // namespace
+
+WorstOfCells keep_worst_of_cells(int nu, int nv, const ViewRowReader& rows, int cell_lines, double significant_m) {
+  if (cell_lines < 1 || nu < 1 || nv < 1) throw std::invalid_argument("keep_worst_of_cells: sizes do not match the grid");
   WorstOfCells result;
   result.cell_lines = cell_lines;
   result.cells_u = (nu + cell_lines - 1) / cell_lines;
   result.cells_v = (nv + cell_lines - 1) / cell_lines;
   result.line.assign(static_cast<std::size_t>(result.cells_u) * static_cast<std::size_t>(result.cells_v), kNone);
+  std::vector<double> row_m(static_cast<std::size_t>(nu));
+  std::vector<std::uint8_t> usable(static_cast<std::size_t>(nu));
+  std::vector<CellChoice> choices(static_cast<std::size_t>(result.cells_u));
   for (int cv = 0; cv < result.cells_v; ++cv) {
     const int v0 = cv * cell_lines, v1 = std::min(nv, v0 + cell_lines);
-    for (int cu = 0; cu < result.cells_u; ++cu) {
-      const int u0 = cu * cell_lines, u1 = std::min(nu, u0 + cell_lines);
-      // Twice the cell's centre, so that it is an integer.
-      const int cu2 = u0 + u1 - 1, cv2 = v0 + v1 - 1;
-      std::size_t best = kNone;
-      double best_size = -1.0;
-      long best_centre_distance = 0;
-      for (int iv = v0; iv < v1; ++iv) {
+    std::fill(choices.begin(), choices.end(), CellChoice{});
+    for (int iv = v0; iv < v1; ++iv) {
+      rows(iv, row_m, usable);
+      for (int cu = 0; cu < result.cells_u; ++cu) {
+        const int u0 = cu * cell_lines, u1 = std::min(nu, u0 + cell_lines);
+        // Twice the cell's centre, so that it is an integer.
+        const int cu2 = u0 + u1 - 1, cv2 = v0 + v1 - 1;
+        CellChoice& best = choices[static_cast<std::size_t>(cu)];
         for (int iu = u0; iu < u1; ++iu) {
-          const std::size_t line = static_cast<std::size_t>(iu) + static_cast<std::size_t>(nu) * static_cast<std::size_t>(iv);
-          if (usable && !(*usable)[line]) continue;
-          double size = std::abs(deviation_m[line]);
+          if (!usable[static_cast<std::size_t>(iu)]) continue;
+          double size = std::abs(row_m[static_cast<std::size_t>(iu)]);
           if (!std::isfinite(size)) continue;
           if (size <= significant_m) size = 0.0;
           const long du = 2L * iu - cu2, dv = 2L * iv - cv2;
           const long centre_distance = du * du + dv * dv;
-          if (size > best_size || (size == best_size && centre_distance < best_centre_distance)) {
-            best = line;
-            best_size = size;
-            best_centre_distance = centre_distance;
+          if (size > best.size || (size == best.size && centre_distance < best.centre_distance)) {
+            best = {static_cast<std::size_t>(iu) + static_cast<std::size_t>(nu) * static_cast<std::size_t>(iv), size,
+                    centre_distance};
           }
         }
       }
+    }
+    for (int cu = 0; cu < result.cells_u; ++cu) {
       result.line[static_cast<std::size_t>(cu) + static_cast<std::size_t>(result.cells_u) * static_cast<std::size_t>(cv)] =
-          best;
+          choices[static_cast<std::size_t>(cu)].line;
     }
   }
   return result;
@@ -270,10 +296,9 @@ View3dData view3d_data(const View3dInputs& inputs) {
         static_cast<std::size_t>(static_cast<double>(inputs.max_vertices) * static_cast<double>(lines) /
                                  static_cast<double>(std::max<std::size_t>(all_lines, 1))));
     const int cell_lines = cell_lines_for(view.nu, view.nv, std::max<std::size_t>(budget, 1));
-    const std::vector<bool>* usable = view.has_material.empty() ? nullptr : &view.has_material;
     // Below the mark threshold a deviation is no mark: such cells keep their centre line, and the
     // mesh stays regular (and evenly shaded) where there is nothing to see.
-    const WorstOfCells cells = keep_worst_of_cells(view.nu, view.nv, *view.deviation_m, cell_lines, usable,
+    const WorstOfCells cells = keep_worst_of_cells(view.nu, view.nv, view.rows, cell_lines,
                                                    inputs.mark_threshold_um * 1e-6);
 
     std::vector<unsigned char> positions, deviations, mark_bytes;
@@ -294,13 +319,14 @@ View3dData view3d_data(const View3dInputs& inputs) {
       const int iv = static_cast<int>(line / static_cast<std::size_t>(view.nu));
       const Eigen::Vector3d point = view.surface_point_W_m(iu, iv);
       for (int c = 0; c < 3; ++c) append_bytes(positions, static_cast<float>(point[c] * 1e3));
-      const double deviation_um = (*view.deviation_m)[line] * 1e6;
+      const double deviation_um = view.deviation_m_at(iu, iv) * 1e6;
       low = std::min(low, deviation_um);
       high = std::max(high, deviation_um);
       append_bytes(deviations, static_cast<float>(deviation_um));
       int mark = -1;
-      if (view.mark_label && (*view.mark_label)[line] >= 0) {
-        const auto found = marks.index.find({view.id, (*view.mark_label)[line]});
+      const int label = view.mark_label_at ? view.mark_label_at(iu, iv) : -1;
+      if (label >= 0) {
+        const auto found = marks.index.find({view.id, label});
         if (found != marks.index.end()) mark = found->second;
       }
       append_bytes(mark_bytes, static_cast<std::int16_t>(mark));

@@ -16,7 +16,9 @@
 #include <Eigen/Core>
 #include <cstddef>
 #include <filesystem>
+#include <cstdint>
 #include <functional>
+#include <span>
 #include <optional>
 #include <string>
 #include <vector>
@@ -47,6 +49,14 @@ int cell_lines_for(int nu, int nv, std::size_t max_cells);
 /// mismatch or cell_lines < 1.
 WorstOfCells keep_worst_of_cells(int nu, int nv, const std::vector<double>& deviation_m, int cell_lines,
                                  const std::vector<bool>* usable = nullptr, double significant_m = 0.0);
+
+/// A view's rows, for views too large to hold whole: fills row iv's deviations [m] and usable
+/// flags (1: usable), nu of each. Called with iv = 0, 1, ... in order.
+using ViewRowReader = std::function<void(int iv, std::span<double> deviation_m, std::span<std::uint8_t> usable)>;
+
+/// The same cells, the rows read one at a time (one row and one cell row's choices held).
+WorstOfCells keep_worst_of_cells(int nu, int nv, const ViewRowReader& rows, int cell_lines,
+                                 double significant_m = 0.0);
 
 /// The programmed path as segments, for "the nearest path point" of a picked point: segment k
 /// runs from point k-1 to point k (the motion of block block[k]). Points are where the tool's
@@ -86,9 +96,12 @@ struct View3dInput {
   std::string id, title;
   int nu = 0, nv = 0;
   std::function<Eigen::Vector3d(int iu, int iv)> surface_point_W_m;  ///< production surface
-  const std::vector<double>* deviation_m = nullptr;  ///< production minus reference, per line
-  const std::vector<int>* mark_label = nullptr;      ///< per line: the view's mark index, or -1
-  std::vector<bool> has_material;                    ///< per line: false where the stock never reached
+  /// Production minus reference [m] of line (iu, iv).
+  std::function<double(int iu, int iv)> deviation_m_at;
+  /// The rows in order: deviations (as deviation_m_at) and usable = 1 where the stock reached.
+  ViewRowReader rows;
+  /// The view's mark index of line (iu, iv), or -1; empty: no marks.
+  std::function<int(int iu, int iv)> mark_label_at;
 };
 
 /// A program block, as the marks table shows it.

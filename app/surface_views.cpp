@@ -1,5 +1,7 @@
 #include "surface_views.hpp"
 
+#include "view_deviation.hpp"
+
 #include <Eigen/Geometry>
 
 #include <algorithm>
@@ -410,7 +412,7 @@ std::size_t exclude_steep_lines(const removal::NBuffer& reference, double spacin
 }
 
 viz::HeightField view_height_field(const SurfaceView& view, const removal::NBuffer& buffer,
-                                   const std::vector<double>* deviation_m, int stride) {
+                                   const ViewDeviation* deviation, int stride) {
   viz::HeightField field;
   if (view.zmap) {
     field.origin_x_m = buffer.zmap_origin_m().x();
@@ -422,11 +424,26 @@ viz::HeightField view_height_field(const SurfaceView& view, const removal::NBuff
   for (int j = 0; j < field.ny; ++j) {
     for (int i = 0; i < field.nx; ++i) {
       field.height_m.push_back(view.surface_offset_m(buffer, i * stride, j * stride));
-      if (deviation_m) {
-        field.deviation_m.push_back(
-            (*deviation_m)[static_cast<std::size_t>(i * stride) +
-                           static_cast<std::size_t>(buffer.nu()) * static_cast<std::size_t>(j * stride)]);
-      }
+      if (deviation) field.deviation_m.push_back(deviation->at(i * stride, j * stride));
+    }
+  }
+  return field;
+}
+
+viz::HeightField view_height_field_window(const SurfaceView& view, const removal::NBuffer& buffer,
+                                          const ViewDeviation& deviation, const LineWindow& window) {
+  viz::HeightField field;
+  const double origin_x_m = view.zmap ? buffer.zmap_origin_m().x() : 0.0;
+  const double origin_y_m = view.zmap ? buffer.zmap_origin_m().y() : 0.0;
+  field.origin_x_m = origin_x_m + window.iu_first * view.spacing_m;
+  field.origin_y_m = origin_y_m + window.iv_first * view.spacing_m;
+  field.spacing_x_m = field.spacing_y_m = view.spacing_m;
+  field.nx = window.iu_last - window.iu_first + 1;
+  field.ny = window.iv_last - window.iv_first + 1;
+  for (int j = window.iv_first; j <= window.iv_last; ++j) {
+    for (int i = window.iu_first; i <= window.iu_last; ++i) {
+      field.height_m.push_back(view.surface_offset_m(buffer, i, j));
+      field.deviation_m.push_back(deviation.at(i, j));
     }
   }
   return field;

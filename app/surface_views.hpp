@@ -27,6 +27,8 @@
 
 namespace vmsim::app {
 
+class ViewDeviation;  // view_deviation.hpp
+
 /// Neighbouring lines whose reference lengths differ by more than this many line spacings
 /// (a slope above 71.6 deg for the view) are not assessed.
 inline constexpr double kSteepStepPerSpacing = 3.0;
@@ -124,21 +126,27 @@ std::optional<std::size_t> design_patch_of_mark(const PartDescription& part, con
                                                 double part_tolerance_m);
 
 /// Sets the deviation of the lines where `reference` is steep (see above) to 0; returns how
-/// many lines that excluded.
+/// many lines that excluded. (simulate-part evaluates the same test per line: ViewDeviation,
+/// view_deviation.hpp; this whole-view form is its tests' reference.)
 std::size_t exclude_steep_lines(const removal::NBuffer& reference, double spacing_m,
                                 std::vector<double>& deviation_m);
 
 /// The view's surface as a height field for renders and .vtp files, every `stride`-th line:
 /// (x, y) are W's for the Z-map and otherwise (i, j) times the view's spacing (the (u, v)
 /// coordinates of a wall's grid; on a sphere or cylinder, about the arc length on the surface);
-/// the height is SurfaceView::surface_offset_m.
+/// the height is SurfaceView::surface_offset_m; the deviation (optional) ViewDeviation::at.
 viz::HeightField view_height_field(const SurfaceView& view, const removal::NBuffer& buffer,
-                                   const std::vector<double>* deviation_m, int stride);
+                                   const ViewDeviation* deviation, int stride);
 
 /// Inclusive range of a view's lines [iu_first, iu_last] x [iv_first, iv_last].
 struct LineWindow {
   int iu_first = 0, iu_last = 0, iv_first = 0, iv_last = 0;
 };
+
+/// The nodes of view_height_field(view, buffer, deviation, 1) within `window`, with the
+/// window's corner as origin (a mark's close-up, without the whole view's field).
+viz::HeightField view_height_field_window(const SurfaceView& view, const removal::NBuffer& buffer,
+                                          const ViewDeviation& deviation, const LineWindow& window);
 
 /// The lines a close-up of a mark shows: the mark's bounding box of lines [iu_min, iu_max] x
 /// [iv_min, iv_max] widened on every side by `margin_m` (whole lines at `spacing_m`, rounded

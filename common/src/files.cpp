@@ -14,17 +14,29 @@
 #include <system_error>
 
 #include "vmsim/common/errors.hpp"
+#include "vmsim/common/streamed_file.hpp"
 
 namespace vmsim {
 
 void write_file_atomically(const std::string& path, const std::string& content) {
+  write_file_atomically(path, [&content](std::ostream& out) { out << content; });
+}
+
+void write_file_atomically(const std::string& path, const std::function<void(std::ostream&)>& write) {
   const std::string temporary = path + ".tmp-" + std::to_string(::getpid());
   {
     std::ofstream out(temporary, std::ios::binary | std::ios::trunc);
     if (!out) throw InputError(path + ": cannot write (does the folder exist and is it writable?)");
-    out << content;
+    try {
+      write(out);
+    } catch (...) {
+      out.close();
+      std::remove(temporary.c_str());
+      throw;
+    }
     out.flush();
     if (!out) {
+      out.close();
       std::remove(temporary.c_str());
       throw InputError(path + ": writing failed (disk full?)");
     }

@@ -4,11 +4,11 @@
 #include <cmath>
 #include <stdexcept>
 
-namespace vmsim::removal {
-namespace {
+#include "mark_geometry.hpp"
 
-// Area a line stands for: spacing^2 on a Z-map; on a general buffer, the parallelogram of the
-// neighbouring origins (one-sided at the borders).
+namespace vmsim::removal {
+namespace detail {
+
 double line_area_m2(const NBuffer& buffer, int iu, int iv) {
   if (buffer.is_zmap()) return buffer.spacing_m() * buffer.spacing_m();
   auto step = [&](int du, int dv) {
@@ -21,7 +21,7 @@ double line_area_m2(const NBuffer& buffer, int iu, int iv) {
   return step(1, 0).cross(step(0, 1)).norm();
 }
 
-}  // namespace
+}  // namespace detail
 
 MarkMap find_marks(const NBuffer& production, const std::vector<double>& deviation_m,
                    const MarkOptions& options) {
@@ -77,7 +77,7 @@ MarkMap find_marks(const NBuffer& production, const std::vector<double>& deviati
     for (const std::size_t i : region) {
       const int iu = static_cast<int>(i % static_cast<std::size_t>(nu));
       const int iv = static_cast<int>(i / static_cast<std::size_t>(nu));
-      const double area = line_area_m2(production, iu, iv);
+      const double area = detail::line_area_m2(production, iu, iv);
       const Eigen::Vector3d point = production.surface_point(iu, iv);
       mark.area_m2 += area;
       weighted += area * point;

@@ -6,6 +6,7 @@
 #include <cmath>
 #include <cstdint>
 #include <cstring>
+#include <ostream>
 
 #include "vmsim/common/files.hpp"
 
@@ -85,6 +86,36 @@ std::string heights_binary(const NBuffer& b) {
     }
   }
   return out;
+}
+
+void write_heights_binary(const NBuffer& b, std::ostream& out) {
+  std::string piece = "VMSIMNB1";
+  put<std::int32_t>(piece, b.nu());
+  put<std::int32_t>(piece, b.nv());
+  put<std::int32_t>(piece, b.is_zmap() ? 1 : 0);
+  const Eigen::Vector3d o = b.is_zmap() ? b.zmap_origin_m() : Eigen::Vector3d::Zero();
+  put(piece, o.x());
+  put(piece, o.y());
+  put(piece, o.z());
+  put(piece, b.is_zmap() ? b.spacing_m() : 0.0);
+  out.write(piece.data(), static_cast<std::streamsize>(piece.size()));
+  // One row at a time.
+  auto write_rows = [&](const auto& put_line) {
+    for (int iv = 0; iv < b.nv(); ++iv) {
+      piece.clear();
+      for (int iu = 0; iu < b.nu(); ++iu) put_line(iu, iv);
+      out.write(piece.data(), static_cast<std::streamsize>(piece.size()));
+    }
+  };
+  write_rows([&](int iu, int iv) { put(piece, b.length(iu, iv)); });
+  if (b.is_zmap()) return;
+  auto put_vector = [&](const Eigen::Vector3d& v) {
+    put(piece, v.x());
+    put(piece, v.y());
+    put(piece, v.z());
+  };
+  write_rows([&](int iu, int iv) { put_vector(b.origin(iu, iv)); });
+  write_rows([&](int iu, int iv) { put_vector(b.direction(iu, iv)); });
 }
 
 int stl_stride_for(const NBuffer& b, std::size_t max_triangles) {

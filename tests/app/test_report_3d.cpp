@@ -192,9 +192,14 @@ View3dInputs small_inputs(std::vector<double>& deviation, std::vector<int>& labe
   view.nu = nu;
   view.nv = nv;
   view.surface_point_W_m = [](int iu, int iv) { return Eigen::Vector3d(iu * 1e-3, iv * 1e-3, iu * 1e-4); };
-  view.deviation_m = &deviation;
-  view.mark_label = &label;
-  view.has_material.assign(deviation.size(), true);
+  view.deviation_m_at = [&deviation, nu](int iu, int iv) { return deviation[static_cast<std::size_t>(iu + nu * iv)]; };
+  view.rows = [&deviation, nu](int iv, std::span<double> row_m, std::span<std::uint8_t> usable) {
+    for (int iu = 0; iu < nu; ++iu) {
+      row_m[static_cast<std::size_t>(iu)] = deviation[static_cast<std::size_t>(iu + nu * iv)];
+      usable[static_cast<std::size_t>(iu)] = 1;
+    }
+  };
+  view.mark_label_at = [&label, nu](int iu, int iv) { return label[static_cast<std::size_t>(iu + nu * iv)]; };
   inputs.views.push_back(view);
   // Pass 1 at y = 2 mm (blocks 0 -> 1), a rapid, pass 2 at y = 7 mm (blocks 2 -> 3).
   inputs.path_centre_W_m = {{0, 2e-3, 0}, {20e-3, 2e-3, 0}, {0, 7e-3, 0}, {20e-3, 7e-3, 0}};

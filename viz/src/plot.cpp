@@ -247,23 +247,34 @@ void plot_along_path(const std::string& png_path, const AlongPathPlotInput& inpu
 
 Histogram make_histogram(const std::vector<double>& values, int bin_count,
                          const std::optional<Range>& range) {
+  return make_walked_histogram([&values](const std::function<void(double)>& visit) {
+    for (double v : values) visit(v);
+  }, bin_count, range);
+}
+
+Histogram make_walked_histogram(const ValueWalk& walk, int bin_count, const std::optional<Range>& range) {
   if (bin_count < 1) {
     throw InputError("histogram: bin count " + std::to_string(bin_count) + " must be >= 1");
   }
-  if (values.empty()) throw InputError("histogram: no values");
-  for (std::size_t i = 0; i < values.size(); ++i) {
-    if (!std::isfinite(values[i])) {
-      throw InputError("histogram: value " + std::to_string(i) + " (" + format_double(values[i]) +
-                       ") is not finite");
+  // First walk: count, check, and the range as std::minmax_element gives it (the first
+  // smallest, the last largest).
+  std::size_t count = 0;
+  double low = 0.0, high = 0.0;
+  walk([&](double v) {
+    if (!std::isfinite(v)) {
+      throw InputError("histogram: value " + std::to_string(count) + " (" + format_double(v) + ") is not finite");
     }
-  }
+    if (count == 0 || v < low) low = v;
+    if (count == 0 || !(v < high)) high = v;
+    ++count;
+  });
+  if (count == 0) throw InputError("histogram: no values");
   check_range(range, "histogram: range");
   Range r;
   if (range) {
     r = *range;
   } else {
-    const auto [low, high] = std::minmax_element(values.begin(), values.end());
-    r = {*low, *high};
+    r = {low, high};
     if (!(r.min < r.max)) r = {r.min - 0.5, r.max + 0.5};
   }
   Histogram h;
@@ -272,7 +283,7 @@ Histogram make_histogram(const std::vector<double>& values, int bin_count,
   for (int i = 0; i <= bin_count; ++i) h.edges[static_cast<std::size_t>(i)] = r.min + i * width;
   h.edges.back() = r.max;
   h.counts.assign(static_cast<std::size_t>(bin_count), 0.0);
-  for (double v : values) {
+  walk([&](double v) {
     if (v < r.min) {
       ++h.below;
     } else if (v > r.max) {
@@ -282,7 +293,7 @@ Histogram make_histogram(const std::vector<double>& values, int bin_count,
                                 static_cast<std::size_t>(bin_count) - 1);
       h.counts[bin] += 1.0;
     }
-  }
+  });
   return h;
 }
 
@@ -415,6 +426,19 @@ void plot_deviation_histogram(const std::string& png_path, const std::vector<dou
   plot.log_counts = log_counts;
   if (log_counts) plot.y_title = "lines, log10(1 + count)";
   plot.histogram = make_histogram(scaled(deviation_m, 1e6), bin_count);
+  write_histogram_png(png_path, plot, size);
+}
+
+void plot_walked_deviation_histogram(const std::string& png_path, const ValueWalk& deviation_m, int bin_count,
+                              const std::string& title, const ImageSize& size, bool log_counts) {
+  HistogramPlot plot;
+  plot.title = title;
+  plot.x_title = "deviation [um]";
+  plot.log_counts = log_counts;
+  if (log_counts) plot.y_title = "lines, log10(1 + count)";
+  plot.histogram = make_walked_histogram([&deviation_m](const std::function<void(double)>& visit) {
+    deviation_m([&visit](double d) { visit(d * 1e6); });
+  }, bin_count);
   write_histogram_png(png_path, plot, size);
 }
 

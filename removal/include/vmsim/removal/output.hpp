@@ -2,6 +2,7 @@
 // File contents for an N-buffer's results. The functions return the bytes; the caller writes
 // them (vmsim::write_file_atomically), so a failed run leaves no half-written file.
 #include <cstddef>
+#include <iosfwd>
 #include <string>
 #include <vector>
 
@@ -22,6 +23,10 @@ std::string heights_csv(const NBuffer& buffer, const std::vector<double>* values
 /// (index = iu + nu * iv); general buffers then nu*nv origins and nu*nv directions (3 doubles
 /// each). The height of a Z-map line is z0 + length. For the viz module (.vtp).
 std::string heights_binary(const NBuffer& buffer);
+
+/// The bytes of heights_binary written to `out` row by row (O(nu) memory: for views too large
+/// to hold the file whole, e.g. through vmsim::write_file_atomically's streamed form).
+void write_heights_binary(const NBuffer& buffer, std::ostream& out);
 
 /// Binary STL of the machined surface (surface points o + h u, two triangles per grid cell),
 /// taking every `stride`-th line in both directions (1 = all). Frame W, millimetres.

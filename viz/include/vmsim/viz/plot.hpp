@@ -10,6 +10,7 @@
 // nothing to plot) throws vmsim::InputError naming the series and the index; an output that
 // cannot be written throws vmsim::InputError naming the path. The PNG appears complete or not at
 // all (written to a temporary name, then renamed).
+#include <functional>
 #include <optional>
 #include <string>
 #include <vector>
@@ -87,6 +88,13 @@ struct Histogram {
 /// Throws vmsim::InputError for bin_count < 1, no values, a bad range or a non-finite value.
 Histogram make_histogram(const std::vector<double>& values, int bin_count,
                          const std::optional<Range>& range = std::nullopt);
+
+/// Calls its argument with each value, in the same order every time.
+using ValueWalk = std::function<void(const std::function<void(double)>& visit)>;
+
+/// The same for values too many to hold (a view's lines): `walk` is called twice (the range,
+/// then the counts). Same result as make_histogram of the values walked.
+Histogram make_walked_histogram(const ValueWalk& walk, int bin_count, const std::optional<Range>& range = std::nullopt);
 
 struct HistogramPlot {
   std::string title;
@@ -171,6 +179,10 @@ void plot_residuals(const std::string& png_path, const ResidualPlotInput& input,
 void plot_deviation_histogram(const std::string& png_path, const std::vector<double>& deviation_m,
                               int bin_count = 50, const std::string& title = "Deviation",
                               const ImageSize& size = {}, bool log_counts = false);
+
+/// The same, the deviations [m] walked (twice) rather than held.
+void plot_walked_deviation_histogram(const std::string& png_path, const ValueWalk& deviation_m, int bin_count,
+                              const std::string& title, const ImageSize& size = {}, bool log_counts = false);
 
 /// One curve of a polar deviation plot: the radial deviation [m] at polar angles [rad].
 struct PolarCurve {
