@@ -21,6 +21,22 @@ double line_area_m2(const NBuffer& buffer, int iu, int iv) {
   return step(1, 0).cross(step(0, 1)).norm();
 }
 
+std::vector<int> sort_deepest_first(std::vector<Mark>& marks) {
+  std::vector<int> order(marks.size());
+  for (std::size_t i = 0; i < order.size(); ++i) order[i] = static_cast<int>(i);
+  std::stable_sort(order.begin(), order.end(), [&](int a, int b) {
+    return marks[static_cast<std::size_t>(a)].depth_m > marks[static_cast<std::size_t>(b)].depth_m;
+  });
+  std::vector<int> new_index(order.size());
+  std::vector<Mark> sorted;
+  for (std::size_t k = 0; k < order.size(); ++k) {
+    new_index[static_cast<std::size_t>(order[k])] = static_cast<int>(k);
+    sorted.push_back(marks[static_cast<std::size_t>(order[k])]);
+  }
+  marks = std::move(sorted);
+  return new_index;
+}
+
 }  // namespace detail
 
 MarkMap find_marks(const NBuffer& production, const std::vector<double>& deviation_m,
@@ -97,18 +113,7 @@ MarkMap find_marks(const NBuffer& production, const std::vector<double>& deviati
     result.marks.push_back(mark);
   }
   // Deepest first; labels follow the new order.
-  std::vector<int> order(result.marks.size());
-  for (std::size_t i = 0; i < order.size(); ++i) order[i] = static_cast<int>(i);
-  std::stable_sort(order.begin(), order.end(), [&](int a, int b) {
-    return result.marks[static_cast<std::size_t>(a)].depth_m > result.marks[static_cast<std::size_t>(b)].depth_m;
-  });
-  std::vector<int> new_index(order.size());
-  std::vector<Mark> sorted;
-  for (std::size_t k = 0; k < order.size(); ++k) {
-    new_index[static_cast<std::size_t>(order[k])] = static_cast<int>(k);
-    sorted.push_back(result.marks[static_cast<std::size_t>(order[k])]);
-  }
-  result.marks = std::move(sorted);
+  const std::vector<int> new_index = detail::sort_deepest_first(result.marks);
   for (int& label : result.label) {
     if (label >= 0) label = new_index[static_cast<std::size_t>(label)];
   }

@@ -213,18 +213,7 @@ StreamedMarkMap find_marks_streamed(const NBuffer& production, const DeviationRe
         fill_mark(production, deviation, finder, region, static_cast<int>(result.marks.size()), result.labels));
   }
   // Deepest first, ties in the order found (as find_marks); labels follow the new order.
-  std::vector<int> order(result.marks.size());
-  for (std::size_t i = 0; i < order.size(); ++i) order[i] = static_cast<int>(i);
-  std::stable_sort(order.begin(), order.end(), [&](int a, int b) {
-    return result.marks[static_cast<std::size_t>(a)].depth_m > result.marks[static_cast<std::size_t>(b)].depth_m;
-  });
-  std::vector<int> new_index(order.size());
-  std::vector<Mark> sorted;
-  for (std::size_t k = 0; k < order.size(); ++k) {
-    new_index[static_cast<std::size_t>(order[k])] = static_cast<int>(k);
-    sorted.push_back(result.marks[static_cast<std::size_t>(order[k])]);
-  }
-  result.marks = std::move(sorted);
+  const std::vector<int> new_index = detail::sort_deepest_first(result.marks);
   result.labels.relabel(new_index);
   return result;
 }
