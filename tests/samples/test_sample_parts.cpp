@@ -232,6 +232,24 @@ TEST(SampleParts, GeneratorReproducesCheckedInFilesByteForByte) {
   fs::remove_all(out);
 }
 
+// The die's part file is checked in, its 33 MB tool path is not (samples/parts/README.md): the
+// generator writes the same part file, and a tool path of 2 001 passes.
+TEST(SampleParts, DiePartFileIsTheGeneratorsOwn) {
+  const fs::path out = fs::temp_directory_path() / ("vmsim_test_die_" + std::to_string(::getpid()));
+  fs::remove_all(out);
+  const std::string command =
+      std::string("\"") + VMSIM_GENERATE_PARTS + "\" --die-width-mm 500 \"" + out.string() + "\" > /dev/null";
+  ASSERT_EQ(std::system(command.c_str()), 0) << command;
+  EXPECT_TRUE(read_text(out / "die_part1_500mm" / "part.yaml") ==
+              read_text(kPartsDir / "die_part1_500mm" / "part.yaml"))
+      << "regenerate with <build>/samples/generate_parts --die-width-mm 500 samples/parts";
+  std::ifstream apt(out / "die_part1_500mm" / "toolpath.apt");
+  int rapids = 0;
+  for (std::string line; std::getline(apt, line);) rapids += line == "RAPID";
+  EXPECT_EQ(rapids, 2 * 2001);  // each pass: the rapid to its start and the retract
+  fs::remove_all(out);
+}
+
 TEST(SampleParts, EveryPartIsWellFormed) {
   for (const std::string& name : kParts) {
     SCOPED_TRACE(name);
