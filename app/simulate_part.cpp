@@ -1023,11 +1023,15 @@ void render_mark(const Context& context, const Run& production, const ViewCompar
                                                  buffer.nv(), view.spacing_m,
                                                  std::max(2e-3, 2 * context.tool.diameter_m));
   const int i0 = window.iu_first, i1 = window.iu_last, j0 = window.iv_first, j1 = window.iv_last;
-  const viz::HeightField crop = view_height_field_window(view, buffer, *comparison.deviation, window);
+  // At most 4 M nodes (about 400 MB in the render), several times the image's pixels.
+  const int stride = close_up_stride(window, 4.0e6);
+  const viz::HeightField crop = view_height_field_window(view, buffer, *comparison.deviation, window, stride);
   viz::SurfaceRenderOptions options;
   options.title = title;
   options.size = size;
-  options.region_mask = mark_mask(comparison, i0, i1, j0, j1, 1, 0);
+  // This mark's outline (its label is its place in the view's list), not the view's deepest.
+  const int label = static_cast<int>(&mark - comparison.marks.marks.data());
+  options.region_mask = mark_mask(comparison, i0, i1, j0, j1, stride, label);
   viz::render_surface_png(png_path.string(), crop, options);
 }
 

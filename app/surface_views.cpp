@@ -431,22 +431,28 @@ viz::HeightField view_height_field(const SurfaceView& view, const removal::NBuff
 }
 
 viz::HeightField view_height_field_window(const SurfaceView& view, const removal::NBuffer& buffer,
-                                          const ViewDeviation& deviation, const LineWindow& window) {
+                                          const ViewDeviation& deviation, const LineWindow& window, int stride) {
   viz::HeightField field;
   const double origin_x_m = view.zmap ? buffer.zmap_origin_m().x() : 0.0;
   const double origin_y_m = view.zmap ? buffer.zmap_origin_m().y() : 0.0;
   field.origin_x_m = origin_x_m + window.iu_first * view.spacing_m;
   field.origin_y_m = origin_y_m + window.iv_first * view.spacing_m;
-  field.spacing_x_m = field.spacing_y_m = view.spacing_m;
-  field.nx = window.iu_last - window.iu_first + 1;
-  field.ny = window.iv_last - window.iv_first + 1;
-  for (int j = window.iv_first; j <= window.iv_last; ++j) {
-    for (int i = window.iu_first; i <= window.iu_last; ++i) {
+  field.spacing_x_m = field.spacing_y_m = view.spacing_m * stride;
+  field.nx = (window.iu_last - window.iu_first) / stride + 1;
+  field.ny = (window.iv_last - window.iv_first) / stride + 1;
+  for (int j = window.iv_first; j <= window.iv_last; j += stride) {
+    for (int i = window.iu_first; i <= window.iu_last; i += stride) {
       field.height_m.push_back(view.surface_offset_m(buffer, i, j));
       field.deviation_m.push_back(deviation.at(i, j));
     }
   }
   return field;
+}
+
+int close_up_stride(const LineWindow& window, double max_nodes) {
+  const double nodes = static_cast<double>(window.iu_last - window.iu_first + 1) *
+                       static_cast<double>(window.iv_last - window.iv_first + 1);
+  return std::max(1, static_cast<int>(std::ceil(std::sqrt(nodes / max_nodes))));
 }
 
 LineWindow mark_close_up_window(int iu_min, int iu_max, int iv_min, int iv_max, int nu, int nv,

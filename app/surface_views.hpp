@@ -143,10 +143,16 @@ struct LineWindow {
   int iu_first = 0, iu_last = 0, iv_first = 0, iv_last = 0;
 };
 
-/// The nodes of view_height_field(view, buffer, deviation, 1) within `window`, with the
-/// window's corner as origin (a mark's close-up, without the whole view's field).
+/// The nodes of view_height_field(view, buffer, deviation, 1) within `window`, every
+/// `stride`-th line in each direction from the window's corner, which is the origin (a mark's
+/// close-up, without the whole view's field).
 viz::HeightField view_height_field_window(const SurfaceView& view, const removal::NBuffer& buffer,
-                                          const ViewDeviation& deviation, const LineWindow& window);
+                                          const ViewDeviation& deviation, const LineWindow& window,
+                                          int stride = 1);
+
+/// The stride that keeps a close-up of `window` at most `max_nodes` nodes (1 when it fits: a
+/// mark along a whole die is drawn from every few lines, not from hundreds of millions).
+int close_up_stride(const LineWindow& window, double max_nodes);
 
 /// The lines a close-up of a mark shows: the mark's bounding box of lines [iu_min, iu_max] x
 /// [iv_min, iv_max] widened on every side by `margin_m` (whole lines at `spacing_m`, rounded

@@ -137,5 +137,36 @@ TEST(ViewDeviation, AWindowOfTheHeightFieldIsTheWholeFieldCropped) {
   }
 }
 
+// A close-up of a window too large for a render (a mark along a whole die) is drawn from every
+// stride-th line: the strided window holds the whole field's nodes at those lines, and the
+// stride keeps it within the node budget.
+TEST(ViewDeviation, AStridedWindowHoldsEveryStrideThLineOfTheWholeField) {
+  std::mt19937 random(11);
+  const removal::NBuffer a = stepped_lines(40, 30, random);
+  const removal::NBuffer b = stepped_lines(40, 30, random);
+  SurfaceView view;
+  view.zmap = false;
+  view.spacing_m = 1e-3;
+  const ViewDeviation deviation(a, b, view.spacing_m);
+  const viz::HeightField whole = view_height_field(view, a, &deviation, 1);
+  const LineWindow window{3, 38, 2, 27};  // 36 x 26 lines
+  EXPECT_EQ(close_up_stride(window, 36.0 * 26.0), 1);
+  EXPECT_EQ(close_up_stride(window, 36.0 * 26.0 - 1), 2);
+  const int stride = close_up_stride(window, 100.0);  // sqrt(936 / 100) -> 4
+  ASSERT_EQ(stride, 4);
+  const viz::HeightField crop = view_height_field_window(view, a, deviation, window, stride);
+  ASSERT_EQ(crop.nx, 9);  // lines 3, 7, ..., 35
+  ASSERT_EQ(crop.ny, 7);  // lines 2, 6, ..., 26
+  EXPECT_LE(crop.nx * crop.ny, 100);
+  EXPECT_DOUBLE_EQ(crop.spacing_x_m, 4 * view.spacing_m);
+  EXPECT_DOUBLE_EQ(crop.origin_x_m, whole.origin_x_m + 3 * view.spacing_m);
+  for (int j = 0; j < crop.ny; ++j) {
+    for (int i = 0; i < crop.nx; ++i) {
+      EXPECT_EQ(crop.height_m[crop.index(i, j)], whole.height_m[whole.index(3 + 4 * i, 2 + 4 * j)]);
+      EXPECT_EQ(crop.deviation_m[crop.index(i, j)], whole.deviation_m[whole.index(3 + 4 * i, 2 + 4 * j)]);
+    }
+  }
+}
+
 }  // namespace
 }  // namespace vmsim::app
