@@ -55,6 +55,14 @@ std::string rounded(double value, int digits) {
   return text.str();
 }
 
+// A figure with 3 significant digits (a share of a few samples in millions is not "0.000 %").
+std::string significant(double value) {
+  std::ostringstream text;
+  text.precision(3);
+  text << value;
+  return text.str();
+}
+
 }  // namespace
 
 std::size_t path_segment_at(const std::vector<double>& path_s_m, double s_m) {
@@ -311,7 +319,8 @@ ValidityCheck DriveSaturationCheck::result() const {
       check.value = share;
       check.status = CheckStatus::warning;
       check.detail = "axis " + machine_->axes[j].name + " at its current limit " + rounded(limit, 4) + " A in " +
-                     rounded(share, 3) + " % of the cutting samples, first at t = " + rounded(axis.first_t_s, 4) +
+                     std::to_string(axis.at_limit) + " of " + std::to_string(cutting_count_) + " cutting samples (" +
+                     significant(share) + " %), first at t = " + rounded(axis.first_t_s, 4) +
                      " s: the drive cannot give what the plan asks there";
     }
   }
@@ -456,7 +465,11 @@ std::string check_line(const ValidityCheck& check) {
   // Checks whose limit is zero (nothing beyond the travel) show a figure only when they fail.
   const bool has_figure = check.status != CheckStatus::not_done && (check.limit != 0.0 || check.value != 0.0);
   if (has_figure) {
-    line += ": " + rounded(check.value, 3) + " " + check.unit + " (limit " + rounded(check.limit, 3) + ")";
+    // Three decimals, or three significant digits below 0.01 (35 samples in 14 M are not "0.000 %").
+    const auto figure = [](double value) {
+      return value != 0.0 && std::abs(value) < 0.01 ? significant(value) : rounded(value, 3);
+    };
+    line += ": " + figure(check.value) + " " + check.unit + " (limit " + figure(check.limit) + ")";
   }
   if (!check.detail.empty()) line += "; " + check.detail;
   return line;

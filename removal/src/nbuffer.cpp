@@ -69,6 +69,27 @@ double Tool::corner_radius() const {
 }
 
 NBuffer NBuffer::zmap(const Box& stock, double spacing_m) {
+  NBuffer b = zmap_grid(stock, spacing_m);
+  b.h_.assign(static_cast<std::size_t>(b.tiles_u_) * b.tiles_v_ * kTile * kTile, stock.max_W_m.z() - stock.min_W_m.z());
+  b.build_tiles();
+  return b;
+}
+
+NBuffer NBuffer::compact_zmap(const Box& stock, double spacing_m) {
+  NBuffer b = zmap_grid(stock, spacing_m);
+  const double height = stock.max_W_m.z() - stock.min_W_m.z();
+  b.compact_ = true;
+  b.tiles_.assign(static_cast<std::size_t>(b.tiles_u_) * b.tiles_v_, TileBounds{});
+  b.band_tile_begin_ = 0, b.band_tile_end_ = b.tiles_.size();
+  b.base_.assign(b.tiles_.size(), height);  // every line of a tile at its base: no offsets
+  b.offsets_.reset(b.tiles_.size());
+  double h[kTile * kTile];
+  std::fill_n(h, kTile * kTile, height);
+  for (std::size_t t = 0; t < b.tiles_.size(); ++t) b.refresh_tile(t, h);
+  return b;
+}
+
+NBuffer NBuffer::zmap_grid(const Box& stock, double spacing_m) {
   const Eigen::Vector3d size = stock.max_W_m - stock.min_W_m;
   if (!(size.minCoeff() > 0.0) || !size.allFinite()) {
     throw InputError("stock box: min must be below max on every axis");
@@ -90,8 +111,6 @@ NBuffer NBuffer::zmap(const Box& stock, double spacing_m) {
   b.origin0_ = stock.min_W_m;
   b.tiles_u_ = (b.nu_ + kTile - 1) / kTile;
   b.tiles_v_ = (b.nv_ + kTile - 1) / kTile;
-  b.h_.assign(static_cast<std::size_t>(b.tiles_u_) * b.tiles_v_ * kTile * kTile, size.z());
-  b.build_tiles();
   return b;
 }
 

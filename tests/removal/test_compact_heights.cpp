@@ -10,6 +10,7 @@
 #include <vector>
 
 #include "removal_test_tools.hpp"
+#include "vmsim/common/errors.hpp"
 #include "vmsim/removal/nbuffer.hpp"
 
 namespace vmsim::removal {
@@ -153,6 +154,38 @@ TEST(CompactHeights, MeshLikeStockKeepsItsLinesWithinTheBound) {
     }
   }
   EXPECT_GT(largest, 0.0);  // floats do round: the bound is not vacuous
+}
+
+// A box's Z-map made compact at once (no plain buffer on the way) is make_compact()'s buffer:
+// the same lengths, tiles, bounds and bytes, and the same lengths bit for bit after the same cuts.
+TEST(CompactHeights, CompactZmapIsTheMadeCompactZmap) {
+  std::mt19937 rng(77u);
+  // 12.01 x 8.03 mm at 0.03 mm: partial tiles on both far edges.
+  const Box stock{Eigen::Vector3d(-6, -4, 0.5) * mm, Eigen::Vector3d(6.01, 4.03, 10) * mm};
+  NBuffer made = NBuffer::zmap(stock, 0.03 * mm);
+  made.make_compact();
+  NBuffer direct = NBuffer::compact_zmap(stock, 0.03 * mm);
+  ASSERT_TRUE(direct.is_compact());
+  ASSERT_TRUE(direct.same_lines(made));
+  EXPECT_NE(direct.nu() % NBuffer::kTile, 0);
+  EXPECT_NE(direct.nv() % NBuffer::kTile, 0);
+  EXPECT_EQ(direct.allocated_tiles(), 0u);
+  EXPECT_EQ(direct.length_bytes(), made.length_bytes());
+  EXPECT_EQ(direct.pack_tile_bounds(), made.pack_tile_bounds());
+  EXPECT_EQ(direct.lengths(), made.lengths());
+  const Tool tool = make_tool(ToolType::bull, 3, 0.5);
+  for (int run = 0; run < 2; ++run) {
+    const std::vector<Pose> path = random_passes(rng, 0.2);
+    made.cut(tool, path);
+    direct.cut(tool, path);
+  }
+  EXPECT_GT(direct.allocated_tiles(), 0u);
+  EXPECT_EQ(direct.allocated_tiles(), made.allocated_tiles());
+  EXPECT_EQ(direct.lengths(), made.lengths());
+  EXPECT_EQ(direct.pack_tile_bounds(), made.pack_tile_bounds());
+  // The grid's checks are zmap()'s.
+  EXPECT_THROW(NBuffer::compact_zmap(stock, 0.0), InputError);
+  EXPECT_THROW(NBuffer::compact_zmap(Box{stock.max_W_m, stock.min_W_m}, 0.03 * mm), InputError);
 }
 
 }  // namespace

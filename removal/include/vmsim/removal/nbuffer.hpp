@@ -113,6 +113,10 @@ class NBuffer {
   /// beyond max.x), likewise in y, from z = min.z up to max.z. Throws vmsim::InputError when
   /// the box is empty or the spacing is not positive or gives more than 2^31 lines.
   static NBuffer zmap(const Box& stock, double spacing_m);
+  /// The same Z-map made compact at once (make_compact()'s result bit for bit): a base a tile,
+  /// no offsets, about 0.25 bytes a line, never the 8 bytes a line of the plain buffer on the
+  /// way (3.2 GB for an 80 x 500 mm die at 10 um; every MPI rank builds the whole uncut view).
+  static NBuffer compact_zmap(const Box& stock, double spacing_m);
 
   /// Z-map over a closed mesh (stl.hpp): the grid of zmap(mesh.bounds(), spacing_m); each
   /// line's length reaches from the bottom of the bounds to the highest exit of the vertical
@@ -211,6 +215,8 @@ class NBuffer {
   void set_foreign_tile_bounds(std::span<const double> packed);
 
  private:
+  /// A Z-map's grid over the box (checked as zmap() says), no lengths or tiles yet.
+  static NBuffer zmap_grid(const Box& stock, double spacing_m);
   std::size_t index(int iu, int iv) const;
   void build_tiles();
   /// Recomputes the bounds of `tile` from its kTile * kTile lengths (in storage order) at `h`.
