@@ -1700,7 +1700,9 @@ Json simulate_part(const SimulatePartOptions& options, const ProgressSink& progr
     progress(check_line(reference_check));
   }
 
-  Run production = simulate_run(context, "production", production_feed, options.method, true);
+  // Only rank 0 relates the marks to the production run's signals: the other ranks keep none
+  // (their trajectory is the same bit for bit: the planner and the servo stream alike).
+  Run production = simulate_run(context, "production", production_feed, options.method, ranks.root());
   if (!ranks.root()) {
     // The other ranks' part ends with their bands gathered: rank 0 compares and writes. They
     // cut the other method's production run too, then send rank 0 their clocks.
@@ -1708,7 +1710,7 @@ Json simulate_part(const SimulatePartOptions& options, const ProgressSink& progr
       simulate_run(context, "production (other method)", production_feed,
                    options.method == planner::FeedrateMethod::kinematic ? planner::FeedrateMethod::dynamic
                                                                         : planner::FeedrateMethod::kinematic,
-                   true);
+                   false);
     }
     ranks.gather_to_root({seconds_since(start), cpu_seconds() - cpu_start, peak_rss_mib()},
                          [](int, std::vector<double>&&) {});

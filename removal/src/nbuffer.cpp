@@ -99,9 +99,16 @@ NBuffer NBuffer::zmap_grid(const Box& stock, double spacing_m) {
   }
   const double nx = std::floor(size.x() / spacing_m * (1.0 + 1e-12)) + 1.0;
   const double ny = std::floor(size.y() / spacing_m * (1.0 + 1e-12)) + 1.0;
-  if (nx * ny > 2147483647.0) {
-    throw InputError("grid spacing " + format_double(spacing_m * 1e3) + " mm gives " +
-                     format_double(nx * ny) + " lines over the stock: too many");
+  constexpr double kMaxLines = 2147483647.0;  // line indices are int
+  if (nx * ny > kMaxLines) {
+    // The finest spacing that fits: (x / s + 1)(y / s + 1) = kMaxLines, rounded up to 0.1 um.
+    const double sum = size.x() + size.y(), product = size.x() * size.y();
+    const double finest_m = (sum + std::sqrt(sum * sum + 4.0 * kMaxLines * product)) / (2.0 * kMaxLines);
+    const auto micrometres = [](double m) { return format_double(std::ceil(m * 1e7 - 1e-6) / 10.0); };
+    throw InputError("grid spacing " + micrometres(spacing_m) + " um gives " + format_double(nx * ny) +
+                     " lines over the " + format_double(size.x() * 1e3) + " x " + format_double(size.y() * 1e3) +
+                     " mm stock: more than the 2147483647 a surface view holds; a spacing of " +
+                     micrometres(finest_m) + " um or more fits");
   }
   NBuffer b;
   b.zmap_ = true;

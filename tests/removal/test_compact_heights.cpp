@@ -7,6 +7,7 @@
 
 #include <cmath>
 #include <random>
+#include <string>
 #include <vector>
 
 #include "removal_test_tools.hpp"
@@ -186,6 +187,28 @@ TEST(CompactHeights, CompactZmapIsTheMadeCompactZmap) {
   // The grid's checks are zmap()'s.
   EXPECT_THROW(NBuffer::compact_zmap(stock, 0.0), InputError);
   EXPECT_THROW(NBuffer::compact_zmap(Box{stock.max_W_m, stock.min_W_m}, 0.03 * mm), InputError);
+}
+
+// A grid beyond 2^31 - 1 lines (int line indices) is refused with the finest spacing that fits,
+// which does fit (and 0.1 um less does not): a 500 x 500 mm die at 10 um.
+TEST(CompactHeights, TooManyLinesNamesTheFinestSpacingThatFits) {
+  const Box die{Eigen::Vector3d(-250, -250, 0) * mm, Eigen::Vector3d(250, 250, 40) * mm};
+  std::string message;
+  try {
+    NBuffer::compact_zmap(die, 0.01 * mm);
+  } catch (const InputError& error) {
+    message = error.what();
+  }
+  ASSERT_NE(message.find("2500100001 lines over the 500 x 500 mm stock"), std::string::npos) << message;
+  const std::size_t at = message.find("a spacing of ");
+  ASSERT_NE(at, std::string::npos) << message;
+  const double finest_um = std::stod(message.substr(at + 13));
+  const auto lines = [](double spacing_um) {
+    const double n = std::floor(500.0 / (spacing_um * 1e-3) * (1.0 + 1e-12)) + 1.0;
+    return n * n;
+  };
+  EXPECT_LE(lines(finest_um), 2147483647.0) << message;
+  EXPECT_GT(lines(finest_um - 0.1), 2147483647.0) << message;
 }
 
 }  // namespace

@@ -114,8 +114,9 @@ class NBuffer {
   /// the box is empty or the spacing is not positive or gives more than 2^31 lines.
   static NBuffer zmap(const Box& stock, double spacing_m);
   /// The same Z-map made compact at once (make_compact()'s result bit for bit): a base a tile,
-  /// no offsets, about 0.25 bytes a line, never the 8 bytes a line of the plain buffer on the
-  /// way (3.2 GB for an 80 x 500 mm die at 10 um; every MPI rank builds the whole uncut view).
+  /// no offsets, about 0.3 bytes a line (tile bounds and bases), never the 8 bytes a line of
+  /// the plain buffer on the way (3.2 GB for an 80 x 500 mm die at 10 um; every MPI rank
+  /// builds the whole uncut view).
   static NBuffer compact_zmap(const Box& stock, double spacing_m);
 
   /// Z-map over a closed mesh (stl.hpp): the grid of zmap(mesh.bounds(), spacing_m); each
