@@ -520,6 +520,20 @@ TEST(SimulatePart, AMarkIsJudgedByTheToleranceOfTheDesignSurfaceItLiesOn) {
   const double depth_um = beyond["marks"][0]["depth_um"].get<double>();
   ASSERT_GT(depth_um, 15.0);
   ASSERT_LT(depth_um, 25.0);
+  // The planted disturbance: 20 um along y, the wall's normal (wall_options).
+  EXPECT_NEAR(depth_um, 20.0, 1.0);
+  // The marks the verdict counts beyond their tolerance, counted here from the marks' own
+  // depths against the tolerance each should be judged by (the wall's, else the part's).
+  const auto count_beyond = [](const nlohmann::json& report, double wall_um, double part_um) {
+    int count = 0;
+    for (const auto& mark : report["marks"]) {
+      const bool on_wall = mark.value("design_surface", "") == "sealing wall";
+      count += mark["depth_um"].get<double>() > (on_wall ? wall_um : part_um) ? 1 : 0;
+    }
+    return count;
+  };
+  EXPECT_GE(count_beyond(beyond, 15.0, 30.0), 1);
+  EXPECT_EQ(beyond["verdict"]["marks_beyond_tolerance"].get<int>(), count_beyond(beyond, 15.0, 30.0));
   EXPECT_EQ(beyond["marks"][0]["design_surface"], "sealing wall");
   EXPECT_NEAR(beyond["marks"][0]["tolerance_um"].get<double>(), 15.0, 1e-9);
   EXPECT_EQ(beyond["verdict"]["status"], "not_within") << beyond["verdict"].dump(2);
@@ -535,6 +549,8 @@ TEST(SimulatePart, AMarkIsJudgedByTheToleranceOfTheDesignSurfaceItLiesOn) {
   EXPECT_NEAR(within["marks"][0]["depth_um"].get<double>(), depth_um, 1e-9);
   EXPECT_NEAR(within["marks"][0]["tolerance_um"].get<double>(), 25.0, 1e-9);
   EXPECT_EQ(within["verdict"]["status"], "within") << within["verdict"].dump(2);
+  EXPECT_EQ(count_beyond(within, 25.0, 10.0), 0);
+  EXPECT_EQ(within["verdict"]["marks_beyond_tolerance"].get<int>(), 0);
   // The command line's 5 um does not override the wall's own tolerance.
   options.tolerance_m = 5e-6;
   const nlohmann::json option = app::simulate_part(options, kSilent);
