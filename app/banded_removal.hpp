@@ -33,8 +33,10 @@ removal::NBuffer rank_share(const removal::NBuffer& uncut, const ViewBands& band
 
 /// Gathers every rank's cut band into the whole buffer on rank 0 (`uncut_whole`, which rank 0
 /// holds, gives the grid), returned there; other ranks get their band back. One rank: `mine`.
+/// Sent in rounds, a piece of whole tile rows of about `piece_lines` lines (at least one tile
+/// row) from every rank each round, so that no side ever packs a whole band.
 removal::NBuffer gather_bands(removal::NBuffer&& mine, const removal::NBuffer& uncut_whole, const ViewBands& bands,
-                              const Ranks& ranks);
+                              const Ranks& ranks, std::size_t piece_lines);
 
 /// Gives every rank's band the other bands' current tile bounds (called between the cuts of
 /// consecutive tool stretches: the next cut's material box, and so its 5-axis sub-steps, is

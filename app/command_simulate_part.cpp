@@ -50,6 +50,7 @@ struct CommandOptions {
   int threads = 0;
   long long compact_zmap_above_lines = static_cast<long long>(SimulatePartOptions{}.compact_zmap_above_lines);
   double servo_window_s = SimulatePartOptions{}.servo_window_s;
+  long long gather_piece_lines = static_cast<long long>(SimulatePartOptions{}.gather_piece_lines);
   double memory_budget_gb = std::numeric_limits<double>::quiet_NaN();  ///< NaN: half the physical memory
   std::string spill_dir;           ///< "": the system's temporary directory
 };
@@ -129,6 +130,10 @@ int run(const CommandOptions& command, const CommandContext& context) {
     throw InputError("--compact-zmap-above-lines must be >= 0, got " + std::to_string(command.compact_zmap_above_lines));
   }
   options.compact_zmap_above_lines = static_cast<std::size_t>(command.compact_zmap_above_lines);
+  if (command.gather_piece_lines < 1) {
+    throw InputError("--gather-piece-lines must be >= 1, got " + std::to_string(command.gather_piece_lines));
+  }
+  options.gather_piece_lines = static_cast<std::size_t>(command.gather_piece_lines);
   if (!(command.servo_window_s > 0) || !std::isfinite(command.servo_window_s)) {
     throw InputError("--servo-window-s must be > 0, got " + format_double(command.servo_window_s));
   }
@@ -299,6 +304,10 @@ void add_simulate_part_command(CLI::App& app, CommandContext& context) {
   command->add_option("--compact-zmap-above-lines", options->compact_zmap_above_lines,
                       "Z-maps with more lines store heights compactly (float offsets from a base a "
                       "tile, within 2^-24 of the depth; tiles only where a tool reaches); 0 = always")
+      ->capture_default_str();
+  command->add_option("--gather-piece-lines", options->gather_piece_lines,
+                      "under mpirun: each rank sends rank 0 its band of a view in pieces of about this "
+                      "many lines (whole tile rows; the results do not depend on it)")
       ->capture_default_str();
   command->add_option("--servo-window-s", options->servo_window_s,
                       "the servo, direct kinematics and thinning run in windows of this much machine "

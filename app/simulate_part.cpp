@@ -234,7 +234,8 @@ removal::NBuffer cut_commanded_view(const Context& context, const std::vector<re
     cut.lines_lowered = context.ranks.sum(cut.lines_lowered);
     *statistics = cut;
   }
-  return gather_bands(std::move(commanded), context.uncut[v], context.bands[v], context.ranks);
+  return gather_bands(std::move(commanded), context.uncut[v], context.bands[v], context.ranks,
+                      context.options.gather_piece_lines);
 }
 
 std::string method_name(planner::FeedrateMethod method) {
@@ -668,7 +669,8 @@ void cut_run(const Context& context, Run& run) {
                                                   });
       cut.tiles_visited = context.ranks.sum(cut.tiles_visited);
       cut.lines_lowered = context.ranks.sum(cut.lines_lowered);
-      run.buffers.push_back(gather_bands(std::move(share), context.uncut[v], context.bands[v], context.ranks));
+      run.buffers.push_back(gather_bands(std::move(share), context.uncut[v], context.bands[v], context.ranks,
+                                         context.options.gather_piece_lines));
       run.cuts.push_back(cut);
     }
   }
@@ -1580,7 +1582,13 @@ Json simulate_part(const SimulatePartOptions& options, const ProgressSink& progr
   // gone before the production run's are made (two Z-maps alive at once, not three).
   ValidityCheck reference_check;
   Json commanded_figures = Json::object();
-  if (!use_commanded) cut_run(context, reference);
+  if (!use_commanded) {
+    cut_run(context, reference);
+    // Its thinned poses are cut: nothing later reads them (the die at 10 um: 161 252 s of
+    // reference machine time).
+    reference.trajectory = {};
+    reference.trajectory_t_s = {};
+  }
   if (use_commanded) {
     // One removal: the planned tool path's, which is the reference (within the bound) and so
     // needs no check against itself; the bound is the check.
@@ -1700,6 +1708,9 @@ Json simulate_part(const SimulatePartOptions& options, const ProgressSink& progr
     progress(check_line(reference_check));
   }
 
+  // Only rank 0 compares: the other ranks are done with the reference (their band of it, its
+  // plan and its thinned poses), which they would otherwise hold through the production run.
+  if (!ranks.root()) reference = Run(reference.name, reference.feed);
   // Only rank 0 relates the marks to the production run's signals: the other ranks keep none
   // (their trajectory is the same bit for bit: the planner and the servo stream alike).
   Run production = simulate_run(context, "production", production_feed, options.method, ranks.root());

@@ -90,6 +90,10 @@ struct SimulatePartOptions {
   /// 2^-24 of the depth below the tile's top); 0 = every Z-map. The default keeps plain doubles
   /// (exact) up to 32 M lines (sample part 1: 2 M at 20 um, 8 M at 10 um).
   std::size_t compact_zmap_above_lines = std::size_t{32} << 20;
+  /// Several ranks: each sends rank 0 its band of a view in pieces of whole tile rows of about
+  /// this many lines (at least one tile row), so that no rank packs a whole band at once (8 B a
+  /// line). Any value gives the same results.
+  std::size_t gather_piece_lines = std::size_t{1} << 22;
   /// The servo, the direct kinematics and the thinning run along the program in windows of
   /// this much machine time [s] (set points of a window in, its samples out and consumed), so
   /// that the reference run's memory is bounded by the window, not by its machine time. Any

@@ -42,9 +42,29 @@ NBuffer NBuffer::band(int tile_row_begin, int tile_row_end) const {
 }
 
 std::vector<double> NBuffer::pack_band() const {
-  if (!compact_) return h_;
+  const auto [held_begin, held_end] = band_tile_rows();
+  return pack_rows(held_begin, held_end);
+}
+
+std::vector<double> NBuffer::pack_rows(int tile_row_begin, int tile_row_end) const {
+  const auto [held_begin, held_end] = band_tile_rows();
+  if (!(tile_row_begin <= tile_row_end) || tile_row_begin < held_begin || tile_row_end > held_end) {
+    throw std::invalid_argument("NBuffer::pack_rows: tile rows [" + std::to_string(tile_row_begin) + ", " +
+                                std::to_string(tile_row_end) + ") are not within the rows held [" +
+                                std::to_string(held_begin) + ", " + std::to_string(held_end) + ")");
+  }
+  const std::size_t tiles_u = static_cast<std::size_t>(tiles_u_);
+  const std::size_t begin = static_cast<std::size_t>(tile_row_begin) * tiles_u;
+  const std::size_t end = static_cast<std::size_t>(tile_row_end) * tiles_u;
+  if (!compact_) {
+    const auto first = h_.begin() + static_cast<std::ptrdiff_t>((begin - band_tile_begin_) * kTileLines);
+    return std::vector<double>(first, first + static_cast<std::ptrdiff_t>((end - begin) * kTileLines));
+  }
+  std::size_t size = 0;  // sized first: a band's pack may be gigabytes (no doubling growth)
+  for (std::size_t t = begin; t < end; ++t) size += 2 + offsets_.block(t).size();
   std::vector<double> packed;
-  for (std::size_t t = band_tile_begin_; t < band_tile_end_; ++t) {
+  packed.reserve(size);
+  for (std::size_t t = begin; t < end; ++t) {
     packed.push_back(base_[t]);
     const std::span<const float> offsets = offsets_.block(t);
     packed.push_back(static_cast<double>(offsets.size()));

@@ -166,6 +166,32 @@ TEST(NBufferBand, GeneralLines) {
   expect_bit_identical(whole, gathered);
 }
 
+// A band sent in pieces of a few tile rows (pack_rows, as simulate-part gathers it) gives the
+// band sent whole, plain and compact: the same lengths and bounds bit for bit.
+TEST(NBufferBand, ABandPackedPieceByPieceIsTheBandPackedWhole) {
+  for (bool compact : {false, true}) {
+    std::mt19937 rng(15);
+    NBuffer uncut = NBuffer::zmap(kStock, 0.05 * mm);
+    if (compact) uncut.make_compact();
+    NBuffer band = uncut.band(2, 9);
+    band.cut(make_tool(ToolType::ball, 3.0), passes(rng, 0.0, 0.0, false));
+    NBuffer at_once = uncut, in_pieces = uncut;
+    at_once.unpack_band(2, 9, band.pack_band());
+    for (const auto& [from, to] : {std::pair{2, 3}, std::pair{3, 5}, std::pair{5, 5}, std::pair{5, 9}}) {
+      const std::vector<double> piece = band.pack_rows(from, to);
+      if (from < to) in_pieces.unpack_band(from, to, piece);
+      else EXPECT_TRUE(piece.empty());
+    }
+    const std::vector<double> a = at_once.lengths(), b = in_pieces.lengths();
+    ASSERT_EQ(a.size(), b.size());
+    EXPECT_EQ(std::memcmp(a.data(), b.data(), a.size() * sizeof(double)), 0) << "compact " << compact;
+    EXPECT_EQ(at_once.pack_tile_bounds(), in_pieces.pack_tile_bounds());
+    EXPECT_NE(a, uncut.lengths()) << "the band must have been cut";
+    EXPECT_THROW(static_cast<void>(band.pack_rows(1, 4)), std::invalid_argument);
+    EXPECT_THROW(static_cast<void>(band.pack_rows(8, 10)), std::invalid_argument);
+  }
+}
+
 TEST(NBufferBand, ABandHoldsOnlyItsTiles) {
   const NBuffer uncut = NBuffer::zmap(kStock, 0.05 * mm);
   const NBuffer band = uncut.band(4, 7);

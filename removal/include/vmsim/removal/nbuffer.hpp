@@ -206,8 +206,11 @@ class NBuffer {
   /// The band's lengths as stored, packed in doubles (plain: the lengths, tile-major; compact:
   /// per tile its base, then 0 or kTile * kTile float offsets widened to double, with a count).
   std::vector<double> pack_band() const;
+  /// The same for tile rows [tile_row_begin, tile_row_end) of the rows held (a piece of the
+  /// band: gathering a band piece by piece bounds what the pack holds at once).
+  std::vector<double> pack_rows(int tile_row_begin, int tile_row_end) const;
   /// Sets tile rows [tile_row_begin, tile_row_end) of this buffer (which holds all tiles, same
-  /// grid and storage as the band's) from a band's pack_band(), and their bounds.
+  /// grid and storage as the band's) from a band's pack_band() or pack_rows(), and their bounds.
   void unpack_band(int tile_row_begin, int tile_row_end, std::span<const double> packed);
   /// Every tile's bounds packed (7 doubles a tile), and set from such a pack for the tiles this
   /// buffer does not hold: a band buffer then sees the bounds the whole buffer has (its cut's
