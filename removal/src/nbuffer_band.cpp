@@ -2,6 +2,7 @@
 #include <algorithm>
 #include <stdexcept>
 #include <string>
+#include <utility>
 
 #include "vmsim/removal/nbuffer.hpp"
 
@@ -9,15 +10,19 @@ namespace vmsim::removal {
 namespace {
 constexpr std::size_t kTileLines = NBuffer::kTile * NBuffer::kTile;
 constexpr std::size_t kBoundsDoubles = 7;  // lo (3), hi (3), h_max
+
+// Throws unless tile rows [begin, end) lie within the rows held [held.first, held.second) (and
+// are not empty, unless `empty_ok`); `what` names the caller.
+void check_rows_held(const char* what, int begin, int end, std::pair<int, int> held, bool empty_ok) {
+  if ((empty_ok ? begin <= end : begin < end) && begin >= held.first && end <= held.second) return;
+  throw std::invalid_argument(std::string(what) + ": tile rows [" + std::to_string(begin) + ", " +
+                              std::to_string(end) + ") are not within the rows held [" +
+                              std::to_string(held.first) + ", " + std::to_string(held.second) + ")");
+}
 }  // namespace
 
 NBuffer NBuffer::band(int tile_row_begin, int tile_row_end) const {
-  const auto [held_begin, held_end] = band_tile_rows();
-  if (!(tile_row_begin < tile_row_end) || tile_row_begin < held_begin || tile_row_end > held_end) {
-    throw std::invalid_argument("NBuffer::band: tile rows [" + std::to_string(tile_row_begin) + ", " +
-                                std::to_string(tile_row_end) + ") are not within the rows held [" +
-                                std::to_string(held_begin) + ", " + std::to_string(held_end) + ")");
-  }
+  check_rows_held("NBuffer::band", tile_row_begin, tile_row_end, band_tile_rows(), false);
   const std::size_t tiles_u = static_cast<std::size_t>(tiles_u_);
   const std::size_t begin = static_cast<std::size_t>(tile_row_begin) * tiles_u;
   const std::size_t end = static_cast<std::size_t>(tile_row_end) * tiles_u;
@@ -47,12 +52,7 @@ std::vector<double> NBuffer::pack_band() const {
 }
 
 std::vector<double> NBuffer::pack_rows(int tile_row_begin, int tile_row_end) const {
-  const auto [held_begin, held_end] = band_tile_rows();
-  if (!(tile_row_begin <= tile_row_end) || tile_row_begin < held_begin || tile_row_end > held_end) {
-    throw std::invalid_argument("NBuffer::pack_rows: tile rows [" + std::to_string(tile_row_begin) + ", " +
-                                std::to_string(tile_row_end) + ") are not within the rows held [" +
-                                std::to_string(held_begin) + ", " + std::to_string(held_end) + ")");
-  }
+  check_rows_held("NBuffer::pack_rows", tile_row_begin, tile_row_end, band_tile_rows(), true);
   const std::size_t tiles_u = static_cast<std::size_t>(tiles_u_);
   const std::size_t begin = static_cast<std::size_t>(tile_row_begin) * tiles_u;
   const std::size_t end = static_cast<std::size_t>(tile_row_end) * tiles_u;
